@@ -1,0 +1,34 @@
+//! The `flakescatter` command-line tool.
+//!
+//! Degrees live here and only here: every flag and file column in degrees is converted
+//! to radians before it reaches a library crate (`docs/architecture.md`).
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+mod common;
+
+/// Predict how a metallic (aluminium-flake) coating reflects light at every angle.
+///
+/// Angles are in degrees on the command line; in-plane scattering angles are signed,
+/// with `theta_s = -theta_i` the specular direction (see docs/physics.md).
+#[derive(Debug, Parser)]
+#[command(name = "flakescatter", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result: anyhow::Result<()> = match cli.command {};
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => common::report(&err),
+    }
+}

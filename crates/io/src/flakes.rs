@@ -1,0 +1,1 @@
+//! Flake tables (CSV).

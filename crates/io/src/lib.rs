@@ -1,0 +1,3 @@
+//! File formats for flakescatter.
+
+pub mod flakes;

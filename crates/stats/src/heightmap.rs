@@ -1,0 +1,1 @@
+//! Height maps with an explicit validity mask.
