@@ -4,3 +4,4 @@
 //! micrometres, `z` is the macroscopic coating normal pointing into the air.
 
 pub mod heightmap;
+pub use heightmap::{HeightMap, HeightMapError};
