@@ -2,6 +2,22 @@
 //!
 //! Conventions follow `physics.md` §1 and §3: angles in radians, lengths in
 //! micrometres, `z` is the macroscopic coating normal pointing into the air.
+//! Densities of flake normals are area-weighted (see [`distribution`]).
+//!
+//! ```
+//! use flakescatter_stats::distribution::{GaussianWidth, Orientation};
+//!
+//! // The paper's w = 3° Gaussian (half-width at half-maximum of p̃).
+//! let w = 3f64.to_radians();
+//! let d = Orientation::gaussian(GaussianWidth::Hwhm(w)).unwrap();
+//! // p̃ falls to half its peak at θ = w.
+//! assert!((d.p_tilde(w) / d.p_tilde(0.0) - 0.5).abs() < 1e-12);
+//! // Nearly all the area lies within 4w of the normal.
+//! assert!(d.mass_between(0.0, 4.0 * w) > 0.999);
+//! ```
 
+pub mod distribution;
 pub mod heightmap;
-pub use heightmap::{HeightMap, HeightMapError};
+mod quad;
+
+pub use distribution::{DistributionError, GaussianWidth, Orientation};

@@ -1,0 +1,443 @@
+//! Distributions of flake normals (paper eqs. 3, 4; `physics.md` §3).
+//!
+//! Conventions:
+//! * Angles in **radians**. `θn ∈ [0, π/2]` is the polar angle of a flake normal from the
+//!   coating normal `z` (pointing into the air); `φn` is its azimuth from `x`, and every
+//!   distribution here is azimuthally isotropic.
+//! * All densities are **area-weighted**: they describe where the flake *area* points, not
+//!   the flake count.
+//! * `p2(θn)`: flake area fraction per steradian of normals, `∫ p2 dΩ = 1` over the upper
+//!   hemisphere (`dΩ = sin θ dθ dφ`).
+//! * `p(θn) = 2π sin θn p2(θn)` (eq. 3): per radian of polar angle, `∫_0^{π/2} p dθ = 1`.
+//! * `p̃(θn) = p/sin θn = 2π p2(θn)` (eq. 4): finite at `θn = 0`, `∫_0^{π/2} p̃ sin θ dθ = 1`.
+//! * `D(θn) = p2/⟨cos θn⟩` (macro-area density, Germer–Marx facet model):
+//!   `∫ D cos θ dΩ = 1`, flake area per unit coating area per steradian.
+//! * The Gaussian family is `p̃(θ) ∝ exp(-θ²/(2s²))` on `[0, π/2)`, normalised exactly on
+//!   that interval (16-point Gauss–Legendre on panels of at most `s/2`, exact to rounding;
+//!   no small-angle approximation). Its width is given as exactly one of
+//!   [`GaussianWidth::Hwhm`] `w = s·sqrt(2 ln 2)`, [`GaussianWidth::Sigma`] `s`, or
+//!   [`GaussianWidth::RmsTilt`] `σt = s·√2`.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use nalgebra::{Unit, Vector3};
+use rand::RngExt;
+use thiserror::Error;
+
+use crate::quad;
+
+/// Width of the Gaussian family `p̃(θ) ∝ exp(-θ²/(2 s²))` on `[0, π/2)`, radians.
+///
+/// The three forms describe the same shape: `w = s·sqrt(2 ln 2)` (half-width at half
+/// maximum of `p̃`, the paper's "half-width"), `s` (standard deviation of each tilt
+/// component for small tilts), `σt = s·√2` (`p̃ ∝ exp(-θ²/σt²)`, the facet-model
+/// software's rms tilt).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GaussianWidth {
+    /// Half-width at half-maximum `w` of `p̃`, radians.
+    Hwhm(f64),
+    /// The standard deviation `s`, radians.
+    Sigma(f64),
+    /// The rms tilt `σt = s·√2`, radians.
+    RmsTilt(f64),
+}
+
+/// `sqrt(2 ln 2)`: `hwhm = s · HWHM_PER_SIGMA`.
+pub const HWHM_PER_SIGMA: f64 = 1.177_410_022_515_474_7;
+
+impl GaussianWidth {
+    /// The value as given, radians.
+    pub fn value(self) -> f64 {
+        match self {
+            Self::Hwhm(v) | Self::Sigma(v) | Self::RmsTilt(v) => v,
+        }
+    }
+
+    /// The standard deviation `s`, radians.
+    pub fn sigma(self) -> f64 {
+        match self {
+            Self::Hwhm(w) => w / HWHM_PER_SIGMA,
+            Self::Sigma(s) => s,
+            Self::RmsTilt(t) => t / std::f64::consts::SQRT_2,
+        }
+    }
+
+    /// The half-width at half-maximum `w = s·sqrt(2 ln 2)`, radians.
+    pub fn hwhm(self) -> f64 {
+        self.sigma() * HWHM_PER_SIGMA
+    }
+
+    /// The rms tilt `σt = s·√2`, radians.
+    pub fn rms_tilt(self) -> f64 {
+        self.sigma() * std::f64::consts::SQRT_2
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Hwhm(_) => "hwhm",
+            Self::Sigma(_) => "sigma",
+            Self::RmsTilt(_) => "rms-tilt",
+        }
+    }
+}
+
+/// Errors from building an [`Orientation`].
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum DistributionError {
+    /// A Gaussian width is not finite, not positive, or not below π/2.
+    #[error("Gaussian {kind} = {value} rad must be finite, > 0 and < π/2")]
+    BadWidth {
+        /// `"hwhm"`, `"sigma"` or `"rms-tilt"`.
+        kind: &'static str,
+        /// The value given, radians.
+        value: f64,
+    },
+    /// The numbers of edges and masses do not match (`edges = masses + 1`, at least one
+    /// bin).
+    #[error(
+        "tabulated distribution needs n + 1 edges for n >= 1 bins, got {edges} edges and {masses} masses"
+    )]
+    BinCount {
+        /// Number of edges given.
+        edges: usize,
+        /// Number of masses given.
+        masses: usize,
+    },
+    /// An edge is outside `[0, π/2]` or not finite.
+    #[error("bin edge {index} = {value} rad is outside [0, π/2]")]
+    EdgeOutOfRange {
+        /// Index of the edge.
+        index: usize,
+        /// Its value, radians.
+        value: f64,
+    },
+    /// Edges are not strictly increasing.
+    #[error("bin edges must increase strictly: edge {index} = {value} rad follows {previous} rad")]
+    EdgesNotIncreasing {
+        /// Index of the offending edge.
+        index: usize,
+        /// Its value, radians.
+        value: f64,
+        /// The edge before it, radians.
+        previous: f64,
+    },
+    /// A mass is negative or not finite.
+    #[error("area fraction of bin {index} = {value} must be finite and >= 0")]
+    BadMass {
+        /// Index of the bin.
+        index: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// Every mass is zero.
+    #[error("tabulated distribution has zero total area")]
+    ZeroTotal,
+}
+
+/// Precomputed Gaussian member.
+#[derive(Debug, Clone, PartialEq)]
+struct Gaussian {
+    width: GaussianWidth,
+    /// `s`, radians.
+    sigma: f64,
+    /// `-1/(2 s²)`.
+    neg_half_inv_s2: f64,
+    /// `C` such that `p̃ = C exp(-θ²/(2s²))`.
+    p_tilde_norm: f64,
+    /// `C/(2π)`, the `p2` prefactor.
+    p2_norm: f64,
+    mean_cos: f64,
+}
+
+/// Precomputed tabulated member.
+#[derive(Debug, Clone, PartialEq)]
+struct Tabulated {
+    /// `n + 1` strictly increasing edges in `[0, π/2]`, radians.
+    edges: Vec<f64>,
+    /// `n` area fractions summing to 1.
+    masses: Vec<f64>,
+    /// Cumulative masses, `cdf[i] = Σ_{j<=i} masses[j]`, last entry set to exactly 1.
+    cdf: Vec<f64>,
+    /// `p2` in each bin, per steradian.
+    p2: Vec<f64>,
+    mean_cos: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum Kind {
+    Gaussian(Gaussian),
+    Tabulated(Tabulated),
+    Flat,
+}
+
+/// An azimuthally isotropic, area-weighted distribution of flake normals (see the module
+/// docs for `p2`, `p`, `p̃`, `D` and their normalisations).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Orientation {
+    kind: Kind,
+}
+
+/// Panels for the Gaussian integrals: upper limit `min(π/2, 12 s)` (the tail beyond
+/// `12 s` is below `e^{-72}` of the peak), panel width at most `s/2`.
+fn gaussian_limits(sigma: f64) -> (f64, usize) {
+    let b = FRAC_PI_2.min(12.0 * sigma);
+    let panels = ((b / (0.5 * sigma)).ceil() as usize).clamp(8, 64);
+    (b, panels)
+}
+
+impl Orientation {
+    /// A Gaussian `p̃(θ) ∝ exp(-θ²/(2 s²))` on `[0, π/2)`, normalised exactly.
+    ///
+    /// # Errors
+    /// [`DistributionError::BadWidth`] unless the given value is finite, `> 0` and `< π/2`.
+    pub fn gaussian(width: GaussianWidth) -> Result<Self, DistributionError> {
+        let v = width.value();
+        if !(v.is_finite() && v > 0.0 && v < FRAC_PI_2) {
+            return Err(DistributionError::BadWidth {
+                kind: width.name(),
+                value: v,
+            });
+        }
+        let sigma = width.sigma();
+        let k = -0.5 / (sigma * sigma);
+        let (b, panels) = gaussian_limits(sigma);
+        let z = quad::integrate(|t| (k * t * t).exp() * t.sin(), 0.0, b, panels);
+        let zc = quad::integrate(|t| (k * t * t).exp() * t.sin() * t.cos(), 0.0, b, panels);
+        let c = 1.0 / z;
+        Ok(Self {
+            kind: Kind::Gaussian(Gaussian {
+                width,
+                sigma,
+                neg_half_inv_s2: k,
+                p_tilde_norm: c,
+                p2_norm: c / (2.0 * PI),
+                mean_cos: zc / z,
+            }),
+        })
+    }
+
+    /// A tabulated distribution: `n + 1` strictly increasing bin edges in `[0, π/2]`
+    /// (radians) and `n` non-negative area masses, renormalised to sum to 1. `p2` is
+    /// constant within a bin, `mass / (2π (cos lo − cos hi))` (exact solid-angle bin
+    /// normalisation), and zero outside `[edges[0], edges[n])`.
+    ///
+    /// # Errors
+    /// [`DistributionError::BinCount`], [`DistributionError::EdgeOutOfRange`],
+    /// [`DistributionError::EdgesNotIncreasing`], [`DistributionError::BadMass`],
+    /// [`DistributionError::ZeroTotal`].
+    pub fn tabulated(
+        edges_rad: Vec<f64>,
+        area_fractions: Vec<f64>,
+    ) -> Result<Self, DistributionError> {
+        if area_fractions.is_empty() || edges_rad.len() != area_fractions.len() + 1 {
+            return Err(DistributionError::BinCount {
+                edges: edges_rad.len(),
+                masses: area_fractions.len(),
+            });
+        }
+        for (index, &value) in edges_rad.iter().enumerate() {
+            if !(0.0..=FRAC_PI_2).contains(&value) {
+                return Err(DistributionError::EdgeOutOfRange { index, value });
+            }
+            if index > 0 && value <= edges_rad[index - 1] {
+                return Err(DistributionError::EdgesNotIncreasing {
+                    index,
+                    value,
+                    previous: edges_rad[index - 1],
+                });
+            }
+        }
+        for (index, &value) in area_fractions.iter().enumerate() {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(DistributionError::BadMass { index, value });
+            }
+        }
+        let total: f64 = area_fractions.iter().sum();
+        if total <= 0.0 || !total.is_finite() {
+            return Err(DistributionError::ZeroTotal);
+        }
+        let masses: Vec<f64> = area_fractions.iter().map(|m| m / total).collect();
+        let mut cdf = Vec::with_capacity(masses.len());
+        let mut acc = 0.0;
+        for m in &masses {
+            acc += m;
+            cdf.push(acc);
+        }
+        *cdf.last_mut().expect("at least one bin") = 1.0;
+        let mut p2 = Vec::with_capacity(masses.len());
+        let mut mean_cos = 0.0;
+        for (i, m) in masses.iter().enumerate() {
+            let (clo, chi) = (edges_rad[i].cos(), edges_rad[i + 1].cos());
+            p2.push(m / (2.0 * PI * (clo - chi)));
+            // Within a bin p2 is constant, so cos θ is uniform on [cos hi, cos lo].
+            mean_cos += m * 0.5 * (clo + chi);
+        }
+        Ok(Self {
+            kind: Kind::Tabulated(Tabulated {
+                edges: edges_rad,
+                masses,
+                cdf,
+                p2,
+                mean_cos,
+            }),
+        })
+    }
+
+    /// All flakes flat: a delta at `θn = 0`. Its densities ([`Orientation::p2`],
+    /// [`Orientation::p`], [`Orientation::p_tilde`], [`Orientation::macro_density`]) are
+    /// reported as 0 everywhere (a delta has no finite density; check
+    /// [`Orientation::is_delta`]); `⟨cos θn⟩ = 1` and sampling always returns `z`.
+    pub fn flat() -> Self {
+        Self { kind: Kind::Flat }
+    }
+
+    /// Flake area per steradian of normals at polar angle `theta_n` (radians);
+    /// `∫ p2 dΩ = 1` over the upper hemisphere. Zero outside the support (negative,
+    /// `≥ π/2` for a Gaussian, outside the edges for a table, NaN) and for [`Orientation::flat`].
+    #[inline]
+    pub fn p2(&self, theta_n: f64) -> f64 {
+        match &self.kind {
+            Kind::Gaussian(g) => {
+                if (0.0..FRAC_PI_2).contains(&theta_n) {
+                    g.p2_norm * (g.neg_half_inv_s2 * theta_n * theta_n).exp()
+                } else {
+                    0.0
+                }
+            }
+            Kind::Tabulated(t) => t.bin_of(theta_n).map_or(0.0, |i| t.p2[i]),
+            Kind::Flat => 0.0,
+        }
+    }
+
+    /// `p(θn) = 2π sin θn p2(θn)`, area fraction per radian of polar angle,
+    /// `∫_0^{π/2} p dθ = 1` (eq. 3).
+    pub fn p(&self, theta_n: f64) -> f64 {
+        2.0 * PI * theta_n.sin() * self.p2(theta_n)
+    }
+
+    /// `p̃(θn) = 2π p2(θn)` (eq. 4), `∫_0^{π/2} p̃ sin θ dθ = 1`.
+    pub fn p_tilde(&self, theta_n: f64) -> f64 {
+        2.0 * PI * self.p2(theta_n)
+    }
+
+    /// `⟨cos θn⟩ = ∫ p2 cos θ dΩ`, the projected area of the flakes per unit flake area
+    /// (exact: quadrature for the Gaussian, closed form per bin for a table, 1 for flat).
+    pub fn mean_cos(&self) -> f64 {
+        match &self.kind {
+            Kind::Gaussian(g) => g.mean_cos,
+            Kind::Tabulated(t) => t.mean_cos,
+            Kind::Flat => 1.0,
+        }
+    }
+
+    /// Macro-area density `D = p2/⟨cos θn⟩`, per steradian, `∫ D cos θ dΩ = 1`
+    /// (Germer–Marx facet model normalisation). Zero for [`Orientation::flat`].
+    pub fn macro_density(&self, theta_n: f64) -> f64 {
+        self.p2(theta_n) / self.mean_cos()
+    }
+
+    /// Upper end of the support, radians: π/2 for a Gaussian, the last edge for a table,
+    /// 0 for flat.
+    pub fn max_theta(&self) -> f64 {
+        match &self.kind {
+            Kind::Gaussian(_) => FRAC_PI_2,
+            Kind::Tabulated(t) => *t.edges.last().expect("at least two edges"),
+            Kind::Flat => 0.0,
+        }
+    }
+
+    /// `true` for [`Orientation::flat`] (a delta; densities are reported as 0).
+    pub fn is_delta(&self) -> bool {
+        matches!(self.kind, Kind::Flat)
+    }
+
+    /// The Gaussian width as given, if this is a Gaussian.
+    pub fn gaussian_width(&self) -> Option<GaussianWidth> {
+        match &self.kind {
+            Kind::Gaussian(g) => Some(g.width),
+            _ => None,
+        }
+    }
+
+    /// Area fraction with `θn` in `[lo, hi]` (radians), `∫_lo^hi p dθ`. Exact for a table
+    /// and for flat (1 if `lo ≤ 0 ≤ hi`); 16-point Gauss–Legendre on panels of at most
+    /// `s/2` for a Gaussian.
+    pub fn mass_between(&self, lo: f64, hi: f64) -> f64 {
+        let lo = lo.max(0.0);
+        let hi = hi.min(self.max_theta());
+        match &self.kind {
+            Kind::Flat => {
+                if lo <= 0.0 && hi >= 0.0 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            _ if hi.is_nan() || lo.is_nan() || hi <= lo => 0.0,
+            Kind::Gaussian(g) => {
+                let n = ((hi - lo) / (0.5 * g.sigma)).ceil().clamp(1.0, 1e4) as usize;
+                let k = g.neg_half_inv_s2;
+                g.p_tilde_norm * quad::integrate(|t| (k * t * t).exp() * t.sin(), lo, hi, n)
+            }
+            Kind::Tabulated(t) => {
+                // Within bin i the mass between a and b is p2_i · 2π (cos a − cos b).
+                let mut m = 0.0;
+                for i in 0..t.masses.len() {
+                    let a = t.edges[i].max(lo);
+                    let b = t.edges[i + 1].min(hi);
+                    if b > a {
+                        m += t.p2[i] * 2.0 * PI * (a.cos() - b.cos());
+                    }
+                }
+                m
+            }
+        }
+    }
+
+    /// Draws one flake normal, area-weighted: `θn` from `p`, `φn` uniform on `[0, 2π)`,
+    /// `z ≥ 0`. Exact: rejection from a Rayleigh proposal (acceptance `sin θ/θ`) for the
+    /// Gaussian, inverse CDF in `cos θ` within a bin for a table, `z` for flat.
+    pub fn sample_normal<R: rand::Rng + ?Sized>(&self, rng: &mut R) -> Unit<Vector3<f64>> {
+        let theta = match &self.kind {
+            Kind::Flat => return Vector3::z_axis(),
+            Kind::Gaussian(g) => loop {
+                // Rayleigh density ∝ θ exp(-θ²/(2s²)); the target is ∝ sin θ exp(..),
+                // so accept with probability sin θ / θ ≤ 1.
+                let u: f64 = rng.random();
+                let t = g.sigma * (-2.0 * (1.0 - u).ln()).sqrt();
+                if t >= FRAC_PI_2 {
+                    continue;
+                }
+                let v: f64 = rng.random();
+                if t == 0.0 || v * t < t.sin() {
+                    break t;
+                }
+            },
+            Kind::Tabulated(t) => {
+                let u: f64 = rng.random();
+                let i = t.cdf.partition_point(|&c| c <= u).min(t.masses.len() - 1);
+                let (clo, chi) = (t.edges[i].cos(), t.edges[i + 1].cos());
+                let v: f64 = rng.random();
+                (clo - v * (clo - chi)).clamp(-1.0, 1.0).acos()
+            }
+        };
+        let phi = 2.0 * PI * rng.random::<f64>();
+        let (st, ct) = theta.sin_cos();
+        let (sp, cp) = phi.sin_cos();
+        Unit::new_unchecked(Vector3::new(st * cp, st * sp, ct))
+    }
+}
+
+impl Tabulated {
+    /// Bin containing `theta` (`lo ≤ θ < hi`), `None` outside `[edges[0], edges[n])`.
+    #[inline]
+    fn bin_of(&self, theta: f64) -> Option<usize> {
+        let first = self.edges[0];
+        let last = *self.edges.last()?;
+        if !(theta >= first && theta < last) {
+            return None;
+        }
+        let i = self.edges.partition_point(|&e| e <= theta);
+        Some(i - 1)
+    }
+}
