@@ -1,1 +1,100 @@
-//! Optics primitives.
+//! Optics primitives for flake-pigment coatings (NIST ray model, Sung et al. 2002).
+//!
+//! A metallic coating is modelled as a flat clear coat of real index `n ≥ 1` over
+//! mirror-like aluminium flakes. A ray refracts into the coating, reflects specularly
+//! from a flake and refracts back out. This crate holds the pieces every model needs:
+//!
+//! * [`refraction`]: Snell's law at the flat coating surface, both ways;
+//! * [`fresnel`]: exact Fresnel amplitudes and power coefficients, the paper's `T_av`
+//!   (eq. 10);
+//! * [`reflection`]: mirror reflection by a flake, the internal half vector (eq. 1),
+//!   the obliquity `γ` (eq. 2, corrected) and the solid-angle Jacobians;
+//! * [`detector`]: incidence, specular and detector directions, detector cones;
+//! * [`flake`]: flake reflectance (perfect conductor or complex index);
+//! * [`polarization`]: how Fresnel factors combine (`exact-unpolarized`, `paper`, `s`,
+//!   `p`), the `physical` vs `paper-printed` weighting, and the clear coat's own
+//!   specular reflectance (physics.md §6).
+//!
+//! # Conventions (physics.md §1)
+//! * Right-handed frame, `z` = macroscopic coating normal pointing into the air, `x` in
+//!   the plane of incidence. Angles are **radians** everywhere in this crate.
+//! * Vectors are unit **propagation** directions: incident `k_in` (`z < 0`), refracted
+//!   `k1` (`z < 0`), reflected by a flake `k2` (`z > 0`), leaving `k_out` (`z > 0`).
+//! * The source is on the `-x` side: `k_in = (sin θi, 0, -cos θi)`; the specular
+//!   direction is `(sin θi, 0, cos θi)`.
+//! * Signed in-plane scattering angle `θs`: `θs = -θi` is specular, `θs > 0` is on the
+//!   source side; the detector axis is `r(θs) = (-sin θs, 0, cos θs)`.
+//!
+//! # Example
+//! Follow one ray through the coating and check that a flat flake sends it to the
+//! specular direction, with the power Fresnel lets through:
+//! ```
+//! use flakescatter_optics::{detector, fresnel, reflection, refraction, Vec3, UnitVec3};
+//!
+//! let n = 1.5;
+//! let theta_i = 30f64.to_radians();
+//! let k_in = detector::incident_direction(theta_i);
+//! let k1 = refraction::into_coating(&k_in, n);
+//! let flat = UnitVec3::new_normalize(Vec3::z());
+//! let k2 = reflection::reflect(&k1, &flat);
+//! let k_out = refraction::out_of_coating(&k2, n).expect("no total internal reflection");
+//! assert!((k_out.into_inner() - detector::specular_direction(theta_i).into_inner()).norm() < 1e-12);
+//!
+//! // Normal-incidence transmittance 4n/(n+1)^2 = 0.96 for n = 1.5.
+//! let t0 = fresnel::air_to_coating(0.0, n).t_av();
+//! assert!((t0 - 0.96).abs() < 1e-12);
+//! ```
+
+pub mod detector;
+pub mod flake;
+pub mod fresnel;
+pub mod polarization;
+pub mod reflection;
+pub mod refraction;
+
+pub use nalgebra;
+
+/// A 3-vector of `f64` (the math type every flakescatter layer shares).
+pub type Vec3 = nalgebra::Vector3<f64>;
+
+/// A unit 3-vector: a direction or a surface normal.
+pub type UnitVec3 = nalgebra::Unit<Vec3>;
+
+/// Errors from validating optical parameters.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OpticsError {
+    /// The clear-coat index must be real, finite and at least 1.
+    #[error("refractive index {0} is not valid: expected a finite real number >= 1")]
+    InvalidIndex(f64),
+    /// A complex flake index must have finite parts, a positive real part and a
+    /// non-negative imaginary part.
+    #[error("complex flake index {n} + {k}i is not valid: expected finite n > 0 and k >= 0")]
+    InvalidComplexIndex {
+        /// Real part.
+        n: f64,
+        /// Imaginary part (extinction coefficient).
+        k: f64,
+    },
+    /// An angle outside the range where it has a meaning.
+    #[error("{name} = {value} rad is out of range: expected {expected}")]
+    AngleOutOfRange {
+        /// Which angle.
+        name: &'static str,
+        /// The value given, radians.
+        value: f64,
+        /// The accepted range in words.
+        expected: &'static str,
+    },
+}
+
+/// Check that `n` is a valid clear-coat index (finite, `n ≥ 1`).
+///
+/// # Errors
+/// [`OpticsError::InvalidIndex`] otherwise.
+pub fn check_index(n: f64) -> Result<f64, OpticsError> {
+    if n.is_finite() && n >= 1.0 {
+        Ok(n)
+    } else {
+        Err(OpticsError::InvalidIndex(n))
+    }
+}
