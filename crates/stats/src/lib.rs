@@ -17,7 +17,14 @@
 //! ```
 
 pub mod distribution;
+pub mod fit;
+pub mod flake;
 pub mod heightmap;
+pub mod histogram;
 mod quad;
 
 pub use distribution::{DistributionError, GaussianWidth, Orientation};
+pub use fit::{FitError, HistogramFit, WidthFit, fit_gaussian_histogram, fit_gaussian_ml};
+pub use flake::{Flake, FlakeError, PlaneFit, UnitVec3, fit_plane};
+pub use histogram::{AreaHistogram, HistogramBin, HistogramError};
+pub use heightmap::{HeightMap, HeightMapError};
