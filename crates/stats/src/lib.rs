@@ -23,8 +23,12 @@ pub mod heightmap;
 pub mod histogram;
 mod quad;
 
+/// The linear-algebra crate whose types appear in this API (re-exported so callers
+/// need not depend on it).
+pub use nalgebra;
+
 pub use distribution::{DistributionError, GaussianWidth, Orientation};
 pub use fit::{FitError, HistogramFit, WidthFit, fit_gaussian_histogram, fit_gaussian_ml};
 pub use flake::{Flake, FlakeError, PlaneFit, UnitVec3, fit_plane};
-pub use histogram::{AreaHistogram, HistogramBin, HistogramError};
 pub use heightmap::{HeightMap, HeightMapError};
+pub use histogram::{AreaHistogram, HistogramBin, HistogramError};
