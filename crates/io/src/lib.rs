@@ -1,3 +1,35 @@
-//! File formats for flakescatter.
+//! File formats for flakescatter: height maps (X3P, ISO 25178-71 SDF, plain-text
+//! matrices with Gwyddion headers) and flake tables.
+//!
+//! Only this crate (and the CLI) touches files. Every height-map reader returns a
+//! [`HeightMap`](flakescatter_stats::heightmap::HeightMap) in micrometres (heights and
+//! pitch), row-major with `x` along columns, with an explicit validity mask; the format
+//! is recognised from the file's content ([`MapFormat::detect`]), not its extension.
+//!
+//! ```
+//! use flakescatter_io::{read_map_bytes, x3p::write_x3p_bytes, MapFormat, ReadOptions};
+//! use flakescatter_stats::heightmap::HeightMap;
+//!
+//! // A 3 x 2 map (µm) with one invalid point, 0.5 µm x 0.25 µm pixels.
+//! let map = HeightMap::new(3, 2, 0.5, 0.25, vec![0.0, 1.5, f64::NAN, -2.0, 0.25, 3.0])?;
+//! let bytes = write_x3p_bytes(&map)?;
+//! let (back, format) = read_map_bytes(&bytes, &ReadOptions::default())?;
+//! assert_eq!(format, MapFormat::X3p);
+//! assert_eq!((back.nx(), back.ny(), back.dx(), back.dy()), (3, 2, 0.5, 0.25));
+//! assert_eq!(back.valid_count(), 5);
+//! assert_eq!(back.get(1, 0), Some(1.5));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod flakes;
+pub mod map;
+pub mod sdf;
+pub mod text;
+pub mod units;
+pub mod x3p;
+
+pub use map::{
+    MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, read_map, read_map_bytes,
+    write_map,
+};
+pub use units::ZUnit;
