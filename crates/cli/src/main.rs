@@ -22,11 +22,16 @@ struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
+    Stats(cmd::stats::Args),
+}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: anyhow::Result<()> = match cli.command {};
+    let result: anyhow::Result<()> = match cli.command {
+        Command::Stats(a) => cmd::stats::run(a),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => common::report(&err),
