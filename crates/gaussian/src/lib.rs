@@ -1,0 +1,151 @@
+//! The distribution model of flake coatings (NIST, Sung et al. 2002, eqs. 9–13, as
+//! corrected in physics.md §4).
+//!
+//! Flat mirror flakes under a clear coat of index `n`, with normals distributed as an
+//! [`Orientation`](flakescatter_stats::Orientation), reflect a collimated beam. This crate
+//! gives:
+//!
+//! * the point BRDF `f(θi, r)` (sr⁻¹) with the four Fresnel bookkeepings and both
+//!   weightings ([`DistributionModel::brdf`], module [`model`]);
+//! * what a detector cone collects, exactly (quadrature about the detector axis with an
+//!   error estimate) or in the paper's constant-integrand approximation
+//!   ([`DistributionModel::collect`], module [`cone`]), and whole curves with the
+//!   `relative` normalisation to the specular detector ([`curve`]);
+//! * the hemispherical total computed in detector space and in normal space, which must
+//!   agree (module [`hemisphere`]);
+//! * an independent Monte Carlo estimator (module [`montecarlo`]).
+//!
+//! Conventions: radians; the frame and the signed in-plane angle `θs` of
+//! `flakescatter_optics` (`θs = −θi` is specular). Reflectances are fractions of the
+//! incident beam power; BRDFs are per steradian.
+//!
+//! # Example
+//! The relative in-plane curve for a `hwhm` 6° Gaussian at 45° incidence, with 1.5°
+//! detectors:
+//! ```
+//! use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions, curve};
+//! use flakescatter_optics::detector::Cone;
+//! use flakescatter_stats::{GaussianWidth, Orientation};
+//!
+//! let orientation = Orientation::gaussian(GaussianWidth::Hwhm(6f64.to_radians()))?;
+//! let model = DistributionModel::new(orientation, 1.5, ModelOptions::default())?;
+//! let alpha = 1.5f64.to_radians();
+//! let cones: Vec<Cone> = (-70..=70)
+//!     .map(|d| Cone::in_plane(f64::from(d).to_radians(), alpha))
+//!     .collect::<Result<_, _>>()?;
+//! let rows = curve(&model, &[45f64.to_radians()], &cones, ConeMethod::Exact)?;
+//! // The specular detector (θs = −45°) has relative value 1 by definition.
+//! let spec = rows.iter().find(|r| (r.theta_s_deg() + 45.0).abs() < 1e-9).unwrap();
+//! assert!((spec.relative - 1.0).abs() < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod cone;
+pub mod hemisphere;
+pub mod model;
+pub mod montecarlo;
+pub mod quad;
+
+use flakescatter_optics::detector::{Cone, in_plane_angle};
+use rayon::prelude::*;
+
+pub use cone::{Collected, ConeMethod};
+pub use model::{DistributionModel, Incidence, ModelOptions};
+pub use montecarlo::{McEstimate, monte_carlo};
+
+/// Errors of the distribution model.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    /// Invalid clear-coat index.
+    #[error("clear-coat index: {0}")]
+    Index(flakescatter_optics::OpticsError),
+    /// Invalid complex flake index.
+    #[error("flake index: {0}")]
+    FlakeIndex(flakescatter_optics::OpticsError),
+    /// Incidence angle outside `[0, π/2)`.
+    #[error("incidence angle {0} rad is out of range: expected [0, pi/2)")]
+    Incidence(f64),
+    /// Invalid detector geometry.
+    #[error("detector: {0}")]
+    Detector(flakescatter_optics::OpticsError),
+    /// Nothing to compute.
+    #[error("{0} list is empty")]
+    Empty(&'static str),
+}
+
+/// One row of a reflectance curve: one incidence × one detector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CurvePoint {
+    /// Incidence angle, radians.
+    pub theta_i: f64,
+    /// The detector.
+    pub cone: Cone,
+    /// What it collects.
+    pub collected: Collected,
+    /// `power_per_sr` divided by that of the same detector at the specular direction
+    /// (the paper's "normalised to 1 in the specular direction").
+    pub relative: f64,
+}
+
+impl CurvePoint {
+    /// Signed in-plane angle of the detector axis in degrees (`θs = −θi` specular);
+    /// for an out-of-plane detector, the angle of its projection on the plane of
+    /// incidence.
+    #[must_use]
+    pub fn theta_s_deg(&self) -> f64 {
+        in_plane_angle(self.cone.axis()).to_degrees()
+    }
+}
+
+/// The model at every incidence in `theta_i` (radians) for every detector in `cones`,
+/// rows ordered by incidence then detector. Detectors are evaluated in parallel; the
+/// result does not depend on the number of threads.
+///
+/// # Errors
+/// [`ModelError::Incidence`] for an angle outside `[0, π/2)`, [`ModelError::Empty`]
+/// for an empty list, [`ModelError::Detector`] if the specular reference cone cannot be
+/// built.
+pub fn curve(
+    model: &DistributionModel,
+    theta_i: &[f64],
+    cones: &[Cone],
+    method: ConeMethod,
+) -> Result<Vec<CurvePoint>, ModelError> {
+    if theta_i.is_empty() {
+        return Err(ModelError::Empty("incidence angle"));
+    }
+    if cones.is_empty() {
+        return Err(ModelError::Empty("detector"));
+    }
+    let mut rows = Vec::with_capacity(theta_i.len() * cones.len());
+    for &ti in theta_i {
+        let inc = model.incidence(ti)?;
+        let mut cache: Vec<(f64, f64)> = Vec::new();
+        let collected: Vec<Collected> = cones
+            .par_iter()
+            .map(|c| model.collect(&inc, c, method))
+            .collect();
+        for (cone, col) in cones.iter().zip(collected) {
+            let alpha = cone.half_angle();
+            let spec = if let Some(&(_, v)) = cache.iter().find(|(a, _)| *a == alpha) {
+                v
+            } else {
+                let sc = Cone::in_plane(-ti, alpha).map_err(ModelError::Detector)?;
+                let v = model.collect(&inc, &sc, method).power_per_sr;
+                cache.push((alpha, v));
+                v
+            };
+            rows.push(CurvePoint {
+                theta_i: ti,
+                cone: *cone,
+                collected: col,
+                relative: if spec > 0.0 {
+                    col.power_per_sr / spec
+                } else {
+                    f64::NAN
+                },
+            });
+        }
+    }
+    Ok(rows)
+}

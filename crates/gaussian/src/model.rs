@@ -1,0 +1,244 @@
+//! The point BRDF of the distribution model (physics.md §4, paper eqs. 9–13 corrected).
+//!
+//! Conventions: angles in radians; `θi ∈ [0, π/2)` is the incidence angle in air; exit
+//! directions `r` are unit vectors in air with `r.z > 0` (see `flakescatter_optics`).
+//! The orientation distribution enters through its macro-area density
+//! `D(m) = p2(θn)/⟨cos θn⟩` (flake area per unit coating area per steradian of
+//! normals, for a fully covering layer). For an exit direction `r`:
+//!
+//! 1. `k2 = (r.x/n, r.y/n, sqrt(1 − (r.x² + r.y²)/n²))`, `k1` refracted from `θi`;
+//! 2. `m = (k2 − k1)/|k2 − k1|`, `θn = acos m.z`; no light if `m.z ≤ 0`;
+//! 3. `f(θi, r) = F · R(ι) · D(m) / (4 n² cos θt cos θ2)` (sr⁻¹),
+//!
+//! with `F·R` the Fresnel and flake factors of [`Transmission::path_factor`],
+//! `cos ι = γ = −k1·m`, `cos θ2 = k2.z`. The obliquity `γ` cancels against the reflection
+//! Jacobian `dΩ(k2) = 4γ dΩ(m)`; the refraction Jacobian `n² cos θ2/cos θo` supplies the
+//! rest. With [`Weighting::PaperPrinted`] `f` is multiplied by `cos θ2 / cos θo`, the
+//! printed eq. 9/13 weight, which breaks energy conservation (physics.md §4).
+
+use flakescatter_optics::flake::FlakeReflectance;
+use flakescatter_optics::fresnel::{self, FresnelPower};
+use flakescatter_optics::polarization::{Transmission, Weighting};
+use flakescatter_optics::{UnitVec3, Vec3, detector, refraction};
+use flakescatter_stats::Orientation;
+
+use crate::ModelError;
+
+/// Options of the distribution model. The defaults are the physical model of
+/// physics.md §4: exact unpolarised Fresnel factors, physical weighting, perfect-conductor
+/// flakes, no clear-coat reflection.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelOptions {
+    /// Fresnel bookkeeping (default `exact-unpolarized`).
+    pub transmission: Transmission,
+    /// Ray weighting (default `physical`).
+    pub weighting: Weighting,
+    /// Flake reflectance (default perfect conductor).
+    pub flake: FlakeReflectance,
+    /// Add the clear coat's own specular reflection (physics.md §6) to every detector
+    /// whose cone contains the specular direction (default off).
+    pub clearcoat: bool,
+    /// Apply the exit Fresnel factor (default `true`). `false` gives the power that
+    /// reaches the top surface from inside, before the exit loss: used by conservation
+    /// checks.
+    pub exit_fresnel: bool,
+}
+
+impl Default for ModelOptions {
+    fn default() -> Self {
+        Self {
+            transmission: Transmission::ExactUnpolarized,
+            weighting: Weighting::Physical,
+            flake: FlakeReflectance::PerfectConductor,
+            clearcoat: false,
+            exit_fresnel: true,
+        }
+    }
+}
+
+/// The distribution model: a clear coat of index `n` over flakes whose normals follow
+/// an [`Orientation`].
+#[derive(Debug, Clone)]
+pub struct DistributionModel {
+    orientation: Orientation,
+    n: f64,
+    options: ModelOptions,
+    inv_mean_cos: f64,
+}
+
+/// Everything about one incidence angle that does not depend on the exit direction.
+#[derive(Debug, Clone, Copy)]
+pub struct Incidence {
+    /// Incidence angle in air, radians.
+    pub theta_i: f64,
+    /// Refracted direction inside the coating (`k1.z < 0`).
+    pub k1: Vec3,
+    /// Cosine of the inside angle `θt`.
+    pub cos_t: f64,
+    /// Fresnel powers of the entry crossing.
+    pub entry: FresnelPower,
+    /// Fraction of the beam that enters, `T_in`.
+    pub t_in: f64,
+    /// Fraction reflected specularly by the clear coat's top surface.
+    pub clearcoat: f64,
+    /// Specular direction `(sin θi, 0, cos θi)`.
+    pub specular: UnitVec3,
+}
+
+impl DistributionModel {
+    /// A model for coating index `n` (≥ 1) and flake orientations `orientation`.
+    ///
+    /// # Errors
+    /// [`ModelError::Index`] when `n` is not a finite real ≥ 1;
+    /// [`ModelError::FlakeIndex`] for an invalid complex flake index.
+    pub fn new(
+        orientation: Orientation,
+        n: f64,
+        options: ModelOptions,
+    ) -> Result<Self, ModelError> {
+        flakescatter_optics::check_index(n).map_err(ModelError::Index)?;
+        if let FlakeReflectance::Complex { n: fn_, k } = options.flake {
+            FlakeReflectance::complex(fn_, k).map_err(ModelError::FlakeIndex)?;
+        }
+        let inv_mean_cos = 1.0 / orientation.mean_cos();
+        Ok(Self {
+            orientation,
+            n,
+            options,
+            inv_mean_cos,
+        })
+    }
+
+    /// The coating index.
+    #[must_use]
+    pub fn index(&self) -> f64 {
+        self.n
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &ModelOptions {
+        &self.options
+    }
+
+    /// The orientation distribution.
+    #[must_use]
+    pub fn orientation(&self) -> &Orientation {
+        &self.orientation
+    }
+
+    /// `1/⟨cos θn⟩`, the factor from `p2` to the macro-area density `D`.
+    #[must_use]
+    pub fn inv_mean_cos(&self) -> f64 {
+        self.inv_mean_cos
+    }
+
+    /// Precompute what depends only on the incidence angle.
+    ///
+    /// # Errors
+    /// [`ModelError::Incidence`] unless `θi ∈ [0, π/2)`.
+    pub fn incidence(&self, theta_i: f64) -> Result<Incidence, ModelError> {
+        if !(theta_i.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&theta_i)) {
+            return Err(ModelError::Incidence(theta_i));
+        }
+        let k_in = detector::incident_direction(theta_i);
+        let k1 = refraction::into_coating(&k_in, self.n);
+        let entry = fresnel::air_to_coating(theta_i, self.n);
+        Ok(Incidence {
+            theta_i,
+            k1: k1.into_inner(),
+            cos_t: -k1.z,
+            entry,
+            t_in: self.options.transmission.entry_factor(&entry),
+            clearcoat: self.options.transmission.clearcoat_reflectance(&entry),
+            specular: detector::specular_direction(theta_i),
+        })
+    }
+
+    /// Point BRDF `f(θi, r)` of the flakes, sr⁻¹ (the clear coat's specular delta is not
+    /// included). Zero for `r.z ≤ 0` and where no flake normal can send light to `r`.
+    #[must_use]
+    #[inline]
+    pub fn brdf(&self, inc: &Incidence, r: &Vec3) -> f64 {
+        if r.z <= 0.0 {
+            return 0.0;
+        }
+        let n = self.n;
+        // Inside direction that leaves along r.
+        let tx = r.x / n;
+        let ty = r.y / n;
+        let c2 = (1.0 - tx * tx - ty * ty).max(0.0).sqrt();
+        let h = Vec3::new(tx - inc.k1.x, ty - inc.k1.y, c2 - inc.k1.z);
+        let hn = h.norm();
+        let mz = h.z / hn;
+        if mz <= 0.0 {
+            return 0.0;
+        }
+        let p2 = self.orientation.p2(mz.min(1.0).acos());
+        if p2 == 0.0 {
+            return 0.0;
+        }
+        let factor = self.path_factor(inc, -inc.k1.dot(&h) / hn, r.z, c2);
+        let mut f = factor * p2 * self.inv_mean_cos / (4.0 * n * n * inc.cos_t * c2);
+        if self.options.weighting == Weighting::PaperPrinted {
+            f *= c2 / r.z;
+        }
+        f
+    }
+
+    /// `F · R` for a ray with obliquity `gamma` leaving at air cosine `cos_o` from inside
+    /// cosine `cos_2`.
+    #[inline]
+    fn path_factor(&self, inc: &Incidence, gamma: f64, cos_o: f64, cos_2: f64) -> f64 {
+        let flake = self.options.flake.power(gamma, self.n);
+        if self.options.exit_fresnel {
+            let exit = fresnel::power_from_cosines(cos_o, cos_2, self.n);
+            self.options
+                .transmission
+                .path_factor(&inc.entry, flake, &exit)
+        } else {
+            let unit = FresnelPower {
+                rs: 0.0,
+                rp: 0.0,
+                ts: 1.0,
+                tp: 1.0,
+            };
+            self.options
+                .transmission
+                .path_factor(&inc.entry, flake, &unit)
+        }
+    }
+
+    /// What the ray reflected by a flake of normal `m` carries out of the coating,
+    /// per unit of flake area density: `F · R · γ / cos θt` (times `cos θ2/cos θo` for
+    /// the paper-printed weighting), with its exit direction; `None` when the ray is lost
+    /// (`γ ≤ 0`, `k2.z ≤ 0`, total internal reflection).
+    #[must_use]
+    pub fn ray_weight(&self, inc: &Incidence, m: &UnitVec3) -> Option<(f64, UnitVec3)> {
+        let k1 = UnitVec3::new_unchecked(inc.k1);
+        let gamma = -k1.dot(m);
+        if gamma <= 0.0 {
+            return None;
+        }
+        let k2 = flakescatter_optics::reflection::reflect(&k1, m);
+        if k2.z <= 0.0 {
+            return None;
+        }
+        let out = refraction::out_of_coating(&k2, self.n)?;
+        let mut w = self.path_factor(inc, gamma, out.z, k2.z) * gamma / inc.cos_t;
+        if self.options.weighting == Weighting::PaperPrinted {
+            w *= k2.z / out.z;
+        }
+        Some((w, out))
+    }
+
+    /// The normal-space integrand `F · R · D(m) · γ / cos θt` (fraction of the incident
+    /// power per steradian of normals) with the exit direction, or `None` when the ray is
+    /// lost. Integrated over all normals it gives the hemispherical total.
+    #[must_use]
+    pub fn normal_space_weight(&self, inc: &Incidence, m: &UnitVec3) -> Option<(f64, UnitVec3)> {
+        let (w, out) = self.ray_weight(inc, m)?;
+        let theta_n = m.z.clamp(-1.0, 1.0).acos();
+        Some((w * self.orientation.p2(theta_n) * self.inv_mean_cos, out))
+    }
+}
