@@ -5,3 +5,4 @@
 pub use flakescatter_io as io;
 pub use flakescatter_optics as optics;
 pub use flakescatter_stats as stats;
+pub use flakescatter_synth as synth;
