@@ -152,6 +152,14 @@ pub fn read_map_bytes(
     bytes: &[u8],
     options: &ReadOptions,
 ) -> Result<(HeightMap, MapFormat), MapError> {
+    // Check the pitch override first, so a bad option is reported as such in every format.
+    if let Some((dx, dy)) = options.pixel_um {
+        for (axis, value) in [("dx", dx), ("dy", dy)] {
+            if !value.is_finite() || value <= 0.0 {
+                return Err(MapError::Pitch(HeightMapError::BadPitch { axis, value }));
+            }
+        }
+    }
     let format = MapFormat::detect(bytes);
     let mut map = match format {
         MapFormat::X3p => x3p::read_x3p_bytes(bytes, options)?,

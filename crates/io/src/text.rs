@@ -44,7 +44,9 @@ pub enum TextError {
         token: String,
     },
     /// A row has a different number of values from the first row.
-    #[error("line {line}: row has {found} values, but the first data row has {expected}")]
+    #[error(
+        "line {line}: row has {found} values, expected {expected} (as in the first data row or the column header)"
+    )]
     Ragged {
         /// 1-based line number.
         line: usize,
@@ -215,8 +217,14 @@ pub fn read_text_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap,
             row.push(v);
         }
         if rows.is_empty() {
-            expected = row.len();
-        } else if row.len() != expected {
+            // A profile table has exactly the two columns its header names.
+            expected = if profile_header.is_some() {
+                2
+            } else {
+                row.len()
+            };
+        }
+        if row.len() != expected {
             return Err(TextError::Ragged {
                 line: line_no,
                 expected,

@@ -1,0 +1,453 @@
+//! Bad input gives a clear typed error naming the problem, never a panic.
+//!
+//! The X3P archives here are assembled in the test with the zip crate from a `main.xml`
+//! written from ISO 25178-72 (the layout of the real files in `shared/data/topography`),
+//! so each one differs from a valid file in exactly one way.
+
+use std::io::Write;
+
+use flakescatter_io::map::MapError;
+use flakescatter_io::sdf::SdfError;
+use flakescatter_io::text::TextError;
+use flakescatter_io::x3p::X3pError;
+use flakescatter_io::{ReadMapError, ReadOptions, ZUnit, read_map, read_map_bytes};
+use md5::{Digest, Md5};
+
+fn md5_hex(b: &[u8]) -> String {
+    Md5::digest(b).iter().map(|x| format!("{x:02x}")).collect()
+}
+
+/// A `main.xml` for an `nx` x `ny` map with Z data type `dtype` and X increment `incx`.
+fn xml(nx: &str, ny: &str, dtype: &str, incx: &str) -> String {
+    format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<p:ISO5436_2 xmlns:p="http://www.opengps.eu/2008/ISO5436_2">
+  <Record1><Revision>ISO5436 - 2000</Revision><FeatureType>SUR</FeatureType>
+    <Axes>
+      <CX><AxisType>I</AxisType><DataType>D</DataType><Increment>{incx}</Increment><Offset>0</Offset></CX>
+      <CY><AxisType>I</AxisType><DataType>D</DataType><Increment>1e-6</Increment><Offset>0</Offset></CY>
+      <CZ><AxisType>A</AxisType><DataType>{dtype}</DataType><Increment>1e-6</Increment><Offset>0</Offset></CZ>
+    </Axes></Record1>
+  <Record2><Date>2024-01-01T00:00:00</Date><Creator>test</Creator></Record2>
+  <Record3><MatrixDimension><SizeX>{nx}</SizeX><SizeY>{ny}</SizeY><SizeZ>1</SizeZ></MatrixDimension>
+    <DataLink><PointDataLink>bindata/data.bin</PointDataLink></DataLink></Record3>
+  <Record4><ChecksumFile>md5checksum.hex</ChecksumFile></Record4>
+</p:ISO5436_2>
+"#
+    )
+}
+
+/// Zips the given members; `main.xml` gets a correct `md5checksum.hex` unless one is given.
+fn zip_members(members: &[(&str, &[u8])]) -> Vec<u8> {
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let opts = zip::write::SimpleFileOptions::default();
+    let has_md5 = members.iter().any(|(n, _)| *n == "md5checksum.hex");
+    for (name, bytes) in members {
+        zip.start_file(*name, opts).unwrap();
+        zip.write_all(bytes).unwrap();
+        if *name == "main.xml" && !has_md5 {
+            zip.start_file("md5checksum.hex", opts).unwrap();
+            zip.write_all(format!("{} *main.xml\n", md5_hex(bytes)).as_bytes())
+                .unwrap();
+        }
+    }
+    zip.finish().unwrap().into_inner()
+}
+
+fn x3p(main: &str, data: &[u8]) -> Vec<u8> {
+    zip_members(&[("main.xml", main.as_bytes()), ("bindata/data.bin", data)])
+}
+
+fn f64_data(values: &[f64]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+fn x3p_err(bytes: &[u8]) -> X3pError {
+    match read_map_bytes(bytes, &ReadOptions::default()) {
+        Err(MapError::X3p(e)) => e,
+        other => panic!("expected an X3P error, got {other:?}"),
+    }
+}
+
+fn text_err(bytes: &[u8], options: &ReadOptions) -> TextError {
+    match read_map_bytes(bytes, options) {
+        Err(MapError::Text(e)) => e,
+        other => panic!("expected a text error, got {other:?}"),
+    }
+}
+
+fn sdf_err(bytes: &[u8]) -> SdfError {
+    match read_map_bytes(bytes, &ReadOptions::default()) {
+        Err(MapError::Sdf(e)) => e,
+        other => panic!("expected an SDF error, got {other:?}"),
+    }
+}
+
+#[test]
+fn hand_built_x3p_is_read() {
+    // The control: a 2 x 2 float64 map of 1, 2, 3, NaN raw values with Z Increment 1e-6 m,
+    // so heights are 1, 2, 3 µm and one invalid point; pitch 0.5 µm x 1 µm.
+    let bytes = x3p(
+        &xml("2", "2", "D", "0.5e-6"),
+        &f64_data(&[1.0, 2.0, 3.0, f64::NAN]),
+    );
+    let (map, _) = read_map_bytes(&bytes, &ReadOptions::default()).unwrap();
+    assert_eq!((map.nx(), map.ny(), map.dx(), map.dy()), (2, 2, 0.5, 1.0));
+    assert_eq!(map.get(0, 1), Some(3.0));
+    assert_eq!(map.valid_count(), 3);
+}
+
+#[test]
+fn integer_data_types_scale_by_increment() {
+    // int16 raw -3, 7 and int32 raw 100000 with Z Increment 1e-6 m: heights in µm equal the
+    // raw values.
+    let data: Vec<u8> = [-3i16, 7].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let (map, _) = read_map_bytes(
+        &x3p(&xml("2", "1", "I", "1e-6"), &data),
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(map.heights(), &[-3.0, 7.0]);
+    let data = 100_000i32.to_le_bytes();
+    let (map, _) = read_map_bytes(
+        &x3p(&xml("1", "1", "L", "1e-6"), &data),
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(map.heights(), &[100_000.0]);
+}
+
+#[test]
+fn truncated_zip() {
+    let bytes = x3p(&xml("2", "2", "D", "1e-6"), &f64_data(&[0.0; 4]));
+    for len in [0, 4, 30, bytes.len() / 2, bytes.len() - 1] {
+        let e = read_map_bytes(&bytes[..len], &ReadOptions::default());
+        assert!(e.is_err(), "truncated to {len} bytes was accepted");
+    }
+    assert!(matches!(
+        x3p_err(&bytes[..bytes.len() / 2]),
+        X3pError::Zip(_)
+    ));
+}
+
+#[test]
+fn corrupt_zip() {
+    let mut bytes = x3p(&xml("2", "2", "D", "1e-6"), &f64_data(&[0.0; 4]));
+    // Overwrite the end-of-central-directory record's offset field.
+    let n = bytes.len();
+    for b in &mut bytes[n - 6..n - 2] {
+        *b = 0xff;
+    }
+    assert!(matches!(x3p_err(&bytes), X3pError::Zip(_)));
+}
+
+#[test]
+fn missing_main_xml() {
+    let bytes = zip_members(&[("bindata/data.bin", &f64_data(&[0.0]))]);
+    let e = x3p_err(&bytes);
+    assert_eq!(e, X3pError::MissingMember("main.xml".into()));
+    assert!(e.to_string().contains("main.xml"));
+}
+
+#[test]
+fn missing_data_member() {
+    let main = xml("1", "1", "D", "1e-6");
+    let bytes = zip_members(&[("main.xml", main.as_bytes())]);
+    assert_eq!(
+        x3p_err(&bytes),
+        X3pError::MissingMember("bindata/data.bin".into())
+    );
+}
+
+#[test]
+fn wrong_data_length() {
+    // 3 x 2 float64 needs 48 bytes; give 40.
+    let e = x3p_err(&x3p(&xml("3", "2", "D", "1e-6"), &f64_data(&[0.0; 5])));
+    assert!(
+        matches!(
+            e,
+            X3pError::DataLength {
+                expected: 48,
+                found: 40,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("bindata/data.bin"));
+}
+
+#[test]
+fn unknown_data_type() {
+    let e = x3p_err(&x3p(&xml("1", "1", "Q", "1e-6"), &[0; 8]));
+    assert!(matches!(&e, X3pError::BadValue { element, value, .. }
+        if element == "Record1/Axes/CZ/DataType" && value == "Q"));
+}
+
+#[test]
+fn bad_xml() {
+    let e = x3p_err(&x3p("<ISO5436_2><Record1>", &[]));
+    assert!(matches!(e, X3pError::Xml(_)), "{e:?}");
+    let e = x3p_err(&x3p("<Surface/>", &[]));
+    assert!(e.to_string().contains("<Surface>"), "{e}");
+    let e = x3p_err(&x3p(&xml("two", "2", "D", "1e-6"), &[]));
+    assert!(matches!(&e, X3pError::BadValue { value, .. } if value == "two"));
+    let e = x3p_err(&x3p(&xml("0", "2", "D", "1e-6"), &[]));
+    assert!(matches!(e, X3pError::Map(_)), "{e:?}");
+}
+
+#[test]
+fn non_finite_or_negative_pitch() {
+    for inc in ["inf", "NaN", "-1e-6", "0", "abc", ""] {
+        let bytes = x3p(&xml("1", "1", "D", inc), &f64_data(&[0.0]));
+        let e = x3p_err(&bytes);
+        assert!(
+            matches!(
+                e,
+                X3pError::BadValue { .. } | X3pError::Map(_) | X3pError::MissingElement(_)
+            ),
+            "increment {inc:?}: {e:?}"
+        );
+    }
+    let e = text_err(
+        b"# Width: inf m\n# Height: 1 m\n# Value units: m\n1 2\n",
+        &ReadOptions::default(),
+    );
+    assert!(matches!(e, TextError::BadHeader { line: 1, .. }), "{e:?}");
+    let options = ReadOptions {
+        pixel_um: Some((1.0, f64::INFINITY)),
+        z_unit: Some(ZUnit::Um),
+        ..ReadOptions::default()
+    };
+    let e = read_map_bytes(b"1 2\n", &options).unwrap_err();
+    assert!(matches!(e, MapError::Pitch(_)), "{e:?}");
+}
+
+#[test]
+fn md5_mismatch_is_refused_unless_accepted() {
+    let main = xml("1", "1", "D", "1e-6");
+    let bytes = zip_members(&[
+        ("main.xml", main.as_bytes()),
+        (
+            "md5checksum.hex",
+            b"00000000000000000000000000000000 *main.xml\n",
+        ),
+        ("bindata/data.bin", &f64_data(&[1.0])),
+    ]);
+    assert!(matches!(x3p_err(&bytes), X3pError::Md5Mismatch { .. }));
+    let accept = ReadOptions {
+        accept_md5_mismatch: true,
+        ..ReadOptions::default()
+    };
+    let (map, _) = read_map_bytes(&bytes, &accept).unwrap();
+    assert!(map.metadata()["x3p.md5_mismatch"].contains("00000000"));
+}
+
+#[test]
+fn valid_bin_masks_points_lsb_first() {
+    // 3 x 3 map, valid.bin = 0b1111_0101, 0b0000_0001: points 1 and 3 invalid (bits clear,
+    // least significant bit first), point 8 valid from the second byte.
+    let mut main = xml("3", "3", "D", "1e-6");
+    main = main.replace(
+        "<PointDataLink>bindata/data.bin</PointDataLink>",
+        "<PointDataLink>bindata/data.bin</PointDataLink><ValidPointsLink>bindata/valid.bin</ValidPointsLink>",
+    );
+    let bytes = zip_members(&[
+        ("main.xml", main.as_bytes()),
+        ("bindata/data.bin", &f64_data(&[1.0; 9])),
+        ("bindata/valid.bin", &[0b1111_0101, 0b0000_0001]),
+    ]);
+    let (map, _) = read_map_bytes(&bytes, &ReadOptions::default()).unwrap();
+    assert_eq!(
+        map.valid(),
+        &[true, false, true, false, true, true, true, true, true]
+    );
+    // Too short a valid.bin is an error.
+    let bytes = zip_members(&[
+        ("main.xml", main.as_bytes()),
+        ("bindata/data.bin", &f64_data(&[1.0; 9])),
+        ("bindata/valid.bin", &[0xff]),
+    ]);
+    assert!(matches!(x3p_err(&bytes), X3pError::DataLength { .. }));
+}
+
+#[test]
+fn ragged_text_rows() {
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::Nm),
+        ..ReadOptions::default()
+    };
+    let e = text_err(b"1 2 3\n4 5 6\n7 8\n", &options);
+    assert_eq!(
+        e,
+        TextError::Ragged {
+            line: 3,
+            expected: 3,
+            found: 2
+        }
+    );
+    let e = text_err(b"1,2\n3,x\n", &options);
+    assert_eq!(
+        e,
+        TextError::BadNumber {
+            line: 2,
+            column: 2,
+            token: "x".into()
+        }
+    );
+    // The same matrix without errors reads, in nm -> µm.
+    let (map, _) = read_map_bytes(b"1000, 2000\n3000, 4000\n", &options).unwrap();
+    assert_eq!(map.heights(), &[1.0, 2.0, 3.0, 4.0]);
+}
+
+#[test]
+fn profile_header_over_one_column_rows() {
+    // Found by the fuzz test (it used to index past the end of the row).
+    let options = ReadOptions {
+        z_unit: Some(ZUnit::Um),
+        ..ReadOptions::default()
+    };
+    let e = text_err(b"x_um,z\n0.1\n0.2\n", &options);
+    assert_eq!(
+        e,
+        TextError::Ragged {
+            line: 2,
+            expected: 2,
+            found: 1
+        }
+    );
+}
+
+#[test]
+fn text_needs_calibration() {
+    let e = text_err(b"1 2\n3 4\n", &ReadOptions::default());
+    assert_eq!(e, TextError::MissingZUnit);
+    let only_z = ReadOptions {
+        z_unit: Some(ZUnit::M),
+        ..ReadOptions::default()
+    };
+    let e = text_err(b"1 2\n3 4\n", &only_z);
+    assert_eq!(e, TextError::MissingPitch);
+    assert!(e.to_string().contains("--pixel-um"));
+}
+
+#[test]
+fn empty_files() {
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::Um),
+        ..ReadOptions::default()
+    };
+    for bytes in [&b""[..], b"\n\n", b"# Width: 1 m\n", b"  \n"] {
+        assert_eq!(text_err(bytes, &options), TextError::Empty);
+    }
+    assert_eq!(text_err(b"\x00\x01\x02", &options), TextError::Binary);
+}
+
+#[test]
+fn sdf_errors() {
+    // Text SDF with 2 x 2 declared and 3 values.
+    let e = sdf_err(
+        b"aISO-1.0\nNumPoints = 2\nNumProfiles = 2\nXscale = 1e-6\nYscale = 1e-6\nZscale = 1e-6\n*\n1 2 3\n*\n",
+    );
+    assert!(
+        matches!(
+            e,
+            SdfError::DataLength {
+                found: 3,
+                expected: 4,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let e = sdf_err(b"aISO-1.0\nNumPoints = 2\n*\n1 2\n");
+    assert_eq!(e, SdfError::MissingField("NumProfiles"));
+    let e = sdf_err(b"aISO-1.0\nthis is not a header\n*\n");
+    assert!(matches!(e, SdfError::BadHeaderLine { line: 2, .. }));
+    let e = sdf_err(b"bISO-1.0\x00\x00");
+    assert!(matches!(e, SdfError::TruncatedHeader { found: 10, .. }));
+    let e = sdf_err(b"aISO-9.9\n");
+    assert!(matches!(e, SdfError::Version(_)));
+}
+
+/// An 81-byte binary SDF header, written from ISO 25178-71 (fields little-endian:
+/// magic 8, ManufacID 10, CreateDate 12, ModDate 12, NumPoints u16, NumProfiles u16,
+/// Xscale, Yscale, Zscale, Zresolution f64, Compression, DataType, CheckType u8).
+fn sdf_header(magic: &[u8; 8], nx: u16, ny: u16, scales: [f64; 4], dtype: u8) -> Vec<u8> {
+    let mut h = Vec::new();
+    h.extend_from_slice(magic);
+    h.extend_from_slice(b"TESTMAKER\0");
+    h.extend_from_slice(b"010120240000");
+    h.extend_from_slice(b"020120240000");
+    h.extend_from_slice(&nx.to_le_bytes());
+    h.extend_from_slice(&ny.to_le_bytes());
+    for s in scales {
+        h.extend_from_slice(&s.to_le_bytes());
+    }
+    h.extend_from_slice(&[0, dtype, 0]);
+    assert_eq!(h.len(), 81);
+    h
+}
+
+#[test]
+fn binary_sdf_written_from_the_spec() {
+    // No real binary SDF is available; these files are written here from the spec.
+    // 3 x 2 int16 (DataType 5) raw values -1..4 with Zscale 2e-9 m: heights raw * 0.002 µm;
+    // Xscale 0.5e-6 m and Yscale 0.25e-6 m give a 0.5 µm x 0.25 µm pitch.
+    let mut b = sdf_header(b"bISO-1.0", 3, 2, [0.5e-6, 0.25e-6, 2e-9, 1e-9], 5);
+    for v in [-1i16, 0, 1, 2, 3, 4] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    let (map, format) = read_map_bytes(&b, &ReadOptions::default()).unwrap();
+    assert_eq!(format, flakescatter_io::MapFormat::Sdf);
+    assert_eq!((map.nx(), map.ny()), (3, 2));
+    assert!((map.dx() - 0.5).abs() < 1e-15 && (map.dy() - 0.25).abs() < 1e-15);
+    let expected = [-0.002, 0.0, 0.002, 0.004, 0.006, 0.008];
+    for (z, e) in map.heights().iter().zip(expected) {
+        assert!((z - e).abs() < 1e-15, "{z} vs {e}");
+    }
+    assert_eq!(map.metadata()["sdf.ManufacID"], "TESTMAKER");
+
+    // bISO-2.0, float64 (DataType 7), 2 x 1, Zscale 1e-6: heights equal raw values (µm),
+    // NaN invalid.
+    let mut b = sdf_header(b"bISO-2.0", 2, 1, [1e-6, 1e-6, 1e-6, 0.0], 7);
+    b.extend_from_slice(&1.25f64.to_le_bytes());
+    b.extend_from_slice(&f64::NAN.to_le_bytes());
+    let (map, _) = read_map_bytes(&b, &ReadOptions::default()).unwrap();
+    assert_eq!(map.get(0, 0), Some(1.25));
+    assert_eq!(map.valid_count(), 1);
+
+    // Short data and an unknown DataType.
+    let mut b = sdf_header(b"bISO-1.0", 2, 2, [1e-6, 1e-6, 1e-6, 0.0], 7);
+    b.extend_from_slice(&[0; 16]);
+    assert!(matches!(
+        sdf_err(&b),
+        SdfError::DataLength {
+            expected: 32,
+            found: 16,
+            ..
+        }
+    ));
+    let b = sdf_header(b"bISO-1.0", 1, 1, [1e-6, 1e-6, 1e-6, 0.0], 9);
+    assert!(matches!(sdf_err(&b), SdfError::BadField { .. }));
+    let b = sdf_header(b"bISO-1.0", 1, 1, [f64::NAN, 1e-6, 1e-6, 0.0], 7);
+    assert!(matches!(sdf_err(&b), SdfError::BadField { .. }));
+}
+
+#[test]
+fn file_errors_name_the_file() {
+    let missing = std::env::temp_dir().join("flakescatter-io-no-such-file.x3p");
+    let e = read_map(&missing, &ReadOptions::default()).unwrap_err();
+    assert!(matches!(e, ReadMapError::Io { .. }));
+    assert!(e.to_string().contains("flakescatter-io-no-such-file.x3p"));
+
+    let path = std::env::temp_dir().join(format!("flakescatter-io-bad-{}.txt", std::process::id()));
+    std::fs::write(&path, "1 2\n3\n").unwrap();
+    let e = read_map(&path, &ReadOptions::default()).unwrap_err();
+    std::fs::remove_file(&path).unwrap();
+    let msg = e.to_string();
+    assert!(msg.contains(&path.display().to_string()), "{msg}");
+    assert!(msg.contains("line 2"), "{msg}");
+}
