@@ -23,6 +23,10 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// What a height-map file holds: size, pitch, valid points, height statistics, metadata.
+    Info(cmd::info::Args),
+    /// Synthetic flake layer with known truth: height map, intensity map, flake table.
+    Synth(cmd::synth::Args),
     /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
     Stats(cmd::stats::Args),
 }
@@ -30,6 +34,8 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: anyhow::Result<()> = match cli.command {
+        Command::Info(a) => cmd::info::run(a),
+        Command::Synth(a) => cmd::synth::run(a),
         Command::Stats(a) => cmd::stats::run(a),
     };
     match result {

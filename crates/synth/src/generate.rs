@@ -279,3 +279,57 @@ pub fn generate_from_discs(
         truth,
     })
 }
+
+/// Header of [`truth_csv`]: the flake-table "normals" column set (`nx, ny, nz, area_um2`,
+/// `area_um2` = visible true area) plus the rest of the ground truth.
+pub const TRUTH_COLUMNS: [&str; 15] = [
+    "id",
+    "x_um",
+    "y_um",
+    "nx",
+    "ny",
+    "nz",
+    "area_um2",
+    "theta_n_deg",
+    "phi_n_deg",
+    "z_um",
+    "depth_um",
+    "diameter_um",
+    "true_area_um2",
+    "visible_pixels",
+    "visible_projected_area_um2",
+];
+
+/// The truth table as CSV text (header [`TRUTH_COLUMNS`], `\n` line ends), one row per
+/// flake visible on at least one pixel, in id order. This is the file format written by
+/// `flakescatter synth --truth-out` and `cargo xtask fixtures`; it is readable as a flake
+/// table (normals column set). Angles are in degrees here, at the file boundary
+/// (`phi_n_deg` in `[0, 360)` from `+x` toward `+y`); `x_um`, `y_um` are the mid-plane
+/// centre in map coordinates, `z_um` its height above the substrate and `depth_um` its
+/// depth below the film surface. Numbers use Rust's shortest round-trip form.
+pub fn truth_csv(layer: &SyntheticLayer) -> String {
+    let mut out = TRUTH_COLUMNS.join(",");
+    out.push('\n');
+    for f in layer.visible_flakes() {
+        let row = [
+            f.id.to_string(),
+            f.centre_x_um.to_string(),
+            f.centre_y_um.to_string(),
+            f.normal.x.to_string(),
+            f.normal.y.to_string(),
+            f.normal.z.to_string(),
+            f.visible_true_area_um2.to_string(),
+            f.theta_n.to_degrees().to_string(),
+            f.phi_n.to_degrees().to_string(),
+            f.centre_z_um.to_string(),
+            f.depth_um.to_string(),
+            f.diameter_um.to_string(),
+            f.true_area_um2.to_string(),
+            f.visible_pixels.to_string(),
+            f.visible_projected_area_um2.to_string(),
+        ];
+        out.push_str(&row.join(","));
+        out.push('\n');
+    }
+    out
+}

@@ -38,7 +38,10 @@ mod params;
 pub use disc::Disc;
 pub use error::SynthError;
 pub use flakescatter_stats::distribution::Orientation;
-pub use generate::{SyntheticLayer, TruthFlake, generate, generate_from_discs, place_flakes};
+pub use generate::{
+    SyntheticLayer, TRUTH_COLUMNS, TruthFlake, generate, generate_from_discs, place_flakes,
+    truth_csv,
+};
 pub use params::{
     Confocal, DiameterDistribution, FlakeAmount, IntensityLevels, LayerParams, LayerSpec,
     MAX_PIXELS, Roughness,

@@ -1,2 +1,4 @@
 //! One module per subcommand: each has `Args` (clap) and `run(Args) -> anyhow::Result<()>`.
+pub mod info;
 pub mod stats;
+pub mod synth;
