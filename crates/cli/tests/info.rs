@@ -1,0 +1,169 @@
+//! `flakescatter info` end to end on real instrument files: numbers checked against the
+//! files' own declarations, exit status 2 and the file named on bad input.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn data(name: &str) -> String {
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/topography"
+    ))
+    .join(name)
+    .display()
+    .to_string()
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn close(a: f64, b: f64, rel: f64) -> bool {
+    (a - b).abs() <= rel * b.abs()
+}
+
+#[test]
+fn json_for_the_sensofar_scan() {
+    // sample-land.x3p declares SizeX 918, SizeY 256, CX/CY Increment 2.58e-06 (m);
+    // Python over its data.bin counted 25292 NaN of 235008 points, mean
+    // -5.352068347547571e-07 m and rms about the mean 3.4334274890691285e-05 m.
+    let file = data("sample-land.x3p");
+    let o = run(&["info", &file, "--json"]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["nx"], 918);
+    assert_eq!(v["ny"], 256);
+    assert!(close(v["dx_m"].as_f64().unwrap(), 2.58e-6, 1e-12));
+    assert!(close(v["dy_m"].as_f64().unwrap(), 2.58e-6, 1e-12));
+    assert_eq!(v["invalid_points"], 25292);
+    assert_eq!(v["valid_points"], 235008 - 25292);
+    assert!(close(
+        v["mean_m"].as_f64().unwrap(),
+        -5.352068347547571e-07,
+        1e-9
+    ));
+    assert!(close(
+        v["rms_m"].as_f64().unwrap(),
+        3.4334274890691285e-05,
+        1e-9
+    ));
+    assert!(close(
+        v["min_m"].as_f64().unwrap(),
+        -7.947348058223724e-05,
+        1e-12
+    ));
+    assert!(close(
+        v["max_m"].as_f64().unwrap(),
+        5.249858077149838e-05,
+        1e-12
+    ));
+    assert_eq!(v["format"], "x3p");
+    assert_eq!(v["file"], file);
+    assert_eq!(v["version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(v["metadata"]["x3p.instrument.manufacturer"], "Sensofar");
+
+    // The readable table says the same.
+    let o = run(&["info", &file]);
+    assert_eq!(o.status.code(), Some(0));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("918 x 256"), "{text}");
+    assert!(text.contains("25292 invalid"), "{text}");
+}
+
+#[test]
+fn text_matrix_needs_and_takes_calibration() {
+    // surfacetopography-csv-1.csv: a profile whose height column carries no unit.
+    let file = data("surfacetopography-csv-1.csv");
+    let o = run(&["info", &file, "--json"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("surfacetopography-csv-1.csv") && err.contains("--z-unit"),
+        "{err}"
+    );
+
+    // With --z-unit nm and --pixel-um 0.5: 8 points, heights 2.10425 nm .. 1.94981 nm.
+    let o = run(&[
+        "info",
+        &file,
+        "--json",
+        "--z-unit",
+        "nm",
+        "--pixel-um",
+        "0.5",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(8), Some(1)));
+    assert!(close(v["dx_m"].as_f64().unwrap(), 0.5e-6, 1e-12));
+    assert!(close(v["max_m"].as_f64().unwrap(), 2.10425e-9, 1e-12));
+    assert!(close(v["min_m"].as_f64().unwrap(), 1.94981e-9, 1e-12));
+    assert_eq!(v["inputs"]["z_unit"], "nm");
+}
+
+#[test]
+fn bad_files_and_flags_exit_2_naming_them() {
+    let dir = std::env::temp_dir().join(format!("flakescatter-info-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("ragged.txt");
+    std::fs::write(
+        &bad,
+        "# Width: 1 um\n# Height: 1 um\n# Value units: nm\n1 2 3\n4 5\n",
+    )
+    .unwrap();
+    let o = run(&["info", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("ragged.txt") && err.contains("line 5"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+
+    let o = run(&["info", dir.join("missing.x3p").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("missing.x3p"));
+    std::fs::remove_dir_all(&dir).unwrap();
+
+    // csafe-logo.x3p's main.xml does not match its md5checksum.hex (checked with md5sum).
+    let logo = data("csafe-logo.x3p");
+    let o = run(&["info", &logo]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("csafe-logo.x3p") && err.contains("MD5"),
+        "{err}"
+    );
+    let o = run(&["info", &logo, "--json", "--accept-md5-mismatch"]);
+    assert_eq!(o.status.code(), Some(0));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    // Declared: SizeX 741, SizeY 419.
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(741), Some(419)));
+    assert!(v["metadata"]["x3p.md5_mismatch"].is_string());
+
+    for flag in [
+        ["--pixel-um", "-1"],
+        ["--pixel-um", "1,2,3"],
+        ["--z-unit", "inch"],
+    ] {
+        let o = run(&["info", &logo, flag[0], flag[1]]);
+        assert_eq!(o.status.code(), Some(2), "{flag:?}");
+        assert!(
+            String::from_utf8_lossy(&o.stderr).contains(flag[0]),
+            "{flag:?}"
+        );
+    }
+}
