@@ -1,12 +1,32 @@
 //! Project automation, run as `cargo xtask <task>`.
 
+/// One line per task: name and what it does.
+const TASKS: &[(&str, &str)] = &[
+    ("help", "this text"),
+    (
+        "fixtures [--check]",
+        "regenerate the synthetic maps in fixtures/ (--check: only verify they are current)",
+    ),
+];
+
+fn usage() -> String {
+    let mut s = String::from("usage: cargo xtask <task>\n\ntasks:\n");
+    for (name, what) in TASKS {
+        s.push_str(&format!("  {name:<20} {what}\n"));
+    }
+    s
+}
+
 fn main() -> anyhow::Result<()> {
-    let task = std::env::args().nth(1);
+    let mut args = std::env::args().skip(1);
+    let task = args.next();
+    let rest: Vec<String> = args.collect();
     match task.as_deref() {
         None | Some("help" | "--help" | "-h") => {
-            println!("usage: cargo xtask <task>\n\ntasks:\n  help   this text");
+            print!("{}", usage());
             Ok(())
         }
-        Some(other) => anyhow::bail!("unknown xtask `{other}` (try `cargo xtask help`)"),
+        Some("fixtures") => xtask::fixtures::run(&rest),
+        Some(other) => anyhow::bail!("unknown xtask `{other}`\n\n{}", usage()),
     }
 }
