@@ -9,6 +9,8 @@ use clap::{Parser, Subcommand};
 
 mod cmd;
 mod common;
+mod instrument;
+mod plot;
 
 /// Predict how a metallic (aluminium-flake) coating reflects light at every angle.
 ///
@@ -23,6 +25,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Distribution model: reflectance from a flake orientation distribution (eqs. 9-13, corrected).
+    Model(cmd::model::Args),
     /// What a height-map file holds: size, pitch, valid points, height statistics, metadata.
     Info(cmd::info::Args),
     /// Synthetic flake layer with known truth: height map, intensity map, flake table.
@@ -34,6 +38,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: anyhow::Result<()> = match cli.command {
+        Command::Model(a) => cmd::model::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stats(a) => cmd::stats::run(a),

@@ -1,4 +1,5 @@
 //! One module per subcommand: each has `Args` (clap) and `run(Args) -> anyhow::Result<()>`.
 pub mod info;
+pub mod model;
 pub mod stats;
 pub mod synth;

@@ -1,0 +1,197 @@
+//! The composition the layers cannot own: a coating, an instrument and a source of
+//! flake orientations turned into reflectance curves with units and metadata.
+//!
+//! Conventions: radians in, radians out; reflectances are fractions of the incident
+//! beam power, BRDFs per steradian; `relative` is normalised to the same detector at the
+//! specular direction (physics.md §4).
+
+use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
+use flakescatter_optics::flake::FlakeReflectance;
+use flakescatter_optics::polarization::{Transmission, Weighting};
+use flakescatter_stats::histogram::AreaHistogram;
+use flakescatter_stats::{Flake, Orientation};
+
+use crate::PipelineError;
+use crate::instrument::Instrument;
+
+/// The coating: clear-coat index and flake reflectance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coating {
+    /// Clear-coat refractive index (real, ≥ 1; default 1.5).
+    pub n: f64,
+    /// Flake reflectance (default perfect conductor, the paper's assumption).
+    pub flake: FlakeReflectance,
+}
+
+impl Default for Coating {
+    fn default() -> Self {
+        Self {
+            n: 1.5,
+            flake: FlakeReflectance::PerfectConductor,
+        }
+    }
+}
+
+/// How the models weight and combine Fresnel factors, and whether the clear coat's own
+/// reflection is included (physics.md §4–§6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Settings {
+    /// Fresnel bookkeeping (default `exact-unpolarized`).
+    pub transmission: Transmission,
+    /// Ray weighting (default `physical`).
+    pub weighting: Weighting,
+    /// Add the clear coat's specular reflection (default off).
+    pub clearcoat: bool,
+    /// Cone integration of the distribution model (default exact).
+    pub cone_method: ConeMethod,
+}
+
+/// Where flake orientations come from for the distribution model.
+#[derive(Debug, Clone)]
+pub enum OrientationSource {
+    /// A distribution given directly (Gaussian, tabulated, flat).
+    Distribution(Orientation),
+    /// A measured flake table, binned into an area-weighted histogram of this bin
+    /// width (radians) and used as a tabulated distribution.
+    Flakes {
+        /// The flakes.
+        flakes: Vec<Flake>,
+        /// Histogram bin width, radians.
+        bin_width: f64,
+    },
+}
+
+impl OrientationSource {
+    /// The orientation distribution this source stands for.
+    ///
+    /// # Errors
+    /// [`PipelineError::Orientation`] when a flake table cannot be binned.
+    pub fn orientation(&self) -> Result<Orientation, PipelineError> {
+        match self {
+            Self::Distribution(o) => Ok(o.clone()),
+            Self::Flakes { flakes, bin_width } => AreaHistogram::from_flakes(flakes, *bin_width)
+                .and_then(|h| h.to_orientation())
+                .map_err(|e| PipelineError::Orientation(e.to_string())),
+        }
+    }
+}
+
+/// One row of a curve: one incidence × one detector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CurveRow {
+    /// Incidence angle, radians.
+    pub theta_i: f64,
+    /// Index of the detector in the instrument's list.
+    pub detector: usize,
+    /// Cone-averaged BRDF, sr⁻¹ (the point BRDF for aperture 0).
+    pub brdf: f64,
+    /// Fraction of the incident beam collected; `None` for point detectors.
+    pub reflectance: Option<f64>,
+    /// Collected power relative to the same detector at the specular direction.
+    pub relative: f64,
+    /// Rays counted (topographic model only).
+    pub rays: Option<u64>,
+    /// Standard error of `brdf` (topographic model: from tiles of the map;
+    /// distribution model: the quadrature's error estimate).
+    pub std_err: Option<f64>,
+}
+
+/// Reflectance curves with what they were computed from.
+#[derive(Debug, Clone)]
+pub struct Curves {
+    /// Which model produced them (`distribution` or `topographic`).
+    pub model: &'static str,
+    /// The instrument.
+    pub instrument: Instrument,
+    /// The coating.
+    pub coating: Coating,
+    /// The settings.
+    pub settings: Settings,
+    /// Rows, ordered by incidence then detector.
+    pub rows: Vec<CurveRow>,
+    /// Free-form description of the orientation source, for metadata.
+    pub source: String,
+}
+
+/// The distribution model (physics.md §4) for `source` seen by `instrument`.
+///
+/// # Errors
+/// [`PipelineError::Model`] for an invalid coating, [`PipelineError::Orientation`] for a
+/// source that gives no distribution.
+pub fn distribution_curves(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    source: &OrientationSource,
+) -> Result<Curves, PipelineError> {
+    let orientation = source.orientation()?;
+    let description = describe(&orientation);
+    let model = DistributionModel::new(
+        orientation,
+        coating.n,
+        ModelOptions {
+            transmission: settings.transmission,
+            weighting: settings.weighting,
+            flake: coating.flake,
+            clearcoat: settings.clearcoat,
+            exit_fresnel: true,
+        },
+    )
+    .map_err(PipelineError::Model)?;
+    let points = flakescatter_gaussian::curve(
+        &model,
+        instrument.theta_i(),
+        instrument.cones(),
+        settings.cone_method,
+    )
+    .map_err(PipelineError::Model)?;
+    let nd = instrument.cones().len();
+    let rows = points
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let c = &p.collected;
+            let std_err = match c.reflectance {
+                Some(rho) if rho > 0.0 => Some(c.error * c.brdf / rho),
+                Some(_) => Some(0.0),
+                None => Some(c.error),
+            };
+            CurveRow {
+                theta_i: p.theta_i,
+                detector: k % nd,
+                brdf: c.brdf,
+                reflectance: c.reflectance,
+                relative: p.relative,
+                rays: None,
+                std_err: if settings.cone_method == ConeMethod::Exact {
+                    std_err
+                } else {
+                    None
+                },
+            }
+        })
+        .collect();
+    Ok(Curves {
+        model: "distribution",
+        instrument: instrument.clone(),
+        coating: *coating,
+        settings: *settings,
+        rows,
+        source: description,
+    })
+}
+
+/// A short description of a distribution for metadata (radians).
+fn describe(o: &Orientation) -> String {
+    if o.is_delta() {
+        return "flat (all flake normals along z)".into();
+    }
+    match o.gaussian_width() {
+        Some(w) => format!(
+            "gaussian p~ ∝ exp(-θ²/(2s²)), s = {:.6e} rad (hwhm {:.6e} rad)",
+            w.sigma(),
+            w.hwhm()
+        ),
+        None => format!("tabulated on [0, {:.6e}] rad", o.max_theta()),
+    }
+}
