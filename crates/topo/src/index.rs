@@ -1,0 +1,143 @@
+//! A grid index from exit directions to the detector cones that may contain them.
+//!
+//! Conventions: exit directions `k_out` are unit vectors in air with `k_out.z > 0`; a
+//! cone of half-angle `α` about the axis `r` contains `k` when `k·r > cos α` (paper
+//! eq. 15, [`Cone::contains`]). Every direction in that cone is within the chord
+//! `|k − r| < 2 sin(α/2)` of the axis, so its `(x, y)` projection lies in the square of
+//! half-side `2 sin(α/2)` about `(r.x, r.y)`. The index is a uniform grid over
+//! `(k.x, k.y) ∈ [−1, 1]²`; each cell lists the cones whose square overlaps it, so a ray
+//! tests only the cones of its own cell (for in-plane detectors, a ray out of the plane
+//! lands in an empty cell and is rejected with one lookup).
+
+use flakescatter_optics::detector::Cone;
+
+/// One cone as the inner loop needs it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Entry {
+    pub ax: f64,
+    pub ay: f64,
+    pub az: f64,
+    pub cos_alpha: f64,
+    pub index: u32,
+}
+
+/// Cells of side `cell` over `[−1, 1]²`, CSR layout.
+#[derive(Debug, Clone)]
+pub(crate) struct ConeIndex {
+    side: usize,
+    inv_cell: f64,
+    offsets: Vec<u32>,
+    entries: Vec<Entry>,
+}
+
+impl ConeIndex {
+    /// Builds the index for `cones` (all with `α > 0`).
+    pub fn new(cones: &[Cone]) -> Self {
+        let chord = |c: &Cone| 2.0 * (0.5 * c.half_angle()).sin();
+        let min_chord = cones.iter().map(chord).fold(f64::INFINITY, f64::min);
+        // Cells about the size of the smallest cone's projection, at most 1024 per axis
+        // and at least 8.
+        let cell = min_chord.clamp(2.0 / 1024.0, 2.0 / 8.0);
+        let side = (2.0 / cell).ceil() as usize;
+        let inv_cell = side as f64 / 2.0;
+        let to_cell = |v: f64| (((v + 1.0) * inv_cell).floor().max(0.0) as usize).min(side - 1);
+        let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); side * side];
+        for (j, c) in cones.iter().enumerate() {
+            let a = c.axis();
+            // A small margin covers rounding at the cap's edge.
+            let half = chord(c) * (1.0 + 1e-9) + 1e-12;
+            let (x0, x1) = (to_cell(a.x - half), to_cell(a.x + half));
+            let (y0, y1) = (to_cell(a.y - half), to_cell(a.y + half));
+            let e = Entry {
+                ax: a.x,
+                ay: a.y,
+                az: a.z,
+                cos_alpha: c.cos_half_angle(),
+                index: j as u32,
+            };
+            for iy in y0..=y1 {
+                for ix in x0..=x1 {
+                    lists[iy * side + ix].push(e);
+                }
+            }
+        }
+        let mut offsets = Vec::with_capacity(side * side + 1);
+        let mut entries = Vec::new();
+        offsets.push(0);
+        for l in lists {
+            entries.extend(l);
+            offsets.push(entries.len() as u32);
+        }
+        Self {
+            side,
+            inv_cell,
+            offsets,
+            entries,
+        }
+    }
+
+    /// The candidate cones for a direction with horizontal components `(x, y)`.
+    #[inline]
+    pub fn candidates(&self, x: f64, y: f64) -> &[Entry] {
+        let ix = (((x + 1.0) * self.inv_cell) as usize).min(self.side - 1);
+        let iy = (((y + 1.0) * self.inv_cell) as usize).min(self.side - 1);
+        let cell = iy * self.side + ix;
+        &self.entries[self.offsets[cell] as usize..self.offsets[cell + 1] as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// Every (direction, cone) pair that `Cone::contains` accepts is found through the
+    /// index: brute force over all cones is the independent reference.
+    #[test]
+    fn index_finds_every_containing_cone() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut cones = Vec::new();
+        for d in -140..=140 {
+            cones.push(
+                Cone::in_plane(f64::from(d) * 0.5f64.to_radians(), 1.5f64.to_radians()).unwrap(),
+            );
+        }
+        for _ in 0..200 {
+            let t = rng.random_range(0.0..1.5);
+            let p = rng.random_range(-3.2..3.2);
+            let a = rng.random_range(0.001..0.3);
+            cones.push(Cone::out_of_plane(t, p, a).unwrap());
+        }
+        let index = ConeIndex::new(&cones);
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            // Directions concentrated near the cones' rims and everywhere else.
+            let c = &cones[rng.random_range(0..cones.len())];
+            let (u, v) = flakescatter_optics::detector::orthonormal_frame(c.axis());
+            let beta = c.half_angle() * rng.random_range(0.9..1.1);
+            let psi = rng.random_range(0.0..std::f64::consts::TAU);
+            let k = c.axis().into_inner() * beta.cos()
+                + (u.into_inner() * psi.cos() + v.into_inner() * psi.sin()) * beta.sin();
+            if k.z <= 0.0 {
+                continue;
+            }
+            let k = flakescatter_optics::UnitVec3::new_normalize(k);
+            let mut found: Vec<u32> = index
+                .candidates(k.x, k.y)
+                .iter()
+                .filter(|e| e.ax * k.x + e.ay * k.y + e.az * k.z > e.cos_alpha)
+                .map(|e| e.index)
+                .collect();
+            found.sort_unstable();
+            let truth: Vec<u32> = (0..cones.len() as u32)
+                .filter(|&j| cones[j as usize].contains(&k))
+                .collect();
+            hits += truth.len();
+            assert_eq!(found, truth);
+        }
+        assert!(
+            hits > 10_000,
+            "the test must exercise many containments ({hits})"
+        );
+    }
+}

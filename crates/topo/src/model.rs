@@ -1,0 +1,577 @@
+//! Ray tracing over height maps and counting into detector cones (physics.md §5, paper
+//! eqs. 14 and 15).
+//!
+//! Conventions: angles in radians, lengths in micrometres, the frame and signed `θs` of
+//! `flakescatter_optics`. Per usable pixel with local normal `m` and per incidence `θi`:
+//!
+//! 1. `k1` is the refracted beam (`k1.z = −cos θt < 0`), `γ = −k1·m`;
+//!    `k2 = k1 + 2γ m` (paper eq. 1). Rays with `k2.z ≤ 0` (including `γ ≤ 0`, the beam
+//!    meeting the back of the local plane) are lost "down"; rays with
+//!    `n² (k2.x² + k2.y²) ≥ 1` are lost to total internal reflection.
+//! 2. `k_out = (n k2.x, n k2.y, sqrt(1 − n²(k2.x² + k2.y²)))`.
+//! 3. Weight, a fraction of the beam power (`physical`, the default):
+//!    `w = F · γ / (m.z · cos θt) / N_pixels`, where `F` is
+//!    [`Transmission::path_factor`] (entry Fresnel at `θi`, flake reflectance at
+//!    `cos ι = γ`, exit Fresnel from the cosines `k_out.z`, `k2.z`, no trigonometry) and
+//!    `N_pixels` counts every pixel of every map, valid or not (dark pixels are black
+//!    substrate). `γ / m.z` is the pixel's flake area projected onto the beam per unit of
+//!    map area; dividing by `cos θt` makes the beam's footprint the unit.
+//!    `paper-printed` implements the printed eq. 14 literally,
+//!    `I_j += (cos ϑ'_j / cos ϑ_j) T γ`, with `ϑ_j` the polar angle of detector `j`'s
+//!    axis in air, `ϑ'_j` the matching inside angle (`sin ϑ_j = n sin ϑ'_j`), `T` the
+//!    same Fresnel/flake factor `F` as above (with `--transmission paper` it is the
+//!    paper's `T_av` at both crossings), and no `1/(m.z cos θt)`; it is also divided by
+//!    `N_pixels`. It is **for shapes only**: it differs from the physical weight by
+//!    `(cos ϑ'_j/cos ϑ_j) m.z cos θt` and does not conserve energy.
+//! 4. The weight is added to every detector whose cone contains `k_out` (overlapping
+//!    cones each count), found through a grid index over `(k_out.x, k_out.y)`.
+//! 5. With the clear coat on, `R(θi)` ([`Transmission::clearcoat_reflectance`]) is added
+//!    to every cone that contains the specular direction (physics.md §6).
+//!
+//! On a map of flat flakes whose normals follow a distribution, the pixel normals are
+//! projected-area weighted (density `D(m) m.z` per usable pixel), so the expected
+//! reflectance is `coverage · ∫ D F γ / cos θt dΩm` over the cone: the distribution
+//! model (physics.md §4) times the usable-pixel coverage.
+//!
+//! # Uncertainty
+//! Rays are **not** independent: all pixels of one flat flake send their rays into the
+//! same direction, so the noise of a detector's value is set by the number of flakes it
+//! sees, not the number of rays. The maps are cut into square tiles of side
+//! [`DEFAULT_BLOCK_UM`] = 32 µm (about two mean flake diameters; adjustable with
+//! [`TopoModel::with_block_um`]), and the tiles of all maps are treated as independent
+//! samples. With `s_t` the (unnormalised) sum of weights a detector receives from tile
+//! `t` of `T` tiles, the estimate is `ρ = Σ_t s_t / N_pixels` and its standard error is
+//! the between-tile estimate `se(ρ) = sqrt(T/(T−1) · Σ_t (s_t − s̄)²) / N_pixels`
+//! (identical to the delete-one block jackknife for a sum). Flakes cut by tile edges
+//! make neighbouring tiles slightly correlated, which biases `se` low by a few per cent
+//! when flakes are much smaller than tiles, more when they are not; use tiles of a few
+//! flake diameters. With a single tile the standard error is NaN.
+//!
+//! # Determinism
+//! Tiles are fixed by the map size and pitch, each tile is traced sequentially, and the
+//! per-tile sums are reduced in tile order: the result is bit-identical for any number of
+//! rayon threads.
+
+use flakescatter_optics::detector::{self, Cone};
+use flakescatter_optics::flake::FlakeReflectance;
+use flakescatter_optics::fresnel::{self, FresnelPower};
+use flakescatter_optics::polarization::{Transmission, Weighting};
+use flakescatter_optics::refraction;
+use flakescatter_stats::HeightMap;
+use rayon::prelude::*;
+
+use crate::TopoError;
+use crate::index::ConeIndex;
+use crate::normals::{Normals, Rect, Scratch, tile_slopes};
+
+/// Side of the square statistics tiles, µm (see the module docs on uncertainty).
+pub const DEFAULT_BLOCK_UM: f64 = 32.0;
+
+/// Tiles traced between two progress reports (and held in memory at once).
+const BATCH: usize = 256;
+
+/// Options of the topographic model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TopoOptions {
+    /// Clear-coat refractive index (real, ≥ 1; default 1.5).
+    pub n: f64,
+    /// Fresnel bookkeeping (default `exact-unpolarized`).
+    pub transmission: Transmission,
+    /// Ray weighting (default `physical`; `paper-printed` is the printed eq. 14).
+    pub weighting: Weighting,
+    /// Flake reflectance (default perfect conductor).
+    pub flake: FlakeReflectance,
+    /// Add the clear coat's own specular reflection (default off).
+    pub clearcoat: bool,
+    /// Side `k` of the least-squares window, pixels (odd, ≥ 3; default 5).
+    pub window: usize,
+}
+
+impl Default for TopoOptions {
+    fn default() -> Self {
+        Self {
+            n: 1.5,
+            transmission: Transmission::ExactUnpolarized,
+            weighting: Weighting::Physical,
+            flake: FlakeReflectance::PerfectConductor,
+            clearcoat: false,
+            window: 5,
+        }
+    }
+}
+
+/// The topographic model with validated options.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TopoModel {
+    options: TopoOptions,
+    block_um: f64,
+}
+
+/// One incidence × one detector of a [`TopoResult`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TopoPoint {
+    /// Incidence angle, radians.
+    pub theta_i: f64,
+    /// The detector.
+    pub cone: Cone,
+    /// Fraction of the incident beam power collected (including the clear coat when it
+    /// is on and seen).
+    pub reflectance: f64,
+    /// Standard error of `reflectance` from the spread between tiles.
+    pub reflectance_std_err: f64,
+    /// BRDF averaged over the cone: `reflectance / (cos θj · π sin²α)`, sr⁻¹.
+    pub brdf: f64,
+    /// Standard error of `brdf`, sr⁻¹.
+    pub brdf_std_err: f64,
+    /// Number of rays counted in the detector.
+    pub rays: u64,
+    /// `reflectance` divided by that of a cone of the same aperture at the specular
+    /// direction (`θs = −θi`), computed even when that detector is not in the list; NaN
+    /// when the specular detector received nothing.
+    pub relative: f64,
+    /// Whether the clear coat's specular reflection was added.
+    pub clearcoat_seen: bool,
+}
+
+/// What a run of the topographic model gives: one [`TopoPoint`] per incidence × detector
+/// (ordered by incidence, then detector) and the totals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TopoResult {
+    /// Rows, incidence-major.
+    pub points: Vec<TopoPoint>,
+    /// Number of maps accumulated.
+    pub maps: usize,
+    /// Pixels over all maps (the normalisation `N_pixels`).
+    pub pixels: u64,
+    /// Pixels with a normal (complete window of valid points), over all maps.
+    pub usable_pixels: u64,
+    /// Rays traced: usable pixels × incidences.
+    pub rays_traced: u64,
+    /// Rays lost to total internal reflection at the top surface.
+    pub rays_lost_tir: u64,
+    /// Rays lost because they head down after reflection (`k2.z ≤ 0`, including beams
+    /// meeting the back of the local plane).
+    pub rays_lost_down: u64,
+    /// Statistics tiles over all maps.
+    pub tiles: u64,
+    /// Tile side, µm.
+    pub block_um: f64,
+}
+
+impl TopoResult {
+    /// Usable pixels as a fraction of all pixels.
+    #[must_use]
+    pub fn usable_fraction(&self) -> f64 {
+        self.usable_pixels as f64 / self.pixels as f64
+    }
+}
+
+/// Per-incidence constants.
+#[derive(Debug, Clone, Copy)]
+struct Inc {
+    k1x: f64,
+    k1z: f64,
+    cos_t: f64,
+    entry: FresnelPower,
+}
+
+/// Sums of one tile.
+#[derive(Debug)]
+struct Partial {
+    sums: Vec<f64>,
+    counts: Vec<u32>,
+    usable: u64,
+    lost_tir: u64,
+    lost_down: u64,
+}
+
+/// Everything fixed during a run.
+struct Setup<'a> {
+    incs: Vec<Inc>,
+    index: ConeIndex,
+    /// Per internal detector: 1 (physical) or `cos ϑ'/cos ϑ` (paper-printed).
+    scale: Vec<f64>,
+    ndet: usize,
+    options: &'a TopoOptions,
+}
+
+impl TopoModel {
+    /// A model with `options`.
+    ///
+    /// # Errors
+    /// [`TopoError::Index`] for an index that is not a finite real ≥ 1,
+    /// [`TopoError::FlakeIndex`] for an invalid complex flake index,
+    /// [`TopoError::Window`] for an even window or one below 3.
+    pub fn new(options: TopoOptions) -> Result<Self, TopoError> {
+        flakescatter_optics::check_index(options.n).map_err(TopoError::Index)?;
+        if let FlakeReflectance::Complex { n, k } = options.flake {
+            FlakeReflectance::complex(n, k).map_err(TopoError::FlakeIndex)?;
+        }
+        if options.window < 3 || options.window.is_multiple_of(2) {
+            return Err(TopoError::Window(options.window));
+        }
+        Ok(Self {
+            options,
+            block_um: DEFAULT_BLOCK_UM,
+        })
+    }
+
+    /// The same model with statistics tiles of side `block_um` µm.
+    ///
+    /// # Errors
+    /// [`TopoError::BlockSize`] unless `block_um` is finite and positive.
+    pub fn with_block_um(mut self, block_um: f64) -> Result<Self, TopoError> {
+        if !(block_um.is_finite() && block_um > 0.0) {
+            return Err(TopoError::BlockSize(block_um));
+        }
+        self.block_um = block_um;
+        Ok(self)
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &TopoOptions {
+        &self.options
+    }
+
+    /// Side of the statistics tiles, µm.
+    #[must_use]
+    pub fn block_um(&self) -> f64 {
+        self.block_um
+    }
+
+    fn check_map(&self, i: usize, map: &HeightMap) -> Result<(), TopoError> {
+        let k = self.options.window;
+        if k > map.nx() || k > map.ny() {
+            return Err(TopoError::WindowTooLarge {
+                window: k,
+                map: i,
+                nx: map.nx(),
+                ny: map.ny(),
+            });
+        }
+        if map.valid_count() == 0 {
+            return Err(TopoError::NoValidPixels {
+                map: i,
+                pixels: map.len(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The statistics tiles of a map, row-major.
+    fn tiles(&self, map: &HeightMap) -> Vec<Rect> {
+        let tc = ((self.block_um / map.dx()).round() as usize).max(1);
+        let tr = ((self.block_um / map.dy()).round() as usize).max(1);
+        let mut out = Vec::new();
+        for r0 in (0..map.ny()).step_by(tr) {
+            for c0 in (0..map.nx()).step_by(tc) {
+                out.push(Rect {
+                    r0,
+                    r1: (r0 + tr).min(map.ny()),
+                    c0,
+                    c1: (c0 + tc).min(map.nx()),
+                });
+            }
+        }
+        out
+    }
+
+    /// Local normals of one map (module [`crate::normals`]): `None` where any point of
+    /// the `k × k` window is invalid or outside the map. O(1) per pixel.
+    ///
+    /// # Errors
+    /// [`TopoError::WindowTooLarge`] when the window does not fit in the map.
+    pub fn normals(&self, map: &HeightMap) -> Result<Normals, TopoError> {
+        let k = self.options.window;
+        if k > map.nx() || k > map.ny() {
+            return Err(TopoError::WindowTooLarge {
+                window: k,
+                map: 0,
+                nx: map.nx(),
+                ny: map.ny(),
+            });
+        }
+        let tiles = self.tiles(map);
+        let per_tile: Vec<Vec<(usize, usize, f64, f64)>> = tiles
+            .par_iter()
+            .map_init(Scratch::default, |scratch, &rect| {
+                let mut v = Vec::new();
+                tile_slopes(map, k / 2, rect, scratch, |r, c, a, b| v.push((r, c, a, b)));
+                v
+            })
+            .collect();
+        let mut normals = Normals::new(map.nx(), map.ny(), k);
+        for (r, c, a, b) in per_tile.into_iter().flatten() {
+            normals.set(r, c, a, b);
+        }
+        Ok(normals)
+    }
+
+    /// Traces every map at every incidence `theta_i` (radians, `[0, π/2)`) into every
+    /// detector of `cones`, accumulating all maps into one result. The maps' validity
+    /// masks must already include any intensity cutoff.
+    ///
+    /// # Errors
+    /// [`TopoError::Empty`] for an empty list, [`TopoError::Incidence`] for an angle out
+    /// of range, [`TopoError::PointDetector`] for a cone of aperture 0,
+    /// [`TopoError::WindowTooLarge`] / [`TopoError::NoValidPixels`] for a map that cannot
+    /// be used, [`TopoError::NoUsablePixels`] when no pixel of any map has a complete
+    /// window.
+    pub fn run(
+        &self,
+        maps: &[&HeightMap],
+        theta_i: &[f64],
+        cones: &[Cone],
+    ) -> Result<TopoResult, TopoError> {
+        self.run_with_progress(maps, theta_i, cones, &|_, _| {})
+    }
+
+    /// As [`TopoModel::run`], calling `progress(done, total)` (in tiles) after each batch
+    /// of tiles, from the calling thread. The library itself never prints.
+    ///
+    /// # Errors
+    /// As [`TopoModel::run`].
+    pub fn run_with_progress(
+        &self,
+        maps: &[&HeightMap],
+        theta_i: &[f64],
+        cones: &[Cone],
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<TopoResult, TopoError> {
+        if maps.is_empty() {
+            return Err(TopoError::Empty("height map"));
+        }
+        if theta_i.is_empty() {
+            return Err(TopoError::Empty("incidence angle"));
+        }
+        if cones.is_empty() {
+            return Err(TopoError::Empty("detector"));
+        }
+        for &t in theta_i {
+            if !(t.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&t)) {
+                return Err(TopoError::Incidence(t));
+            }
+        }
+        if let Some(j) = cones.iter().position(|c| c.half_angle() <= 0.0) {
+            return Err(TopoError::PointDetector(j));
+        }
+        for (i, map) in maps.iter().enumerate() {
+            self.check_map(i, map)?;
+        }
+        let n = self.options.n;
+
+        // Internal detectors: the user's cones, then one specular cone per incidence and
+        // distinct aperture (for `relative`).
+        let mut apertures: Vec<f64> = Vec::new();
+        for c in cones {
+            if !apertures.contains(&c.half_angle()) {
+                apertures.push(c.half_angle());
+            }
+        }
+        let mut all = cones.to_vec();
+        for &t in theta_i {
+            for &a in &apertures {
+                all.push(Cone::in_plane(-t, a).map_err(TopoError::Detector)?);
+            }
+        }
+        let ndet = all.len();
+        let scale: Vec<f64> = all
+            .iter()
+            .map(|c| match self.options.weighting {
+                Weighting::Physical => 1.0,
+                Weighting::PaperPrinted => {
+                    let cz = c.axis().z;
+                    let sin2 = (1.0 - cz * cz).max(0.0);
+                    (1.0 - sin2 / (n * n)).sqrt() / cz
+                }
+            })
+            .collect();
+        let incs: Vec<Inc> = theta_i
+            .iter()
+            .map(|&t| {
+                let k1 = refraction::into_coating(&detector::incident_direction(t), n);
+                Inc {
+                    k1x: k1.x,
+                    k1z: k1.z,
+                    cos_t: -k1.z,
+                    entry: fresnel::air_to_coating(t, n),
+                }
+            })
+            .collect();
+        let setup = Setup {
+            incs,
+            index: ConeIndex::new(&all),
+            scale,
+            ndet,
+            options: &self.options,
+        };
+
+        let jobs: Vec<(usize, Rect)> = maps
+            .iter()
+            .enumerate()
+            .flat_map(|(i, m)| self.tiles(m).into_iter().map(move |r| (i, r)))
+            .collect();
+        let total_tiles = jobs.len() as u64;
+        let nslots = theta_i.len() * ndet;
+        // Ordered reduction: plain sums, Welford mean/M2 of the tile sums, ray counts.
+        let mut sum = vec![0.0; nslots];
+        let mut mean = vec![0.0; nslots];
+        let mut m2 = vec![0.0; nslots];
+        let mut rays = vec![0u64; nslots];
+        let (mut usable, mut lost_tir, mut lost_down) = (0u64, 0u64, 0u64);
+        let mut seen = 0u64;
+        for batch in jobs.chunks(BATCH) {
+            let partials: Vec<Partial> = batch
+                .par_iter()
+                .map_init(Scratch::default, |scratch, &(mi, rect)| {
+                    trace_tile(&setup, maps[mi], rect, scratch)
+                })
+                .collect();
+            for p in partials {
+                seen += 1;
+                let inv_seen = 1.0 / seen as f64;
+                usable += p.usable;
+                lost_tir += p.lost_tir;
+                lost_down += p.lost_down;
+                for s in 0..nslots {
+                    let v = p.sums[s];
+                    sum[s] += v;
+                    let delta = v - mean[s];
+                    mean[s] += delta * inv_seen;
+                    m2[s] += delta * (v - mean[s]);
+                    rays[s] += u64::from(p.counts[s]);
+                }
+            }
+            progress(seen, total_tiles);
+        }
+
+        let pixels: u64 = maps.iter().map(|m| m.len() as u64).sum();
+        if usable == 0 {
+            return Err(TopoError::NoUsablePixels {
+                window: self.options.window,
+                valid: maps.iter().map(|m| m.valid_count()).sum(),
+                pixels: pixels as usize,
+            });
+        }
+        let inv_n = 1.0 / pixels as f64;
+        let t = total_tiles as f64;
+        let se_factor = if total_tiles > 1 {
+            t / (t - 1.0)
+        } else {
+            f64::NAN
+        };
+        let ncones = cones.len();
+        let mut points = Vec::with_capacity(theta_i.len() * ncones);
+        for (ii, &ti) in theta_i.iter().enumerate() {
+            let specular = detector::specular_direction(ti);
+            let cc = self
+                .options
+                .transmission
+                .clearcoat_reflectance(&setup.incs[ii].entry);
+            let value = |d: usize| {
+                let s = ii * ndet + d;
+                let seen_cc = self.options.clearcoat && all[d].contains(&specular);
+                let rho = sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
+                (rho, (se_factor * m2[s]).sqrt() * inv_n, seen_cc)
+            };
+            for (j, cone) in cones.iter().enumerate() {
+                let (rho, se, seen_cc) = value(j);
+                let a = apertures
+                    .iter()
+                    .position(|&a| a == cone.half_angle())
+                    .unwrap_or(0);
+                let (spec, _, _) = value(ncones + ii * apertures.len() + a);
+                let proj = cone.projected_solid_angle();
+                points.push(TopoPoint {
+                    theta_i: ti,
+                    cone: *cone,
+                    reflectance: rho,
+                    reflectance_std_err: se,
+                    brdf: rho / proj,
+                    brdf_std_err: se / proj,
+                    rays: rays[ii * ndet + j],
+                    relative: if spec > 0.0 { rho / spec } else { f64::NAN },
+                    clearcoat_seen: seen_cc,
+                });
+            }
+        }
+        Ok(TopoResult {
+            points,
+            maps: maps.len(),
+            pixels,
+            usable_pixels: usable,
+            rays_traced: usable * theta_i.len() as u64,
+            rays_lost_tir: lost_tir,
+            rays_lost_down: lost_down,
+            tiles: total_tiles,
+            block_um: self.block_um,
+        })
+    }
+}
+
+/// Normals of one tile, then one ray per usable pixel and incidence.
+fn trace_tile(setup: &Setup<'_>, map: &HeightMap, rect: Rect, scratch: &mut Scratch) -> Partial {
+    let opts = setup.options;
+    let n = opts.n;
+    let physical = opts.weighting == Weighting::Physical;
+    let ndet = setup.ndet;
+    // Normal components and 1/m.z of the usable pixels.
+    let mut ms: Vec<[f64; 4]> = Vec::new();
+    tile_slopes(map, opts.window / 2, rect, scratch, |_, _, a, b| {
+        let q = (1.0 + a * a + b * b).sqrt();
+        let inv = 1.0 / q;
+        ms.push([-a * inv, -b * inv, inv, q]);
+    });
+    let mut p = Partial {
+        sums: vec![0.0; setup.incs.len() * ndet],
+        counts: vec![0; setup.incs.len() * ndet],
+        usable: ms.len() as u64,
+        lost_tir: 0,
+        lost_down: 0,
+    };
+    for (ii, inc) in setup.incs.iter().enumerate() {
+        let base = ii * ndet;
+        let sums = &mut p.sums[base..base + ndet];
+        let counts = &mut p.counts[base..base + ndet];
+        let inv_cos_t = 1.0 / inc.cos_t;
+        for &[mx, my, mz, inv_mz] in &ms {
+            let gamma = -(inc.k1x * mx + inc.k1z * mz);
+            let g2 = 2.0 * gamma;
+            let k2z = inc.k1z + g2 * mz;
+            // Drop rays that head down (this includes gamma <= 0).
+            if gamma <= 0.0 || k2z <= 0.0 {
+                p.lost_down += 1;
+                continue;
+            }
+            let ox = n * (inc.k1x + g2 * mx);
+            let oy = n * g2 * my;
+            let s2 = ox * ox + oy * oy;
+            // Drop rays that are totally internally reflected.
+            if s2 >= 1.0 {
+                p.lost_tir += 1;
+                continue;
+            }
+            let oz = (1.0 - s2).sqrt();
+            let mut w = f64::NAN;
+            for e in setup.index.candidates(ox, oy) {
+                if e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha {
+                    if w.is_nan() {
+                        let exit = fresnel::power_from_cosines(oz, k2z, n);
+                        let flake = opts.flake.power(gamma, n);
+                        let f = opts.transmission.path_factor(&inc.entry, flake, &exit);
+                        w = if physical {
+                            f * gamma * inv_mz * inv_cos_t
+                        } else {
+                            f * gamma
+                        };
+                    }
+                    let d = e.index as usize;
+                    sums[d] += w * setup.scale[d];
+                    counts[d] += 1;
+                }
+            }
+        }
+    }
+    p
+}
