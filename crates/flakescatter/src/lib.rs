@@ -43,6 +43,7 @@ pub use flakescatter_io as io;
 pub use flakescatter_optics as optics;
 pub use flakescatter_stats as stats;
 pub use flakescatter_synth as synth;
+pub use flakescatter_topo as topo;
 
 pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{Coating, CurveRow, Curves, OrientationSource, Settings, distribution_curves};
