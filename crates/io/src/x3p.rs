@@ -133,22 +133,65 @@ fn size_at(node: Node<'_, '_>, path: &str) -> Result<usize, X3pError> {
         .map_err(|_| bad(path, s, "a non-negative integer"))
 }
 
-/// Reads member `name` completely.
+/// A member's bytes and, when asked for, their MD5 (lower-case hex).
+type Member = (Vec<u8>, Option<String>);
+
+/// Reads member `name` completely; with `hash`, also its MD5, computed on a second thread
+/// while a large member is being decompressed.
 fn read_member<R: Read + std::io::Seek>(
     archive: &mut zip::ZipArchive<R>,
     name: &str,
-) -> Result<Option<Vec<u8>>, X3pError> {
+    hash: bool,
+) -> Result<Option<Member>, X3pError> {
     let mut file = match archive.by_name(name) {
         Ok(f) => f,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
         Err(e) => return Err(X3pError::Zip(format!("member {name:?}: {e}"))),
     };
+    let zip_err = |e: std::io::Error| X3pError::Zip(format!("member {name:?}: {e}"));
     // The declared size is only a capacity hint (it may lie in a corrupt file).
     let hint = usize::try_from(file.size()).unwrap_or(0).min(1 << 28);
     let mut buf = Vec::with_capacity(hint);
-    file.read_to_end(&mut buf)
-        .map_err(|e| X3pError::Zip(format!("member {name:?}: {e}")))?;
-    Ok(Some(buf))
+    const CHUNK: usize = 1 << 20;
+    if !hash || file.size() < 8 * CHUNK as u64 {
+        file.read_to_end(&mut buf).map_err(zip_err)?;
+        let digest = hash.then(|| md5_hex(&buf));
+        return Ok(Some((buf, digest)));
+    }
+    let digest = std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(16);
+        let hasher = scope.spawn(move || {
+            let mut h = Md5::new();
+            for chunk in rx {
+                h.update(&chunk);
+            }
+            hex(&h.finalize())
+        });
+        let read = (|| {
+            loop {
+                let mut chunk = Vec::with_capacity(CHUNK);
+                let n = (&mut file)
+                    .take(CHUNK as u64)
+                    .read_to_end(&mut chunk)
+                    .map_err(zip_err)?;
+                if n == 0 {
+                    return Ok(());
+                }
+                buf.extend_from_slice(&chunk);
+                if tx.send(chunk).is_err() {
+                    return Err(X3pError::Zip(format!(
+                        "member {name:?}: checksum thread stopped"
+                    )));
+                }
+            }
+        })();
+        drop(tx);
+        let digest = hasher
+            .join()
+            .map_err(|_| X3pError::Zip(format!("member {name:?}: checksum thread failed")));
+        read.and(digest)
+    })?;
+    Ok(Some((buf, Some(digest))))
 }
 
 fn is_junk(name: &str) -> bool {
@@ -203,8 +246,8 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
         .clone();
     let prefix = &main[..main.len() - "main.xml".len()];
 
-    let xml_bytes =
-        read_member(&mut archive, &main)?.ok_or_else(|| X3pError::MissingMember(main.clone()))?;
+    let (xml_bytes, _) = read_member(&mut archive, &main, false)?
+        .ok_or_else(|| X3pError::MissingMember(main.clone()))?;
     let xml =
         std::str::from_utf8(&xml_bytes).map_err(|e| X3pError::Xml(format!("not UTF-8: {e}")))?;
     let doc = Document::parse(xml).map_err(|e| X3pError::Xml(e.to_string()))?;
@@ -299,8 +342,8 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
     let checksum_file = text_at(root, "Record4/ChecksumFile")
         .filter(|s| !s.is_empty())
         .unwrap_or("md5checksum.hex");
-    let declared = read_member(&mut archive, &format!("{prefix}{checksum_file}"))?;
-    let declared = declared.as_deref().and_then(|b| {
+    let declared = read_member(&mut archive, &format!("{prefix}{checksum_file}"), false)?;
+    let declared = declared.as_ref().and_then(|(b, _)| {
         std::str::from_utf8(b)
             .ok()
             .and_then(|s| s.split_whitespace().next())
@@ -315,7 +358,8 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
     )?;
 
     let data_name = format!("{prefix}{data_link}");
-    let data = read_member(&mut archive, &data_name)?
+    let data_md5 = text_at(root, "Record3/DataLink/MD5ChecksumPointData");
+    let (data, computed) = read_member(&mut archive, &data_name, data_md5.is_some())?
         .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
     let expected = (n as u64).saturating_mul(width as u64);
     if data.len() as u64 != expected {
@@ -326,8 +370,8 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
             detail: format!("{nx} x {ny} points of {width} bytes, DataType {dtype}"),
         });
     }
-    if let Some(d) = text_at(root, "Record3/DataLink/MD5ChecksumPointData") {
-        check_md5(&data_name, &md5_hex(&data), Some(d), options, &mut notes)?;
+    if let (Some(d), Some(c)) = (data_md5, computed) {
+        check_md5(&data_name, &c, Some(d), options, &mut notes)?;
     }
 
     let convert = |raw: f64| {
@@ -361,7 +405,7 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
     if let Some(link) = text_at(root, "Record3/DataLink/ValidPointsLink").filter(|s| !s.is_empty())
     {
         let name = format!("{prefix}{link}");
-        let bits = read_member(&mut archive, &name)?
+        let (bits, _) = read_member(&mut archive, &name, false)?
             .ok_or_else(|| X3pError::MissingMember(name.clone()))?;
         let need = n.div_ceil(8);
         if bits.len() < need {
