@@ -245,8 +245,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "version": env!("CARGO_PKG_VERSION"),
             "input": {
                 "orientation": "gaussian",
-                "hwhm_deg": width.hwhm().to_degrees(),
-                "sigma_deg": width.sigma().to_degrees(),
+                // Echo the value given exactly; derive the other one.
+                "hwhm_deg": args.sigma.map_or(args.hwhm.unwrap_or(6.0), |_| width.hwhm().to_degrees()),
+                "sigma_deg": args.sigma.unwrap_or(width.sigma().to_degrees()),
                 "nx": s.nx,
                 "ny": s.ny,
                 "dx_um": s.dx_um,
