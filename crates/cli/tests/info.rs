@@ -167,3 +167,44 @@ fn bad_files_and_flags_exit_2_naming_them() {
         );
     }
 }
+
+#[test]
+fn intensity_cutoff_masks_points() {
+    let dir = std::env::temp_dir().join(format!("flakescatter-info-i-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Heights (nm) 10, 20 / 30, NaN; intensities 0.1, 0.9 / 0.5, 0.8. With cutoff 0.5 the
+    // points kept are (1,0) = 20 nm and (0,1) = 30 nm (0.5 is not below the cutoff):
+    // 2 valid of the 3 valid before, mean 25 nm, rms 5 nm.
+    let h = dir.join("h.txt");
+    std::fs::write(&h, "10 20\n30 NaN\n").unwrap();
+    let i = dir.join("i.txt");
+    std::fs::write(&i, "0.1 0.9\n0.5 0.8\n").unwrap();
+    let (h, i) = (h.to_str().unwrap(), i.to_str().unwrap());
+    let base = ["info", h, "--json", "--z-unit", "nm", "--pixel-um", "1"];
+    let o = run(&[&base[..], &["--intensity", i, "--cutoff", "0.5"]].concat());
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["valid_points_before_cutoff"], 3);
+    assert_eq!(v["valid_points"], 2);
+    assert_eq!(v["invalid_points"], 2);
+    assert!(close(v["mean_m"].as_f64().unwrap(), 25e-9, 1e-12));
+    assert!(close(v["rms_m"].as_f64().unwrap(), 5e-9, 1e-9));
+
+    // A cutoff above every intensity leaves nothing: exit 2 with the library's message.
+    let o = run(&[&base[..], &["--intensity", i, "--cutoff", "2"]].concat());
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("cutoff 2 leaves 0 of 4 pixels usable"),
+        "{err}"
+    );
+    // --cutoff without --intensity is a usage error.
+    let o = run(&[&base[..], &["--cutoff", "2"]].concat());
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -29,7 +29,7 @@ pub mod units;
 pub mod x3p;
 
 pub use map::{
-    MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, read_map, read_map_bytes,
-    write_map,
+    MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, read_intensity, read_map,
+    read_map_bytes, write_map,
 };
 pub use units::ZUnit;

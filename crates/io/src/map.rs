@@ -196,6 +196,61 @@ pub fn read_map(
     })
 }
 
+/// Reads an intensity image (e.g. a confocal microscope's maximum-intensity map) for use
+/// with [`HeightMap::apply_intensity_cutoff`]. Values are returned as the file stores
+/// them, unit-less: `Offset + raw × Increment` for X3P, `raw × Zscale` for SDF, the
+/// numbers themselves for text (no unit is required or applied; `options.z_unit` is
+/// ignored). The pitch rules are those of [`read_map`].
+///
+/// # Errors
+/// As [`read_map`].
+pub fn read_intensity(
+    path: impl AsRef<Path>,
+    options: &ReadOptions,
+) -> Result<(HeightMap, MapFormat), ReadMapError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    // Text values are taken as stored by declaring them "µm" (a factor of 1).
+    let as_stored = ReadOptions {
+        z_unit: Some(ZUnit::Um),
+        ..*options
+    };
+    let (map, format) =
+        read_map_bytes(&bytes, &as_stored).map_err(|error| ReadMapError::Format {
+            path: path.to_path_buf(),
+            error,
+        })?;
+    let map = match format {
+        MapFormat::Text => map,
+        // The calibrated readers converted metres to µm; undo that.
+        MapFormat::X3p | MapFormat::Sdf => {
+            let z = map.heights().iter().map(|v| v * 1e-6).collect();
+            let mut out = HeightMap::with_mask(
+                map.nx(),
+                map.ny(),
+                map.dx(),
+                map.dy(),
+                z,
+                map.valid().to_vec(),
+            )
+            .map_err(|e| ReadMapError::Format {
+                path: path.to_path_buf(),
+                error: MapError::Pitch(e),
+            })?;
+            for (k, v) in map.metadata() {
+                out.set_metadata(k.as_str(), v.as_str());
+            }
+            out
+        }
+    };
+    let mut map = map;
+    map.set_metadata("values", "intensity as stored in the file (unit-less)");
+    Ok((map, format))
+}
+
 /// Writes `map` to `path` as X3P (float64 heights in metres, `valid.bin` when some point
 /// is invalid) or plain text (µm, with pitch header lines). Writing [`MapFormat::Sdf`] is
 /// not supported and returns an error saying so.

@@ -9,7 +9,7 @@
 use std::io::Read;
 use std::path::PathBuf;
 
-use flakescatter_io::{MapError, MapFormat, ReadOptions, ZUnit, read_map};
+use flakescatter_io::{MapError, MapFormat, ReadOptions, ZUnit, read_intensity, read_map};
 
 fn data(name: &str) -> PathBuf {
     PathBuf::from(concat!(
@@ -275,4 +275,24 @@ fn pitch_override_applies_to_x3p() {
     };
     let err = read_map(data("pyramid.x3p"), &bad).unwrap_err();
     assert!(err.to_string().contains("pixel pitch"), "{err}");
+}
+
+#[test]
+fn intensity_values_come_back_as_stored() {
+    // pyramid.x3p as an intensity image: Offset 0 + raw x Increment 1 gives the stored
+    // values 2 .. 10 (Python over data.bin), not µm-converted heights.
+    let (i, _) = read_intensity(data("pyramid.x3p"), &ReadOptions::default()).unwrap();
+    let s = i.summary().unwrap();
+    assert_eq!((s.min, s.max), (2.0, 10.0));
+    // Gwyddion text "Value units: m" is ignored for intensities: row 0 is "1 1.5 3".
+    let (i, _) = read_intensity(
+        data("surfacetopography-gwyddion-export-english.txt"),
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(i.get(1, 0), Some(1.5));
+    // SDF "Zscale = 1.0E-6" and first value 1.00000: stored value 1e-6.
+    let (i, _) =
+        read_intensity(data("surfacetopography-sdf-1.sdf"), &ReadOptions::default()).unwrap();
+    assert!((i.get(0, 0).unwrap() - 1e-6).abs() < 1e-21);
 }

@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::io::{MapFormat, ReadOptions, ZUnit, read_map};
+use flakescatter::io::{MapFormat, ReadOptions, ZUnit, read_intensity, read_map};
 use flakescatter::stats::heightmap::HeightMap;
 use serde_json::{Map, Value, json};
 
@@ -83,6 +83,18 @@ pub struct Args {
     /// only), `format`, `metadata`, `file`, `version`.
     #[arg(long)]
     pub json: bool,
+    /// Intensity image of the same size (X3P, SDF or text, values as stored); points
+    /// whose intensity is below `--cutoff` are counted as invalid.
+    #[arg(long, value_name = "FILE", requires = "cutoff")]
+    pub intensity: Option<PathBuf>,
+    /// Intensity cutoff, in the intensity file's own stored values (unit-less).
+    #[arg(
+        long,
+        value_name = "X",
+        requires = "intensity",
+        allow_hyphen_values = true
+    )]
+    pub cutoff: Option<f64>,
     /// Calibration flags.
     #[command(flatten)]
     pub calibration: MapArgs,
@@ -93,7 +105,13 @@ fn m(um: f64) -> f64 {
     um * 1e-6
 }
 
-fn summary_json(args: &Args, options: &ReadOptions, map: &HeightMap, format: MapFormat) -> Value {
+fn summary_json(
+    args: &Args,
+    options: &ReadOptions,
+    map: &HeightMap,
+    format: MapFormat,
+    valid_before_cutoff: usize,
+) -> Value {
     let s = map.summary();
     let stat = |f: fn(&flakescatter::stats::heightmap::HeightSummary) -> f64| {
         s.as_ref().map_or(Value::Null, |s| json!(m(f(s))))
@@ -111,7 +129,10 @@ fn summary_json(args: &Args, options: &ReadOptions, map: &HeightMap, format: Map
             "pixel_um": options.pixel_um.map(|(x, y)| vec![x, y]),
             "z_unit": options.z_unit.map(ZUnit::name),
             "accept_md5_mismatch": options.accept_md5_mismatch,
+            "intensity_file": args.intensity.as_ref().map(|p| p.display().to_string()),
+            "cutoff": args.cutoff,
         },
+        "valid_points_before_cutoff": valid_before_cutoff,
         "nx": map.nx(),
         "ny": map.ny(),
         "dx_m": m(map.dx()),
@@ -129,10 +150,23 @@ fn summary_json(args: &Args, options: &ReadOptions, map: &HeightMap, format: Map
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let options = args.calibration.read_options()?;
-    let (map, format) = read_map(&args.map, &options)
+    let (mut map, format) = read_map(&args.map, &options)
         .with_context(|| format!("flakescatter info {}", args.map.display()))?;
+    let valid_before_cutoff = map.valid_count();
+    if let (Some(path), Some(cutoff)) = (&args.intensity, args.cutoff) {
+        let (intensity, _) = read_intensity(path, &options)
+            .with_context(|| format!("--intensity {}", path.display()))?;
+        map.apply_intensity_cutoff(&intensity, cutoff)
+            .with_context(|| {
+                format!(
+                    "--intensity {} --cutoff {cutoff} on {}",
+                    path.display(),
+                    args.map.display()
+                )
+            })?;
+    }
     if args.json {
-        let v = summary_json(&args, &options, &map, format);
+        let v = summary_json(&args, &options, &map, format, valid_before_cutoff);
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
@@ -160,6 +194,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         n - valid,
         100.0 * (n - valid) as f64 / n as f64
     );
+    if let (Some(path), Some(cutoff)) = (&args.intensity, args.cutoff) {
+        println!(
+            "intensity mask  {} with cutoff {cutoff}: {valid} of {valid_before_cutoff} valid points kept",
+            path.display()
+        );
+    }
     match map.summary() {
         Some(s) => {
             println!("height min      {} µm", s.min);
