@@ -35,6 +35,44 @@ const WG: [f64; 4] = [
     0.417_959_183_673_469_4,
 ];
 
+/// Gauss–Kronrod 7 abscissae on `[0, 1]` (positive half), largest first; the Gauss-3
+/// rule uses `XGK7[1]` and `XGK7[3]`.
+const XGK7: [f64; 4] = [
+    0.960_491_268_708_020_3,
+    0.774_596_669_241_483_4,
+    0.434_243_749_346_802_6,
+    0.0,
+];
+
+/// Kronrod-7 weights matching [`XGK7`].
+const WGK7: [f64; 4] = [
+    0.104_656_226_026_467_27,
+    0.268_488_089_868_333_44,
+    0.401_397_414_775_962_2,
+    0.450_916_538_658_474_14,
+];
+
+/// Gauss-3 weights for `XGK7[1]` (5/9) and `XGK7[3]` (8/9).
+const WG3: [f64; 2] = [5.0 / 9.0, 8.0 / 9.0];
+
+/// The 7 Kronrod nodes mapped to `[a, b]` with their Kronrod and Gauss-3 weights.
+#[must_use]
+pub fn gk7_nodes(a: f64, b: f64) -> [(f64, f64, f64); 7] {
+    let c = 0.5 * (a + b);
+    let h = 0.5 * (b - a);
+    let mut out = [(0.0, 0.0, 0.0); 7];
+    for (j, (&x, &wk)) in XGK7.iter().zip(WGK7.iter()).enumerate() {
+        let wg = if j % 2 == 1 { WG3[j / 2] } else { 0.0 };
+        if j == 3 {
+            out[6] = (c, wk * h, wg * h);
+        } else {
+            out[2 * j] = (c - h * x, wk * h, wg * h);
+            out[2 * j + 1] = (c + h * x, wk * h, wg * h);
+        }
+    }
+    out
+}
+
 /// The 15 Kronrod nodes mapped to `[a, b]` with their Kronrod and Gauss weights
 /// (Gauss weight 0 for nodes that belong only to the Kronrod rule).
 #[must_use]
@@ -141,6 +179,17 @@ mod tests {
         let nodes = gk15_nodes(0.0, 1.0);
         let g: f64 = nodes.iter().map(|&(x, _, wg)| wg * x.powi(13)).sum();
         assert!((g - 1.0 / 14.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn gk7_is_exact_to_degree_10_and_g3_to_degree_5() {
+        let nodes = gk7_nodes(0.0, 1.0);
+        let k: f64 = nodes.iter().map(|&(x, wk, _)| wk * x.powi(10)).sum();
+        let g: f64 = nodes.iter().map(|&(x, _, wg)| wg * x.powi(5)).sum();
+        assert!((k - 1.0 / 11.0).abs() < 1e-15, "{k}");
+        assert!((g - 1.0 / 6.0).abs() < 1e-15, "{g}");
+        let wk: f64 = nodes.iter().map(|n| n.1).sum();
+        assert!((wk - 1.0).abs() < 1e-15);
     }
 
     #[test]
