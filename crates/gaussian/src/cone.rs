@@ -129,9 +129,7 @@ impl DistributionModel {
             .filter_map(|j| {
                 let (sp, cp) = (2.0 * PI * j as f64 / n_psi as f64).sin_cos();
                 let even = j % 2 == 0;
-                if !in_plane {
-                    Some((sp, cp, 1.0, even))
-                } else if j == 0 || 2 * j == n_psi {
+                if !in_plane || j == 0 || 2 * j == n_psi {
                     Some((sp, cp, 1.0, even))
                 } else if 2 * j < n_psi {
                     Some((sp, cp, 2.0, even))
