@@ -22,6 +22,7 @@ pub mod flake;
 pub mod heightmap;
 pub mod histogram;
 mod quad;
+pub mod segment;
 
 /// The linear-algebra crate whose types appear in this API (re-exported so callers
 /// need not depend on it).
@@ -32,3 +33,6 @@ pub use fit::{FitError, HistogramFit, WidthFit, fit_gaussian_histogram, fit_gaus
 pub use flake::{Flake, FlakeError, PlaneFit, UnitVec3, fit_plane};
 pub use heightmap::{HeightMap, HeightMapError};
 pub use histogram::{AreaHistogram, HistogramBin, HistogramError};
+pub use segment::{
+    SegmentError, SegmentParams, SegmentWarning, Segmentation, SegmentedFlake, segment,
+};
