@@ -138,14 +138,14 @@ fn csv_err(file: &str, e: csv::Error) -> FlakeTableError {
 }
 
 /// A parsed CSV: lower-cased, trimmed header and records with their line numbers.
-struct Table {
-    file: String,
-    header: Vec<String>,
-    rows: Vec<(u64, csv::StringRecord)>,
+pub(crate) struct Table {
+    pub(crate) file: String,
+    pub(crate) header: Vec<String>,
+    pub(crate) rows: Vec<(u64, csv::StringRecord)>,
 }
 
 impl Table {
-    fn read(reader: impl Read, file: &str) -> Result<Self, FlakeTableError> {
+    pub(crate) fn read(reader: impl Read, file: &str) -> Result<Self, FlakeTableError> {
         let mut r = csv::ReaderBuilder::new()
             .has_headers(true)
             .trim(csv::Trim::All)
@@ -173,11 +173,11 @@ impl Table {
         })
     }
 
-    fn col(&self, name: &str) -> Option<usize> {
+    pub(crate) fn col(&self, name: &str) -> Option<usize> {
         self.header.iter().position(|h| h == name)
     }
 
-    fn bad(&self, line: u64, column: &str, message: String) -> FlakeTableError {
+    pub(crate) fn bad(&self, line: u64, column: &str, message: String) -> FlakeTableError {
         FlakeTableError::BadValue {
             file: self.file.clone(),
             line,
@@ -187,7 +187,7 @@ impl Table {
     }
 
     /// A finite number from column `name` (index `i`) of a row.
-    fn num(
+    pub(crate) fn num(
         &self,
         line: u64,
         rec: &csv::StringRecord,

@@ -23,6 +23,7 @@
 
 pub mod flakes;
 pub mod map;
+pub mod measured;
 pub mod sdf;
 pub mod text;
 pub mod units;
