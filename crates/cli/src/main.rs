@@ -27,6 +27,8 @@ struct Cli {
 enum Command {
     /// Distribution model: reflectance from a flake orientation distribution (eqs. 9-13, corrected).
     Model(cmd::model::Args),
+    /// Topographic model: ray tracing over confocal height maps, accumulated.
+    Topo(cmd::topo::Args),
     /// What a height-map file holds: size, pitch, valid points, height statistics, metadata.
     Info(cmd::info::Args),
     /// Synthetic flake layer with known truth: height map, intensity map, flake table.
@@ -39,6 +41,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: anyhow::Result<()> = match cli.command {
         Command::Model(a) => cmd::model::run(a),
+        Command::Topo(a) => cmd::topo::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stats(a) => cmd::stats::run(a),

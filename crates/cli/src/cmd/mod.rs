@@ -3,3 +3,4 @@ pub mod info;
 pub mod model;
 pub mod stats;
 pub mod synth;
+pub mod topo;
