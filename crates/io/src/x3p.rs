@@ -133,27 +133,34 @@ fn size_at(node: Node<'_, '_>, path: &str) -> Result<usize, X3pError> {
         .map_err(|_| bad(path, s, "a non-negative integer"))
 }
 
-/// A member's bytes and, when asked for, their MD5 (lower-case hex).
+/// A member's bytes (at most the limit asked for) and, when asked for, their MD5
+/// (lower-case hex).
 type Member = (Vec<u8>, Option<String>);
 
-/// Reads member `name` completely; with `hash`, also its MD5, computed on a second thread
-/// while a large member is being decompressed.
+/// Reads member `name`, at most `limit` bytes of it (so that a zip bomb or a lying header
+/// cannot exhaust memory); with `hash`, also its MD5, computed on a second thread while a
+/// large member is being decompressed.
 fn read_member<R: Read + std::io::Seek>(
     archive: &mut zip::ZipArchive<R>,
     name: &str,
     hash: bool,
+    limit: u64,
 ) -> Result<Option<Member>, X3pError> {
-    let mut file = match archive.by_name(name) {
+    let file = match archive.by_name(name) {
         Ok(f) => f,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
         Err(e) => return Err(X3pError::Zip(format!("member {name:?}: {e}"))),
     };
     let zip_err = |e: std::io::Error| X3pError::Zip(format!("member {name:?}: {e}"));
     // The declared size is only a capacity hint (it may lie in a corrupt file).
-    let hint = usize::try_from(file.size()).unwrap_or(0).min(1 << 28);
+    let hint = usize::try_from(file.size().min(limit))
+        .unwrap_or(0)
+        .min(1 << 28);
+    let declared = file.size();
+    let mut file = file.take(limit);
     let mut buf = Vec::with_capacity(hint);
     const CHUNK: usize = 1 << 20;
-    if !hash || file.size() < 8 * CHUNK as u64 {
+    if !hash || declared < 8 * CHUNK as u64 {
         file.read_to_end(&mut buf).map_err(zip_err)?;
         let digest = hash.then(|| md5_hex(&buf));
         return Ok(Some((buf, digest)));
@@ -193,6 +200,9 @@ fn read_member<R: Read + std::io::Seek>(
     })?;
     Ok(Some((buf, Some(digest))))
 }
+
+/// Upper bound on the size of `main.xml` and `md5checksum.hex` read into memory.
+const XML_LIMIT: u64 = 64 << 20;
 
 fn is_junk(name: &str) -> bool {
     name.starts_with("__MACOSX/")
@@ -246,7 +256,7 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
         .clone();
     let prefix = &main[..main.len() - "main.xml".len()];
 
-    let (xml_bytes, _) = read_member(&mut archive, &main, false)?
+    let (xml_bytes, _) = read_member(&mut archive, &main, false, XML_LIMIT)?
         .ok_or_else(|| X3pError::MissingMember(main.clone()))?;
     let xml =
         std::str::from_utf8(&xml_bytes).map_err(|e| X3pError::Xml(format!("not UTF-8: {e}")))?;
@@ -342,7 +352,12 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
     let checksum_file = text_at(root, "Record4/ChecksumFile")
         .filter(|s| !s.is_empty())
         .unwrap_or("md5checksum.hex");
-    let declared = read_member(&mut archive, &format!("{prefix}{checksum_file}"), false)?;
+    let declared = read_member(
+        &mut archive,
+        &format!("{prefix}{checksum_file}"),
+        false,
+        XML_LIMIT,
+    )?;
     let declared = declared.as_ref().and_then(|(b, _)| {
         std::str::from_utf8(b)
             .ok()
@@ -359,14 +374,29 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
 
     let data_name = format!("{prefix}{data_link}");
     let data_md5 = text_at(root, "Record3/DataLink/MD5ChecksumPointData");
-    let (data, computed) = read_member(&mut archive, &data_name, data_md5.is_some())?
-        .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
     let expected = (n as u64).saturating_mul(width as u64);
+    // Read one byte more than needed, to tell "too long" from "just right".
+    let (data, computed) = read_member(
+        &mut archive,
+        &data_name,
+        data_md5.is_some(),
+        expected.saturating_add(1),
+    )?
+    .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
     if data.len() as u64 != expected {
+        let found = if data.len() as u64 > expected {
+            // Longer than needed: report the size the archive declares.
+            archive
+                .by_name(&data_name)
+                .map(|f| f.size())
+                .unwrap_or(data.len() as u64)
+        } else {
+            data.len() as u64
+        };
         return Err(X3pError::DataLength {
             member: data_name,
             expected,
-            found: data.len() as u64,
+            found,
             detail: format!("{nx} x {ny} points of {width} bytes, DataType {dtype}"),
         });
     }
@@ -405,7 +435,7 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
     if let Some(link) = text_at(root, "Record3/DataLink/ValidPointsLink").filter(|s| !s.is_empty())
     {
         let name = format!("{prefix}{link}");
-        let (bits, _) = read_member(&mut archive, &name, false)?
+        let (bits, _) = read_member(&mut archive, &name, false, n.div_ceil(8) as u64)?
             .ok_or_else(|| X3pError::MissingMember(name.clone()))?;
         let need = n.div_ceil(8);
         if bits.len() < need {

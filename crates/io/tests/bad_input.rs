@@ -178,6 +178,37 @@ fn wrong_data_length() {
 }
 
 #[test]
+fn data_longer_than_declared_is_not_inflated_whole() {
+    // A 1 x 1 float64 header over 64 MiB of zeros (a few kB deflated): the reader stops
+    // after 9 bytes and reports the size the archive declares.
+    let main = xml("1", "1", "D", "1e-6");
+    let big = vec![0u8; 64 << 20];
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let opts = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated);
+    zip.start_file("main.xml", opts).unwrap();
+    zip.write_all(main.as_bytes()).unwrap();
+    zip.start_file("md5checksum.hex", opts).unwrap();
+    zip.write_all(md5_hex(main.as_bytes()).as_bytes()).unwrap();
+    zip.start_file("bindata/data.bin", opts).unwrap();
+    zip.write_all(&big).unwrap();
+    let bytes = zip.finish().unwrap().into_inner();
+    assert!(bytes.len() < 1 << 20);
+    let e = x3p_err(&bytes);
+    assert!(
+        matches!(
+            e,
+            X3pError::DataLength {
+                expected: 8,
+                found: 67_108_864,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
+#[test]
 fn unknown_data_type() {
     let e = x3p_err(&x3p(&xml("1", "1", "Q", "1e-6"), &[0; 8]));
     assert!(matches!(&e, X3pError::BadValue { element, value, .. }
