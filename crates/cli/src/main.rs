@@ -31,6 +31,8 @@ enum Command {
     Topo(cmd::topo::Args),
     /// What a height-map file holds: size, pitch, valid points, height statistics, metadata.
     Info(cmd::info::Args),
+    /// Find individual flakes in a confocal height map: flake table with normals and areas.
+    Segment(cmd::segment::Args),
     /// Synthetic flake layer with known truth: height map, intensity map, flake table.
     Synth(cmd::synth::Args),
     /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
@@ -43,6 +45,7 @@ fn main() -> ExitCode {
         Command::Model(a) => cmd::model::run(a),
         Command::Topo(a) => cmd::topo::run(a),
         Command::Info(a) => cmd::info::run(a),
+        Command::Segment(a) => cmd::segment::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stats(a) => cmd::stats::run(a),
     };

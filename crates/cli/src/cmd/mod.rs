@@ -1,6 +1,7 @@
 //! One module per subcommand: each has `Args` (clap) and `run(Args) -> anyhow::Result<()>`.
 pub mod info;
 pub mod model;
+pub mod segment;
 pub mod stats;
 pub mod synth;
 pub mod topo;

@@ -8,9 +8,11 @@ use flakescatter::io::flakes::{read_flakes, write_histogram};
 use flakescatter::stats::fit::fit_gaussian_ml;
 use flakescatter::stats::histogram::AreaHistogram;
 
+use crate::cmd::segment::{SegmentArgs, segment_file, write_table};
 use crate::common::Failure;
 
-/// Orientation statistics of a flake table: writes the area-weighted histogram of the
+/// Orientation statistics of a flake table (--flakes) or of the flakes segmented from a
+/// height map (--map, as `flakescatter segment`): writes the area-weighted histogram of the
 /// flake polar angle θn (CSV `theta_lo_deg, theta_hi_deg, area_fraction, p_per_rad,
 /// p_tilde`) and fits a Gaussian p̃ by maximum likelihood.
 #[derive(Debug, clap::Args)]
@@ -18,8 +20,23 @@ pub struct Args {
     /// Flake table (CSV with header): columns `nx, ny, nz, area_um2`, or
     /// `theta_x_deg, theta_y_deg, area_um2`, or the endpoint columns
     /// `x1_um, z1_um, x2_um, z2_um, y1_um, zy1_um, y2_um, zy2_um` (paper eq. 6).
-    #[arg(long, value_name = "FILE")]
-    pub flakes: PathBuf,
+    #[arg(
+        long,
+        value_name = "FILE",
+        required_unless_present = "map",
+        conflicts_with = "map"
+    )]
+    pub flakes: Option<PathBuf>,
+    /// Height map to segment into flakes first (as `flakescatter segment MAP`); the
+    /// histogram then uses each flake's fitted normal and true area.
+    #[arg(long, value_name = "MAP")]
+    pub map: Option<PathBuf>,
+    /// Map input and segmentation flags (with --map).
+    #[command(flatten)]
+    pub segment: SegmentArgs,
+    /// With --map: also write the flake table (as `segment --out`) here.
+    #[arg(long = "flakes-out", value_name = "FILE", requires = "map")]
+    pub flakes_out: Option<PathBuf>,
     /// Histogram bin width in degrees, in (0, 45].
     #[arg(
         long,
@@ -53,17 +70,43 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if to_stdout && args.json {
         bail!("--out - and --json both write to stdout: give --out a file name");
     }
-    let table = read_flakes(&args.flakes)
-        .with_context(|| format!("reading --flakes {}", args.flakes.display()))?;
-    let hist = AreaHistogram::from_flakes(&table.flakes, args.bin.to_radians())
-        .with_context(|| format!("histogram of {}", args.flakes.display()))?;
-    let samples: Vec<(f64, f64)> = table
-        .flakes
-        .iter()
-        .map(|f| (f.theta_n(), f.area_um2))
-        .collect();
+    let (flakes, source, column_set) = match (&args.flakes, &args.map) {
+        (Some(path), _) => {
+            let table = read_flakes(path)
+                .with_context(|| format!("reading --flakes {}", path.display()))?;
+            (table.flakes, path.clone(), table.column_set.name())
+        }
+        (None, Some(map)) => {
+            let (_, seg) = segment_file(map, &args.segment)?;
+            if let Some(out) = &args.flakes_out {
+                let file = std::fs::File::create(out).map_err(|e| {
+                    anyhow::Error::new(Failure(format!(
+                        "cannot write --flakes-out {}: {e}",
+                        out.display()
+                    )))
+                })?;
+                write_table(
+                    std::io::BufWriter::new(file),
+                    &out.display().to_string(),
+                    &seg.flakes,
+                )?;
+            }
+            if seg.flakes.is_empty() {
+                bail!(
+                    "no flake found in --map {}: nothing to histogram",
+                    map.display()
+                );
+            }
+            let flakes = seg.flakes.iter().map(|f| f.to_flake()).collect();
+            (flakes, map.clone(), "segmented map")
+        }
+        (None, None) => bail!("give --flakes FILE or --map MAP"),
+    };
+    let hist = AreaHistogram::from_flakes(&flakes, args.bin.to_radians())
+        .with_context(|| format!("histogram of {}", source.display()))?;
+    let samples: Vec<(f64, f64)> = flakes.iter().map(|f| (f.theta_n(), f.area_um2)).collect();
     let fit = fit_gaussian_ml(&samples)
-        .with_context(|| format!("fitting a Gaussian to {}", args.flakes.display()));
+        .with_context(|| format!("fitting a Gaussian to {}", source.display()));
 
     if to_stdout {
         let stdout = std::io::stdout();
@@ -91,11 +134,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let summary = serde_json::json!({
             "version": env!("CARGO_PKG_VERSION"),
             "input": {
-                "flakes_file": args.flakes.display().to_string(),
-                "column_set": table.column_set.name(),
+                "flakes_file": args.flakes.as_ref().map(|p| p.display().to_string()),
+                "map": args.map.as_ref().map(|p| p.display().to_string()),
+                "intensity": args.segment.intensity.as_ref().map(|p| p.display().to_string()),
+                "cutoff": args.segment.cutoff,
+                "column_set": column_set,
                 "bin_deg": args.bin,
             },
-            "flakes": table.flakes.len(),
+            "flakes": flakes.len(),
             "total_area_um2": hist.total_area_um2(),
             "fit": "maximum likelihood, Gaussian p_tilde ∝ exp(-θ²/(2 sigma²)) on [0, 90°), area-weighted",
             "hwhm_deg": fit.hwhm().to_degrees(),

@@ -1,0 +1,204 @@
+//! `flakescatter segment` and `stats --map` end to end: a synthetic layer written by
+//! `flakescatter synth` (its truth table is the reference), exit codes, bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "flakescatter-segment-{}-{name}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A 512 × 512 layer at 0.18 µm with the paper's 0.3 µm z step and 30 nm noise.
+fn synth(d: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let (map, int, truth) = (d.join("h.x3p"), d.join("i.x3p"), d.join("truth.csv"));
+    let o = run(&[
+        "synth",
+        "--size",
+        "512",
+        "--seed",
+        "5",
+        "--hwhm",
+        "6",
+        "--height-noise-um",
+        "0.03",
+        "--out",
+        s(&map),
+        "--intensity-out",
+        s(&int),
+        "--truth-out",
+        s(&truth),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (map, int, truth)
+}
+
+fn rows(text: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+#[test]
+fn segments_a_synthetic_layer_and_feeds_stats() {
+    let d = dir("ok");
+    let (map, int, truth) = synth(&d);
+    let table = d.join("flakes.csv");
+    let o = run(&[
+        "segment",
+        s(&map),
+        "--intensity",
+        s(&int),
+        "--cutoff",
+        "0.49",
+        "--out",
+        s(&table),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(j["nx"], 512);
+    assert_eq!(j["input"]["cutoff"], 0.49);
+    let text = std::fs::read_to_string(&table).unwrap();
+    let header = text.lines().next().unwrap();
+    assert!(header.starts_with("x_um,y_um,nx,ny,nz,area_um2,theta_n_deg,phi_n_deg,"));
+    assert!(header.contains("equivalent_diameter_um") && header.contains("quality"));
+    let found = rows(&text);
+    assert_eq!(j["flakes"], found.len());
+    // The truth table lists every visible flake (including slivers below 100 pixels,
+    // which are not looked for); the segmentation finds most of them.
+    let truth_rows = rows(&std::fs::read_to_string(&truth).unwrap());
+    let big = truth_rows
+        .iter()
+        .filter(|r| r[13].parse::<usize>().unwrap() >= 1000)
+        .count();
+    assert!(
+        found.len() >= big,
+        "{} found, {big} truth flakes >= 1000 px",
+        found.len()
+    );
+    assert!(found.len() <= truth_rows.len());
+    // Each row: unit normal; θn from nz (cos θn = nz); true area = projected / nz.
+    for r in &found {
+        let v: Vec<f64> = r[..12].iter().map(|x| x.parse().unwrap()).collect();
+        let (nx, ny, nz) = (v[2], v[3], v[4]);
+        assert!((nx * nx + ny * ny + nz * nz - 1.0).abs() < 1e-12);
+        assert!((nz.acos().to_degrees() - v[6]).abs() < 1e-6);
+        assert!((v[5] - v[8] / nz).abs() < 1e-9 * v[5]);
+        assert!(matches!(r[14].as_str(), "true" | "false"));
+    }
+
+    // The table is a flake table for `stats --flakes`, and `stats --map` gives the same.
+    let a = run(&["stats", "--flakes", s(&table), "--json"]);
+    assert!(a.status.success(), "{}", String::from_utf8_lossy(&a.stderr));
+    let b = run(&[
+        "stats",
+        "--map",
+        s(&map),
+        "--intensity",
+        s(&int),
+        "--cutoff",
+        "0.49",
+        "--json",
+    ]);
+    assert!(b.status.success(), "{}", String::from_utf8_lossy(&b.stderr));
+    let (a, b): (serde_json::Value, serde_json::Value) = (
+        serde_json::from_slice(&a.stdout).unwrap(),
+        serde_json::from_slice(&b.stdout).unwrap(),
+    );
+    assert_eq!(a["flakes"], b["flakes"]);
+    let (ha, hb) = (
+        a["hwhm_deg"].as_f64().unwrap(),
+        b["hwhm_deg"].as_f64().unwrap(),
+    );
+    // Same flakes; the table holds shortest round-trip decimals, so equal to rounding.
+    assert!((ha - hb).abs() < 1e-9, "{ha} vs {hb}");
+    // About 100 flakes of a 6° layer: the fitted width is near 6° (its 95 % interval
+    // from the fit is about ±15 % here).
+    assert!((ha / 6.0 - 1.0).abs() < 0.3, "hwhm {ha}");
+    assert_eq!(b["input"]["map"], s(&map));
+}
+
+#[test]
+fn bad_input_is_reported() {
+    let d = dir("bad");
+    let (map, int, _) = synth(&d);
+    // A cutoff above every intensity: a clear error, exit status 2.
+    let o = run(&["segment", s(&map), "--intensity", s(&int), "--cutoff", "2"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--cutoff 2") && err.contains("leaves 0 of"),
+        "{err}"
+    );
+    // --cutoff without --intensity is a usage error.
+    let o = run(&["segment", s(&map), "--cutoff", "0.5"]);
+    assert_eq!(o.status.code(), Some(2));
+    // Bad thresholds name the flag.
+    let o = run(&["segment", s(&map), "--z-step-um", "-1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--z-step-um"));
+    // A missing file is named.
+    let o = run(&["segment", s(&d.join("nope.x3p"))]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nope.x3p"));
+    // An unwritable output is a failure (exit 1).
+    let o = run(&["segment", s(&map), "--out", s(&d.join("no/such/dir.csv"))]);
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn a_map_without_flakes_gives_an_empty_table_and_a_warning() {
+    let d = dir("empty");
+    // A 30 × 30 checkerboard of 0 / 5 µm: every neighbour is a height jump.
+    let mut text = String::new();
+    for r in 0..30 {
+        let row: Vec<&str> = (0..30)
+            .map(|c| if (r + c) % 2 == 0 { "0" } else { "5" })
+            .collect();
+        text.push_str(&row.join(" "));
+        text.push('\n');
+    }
+    let map = d.join("checker.txt");
+    std::fs::write(&map, text).unwrap();
+    let o = run(&["segment", s(&map), "--pixel-um", "0.2", "--z-unit", "um"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(out.lines().count(), 1, "{out}");
+    assert!(out.starts_with("x_um,y_um,nx"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("warning"));
+    // `stats --map` on it has nothing to fit: exit 2 with a message.
+    let o = run(&[
+        "stats",
+        "--map",
+        s(&map),
+        "--pixel-um",
+        "0.2",
+        "--z-unit",
+        "um",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no flake found"));
+}
