@@ -793,6 +793,26 @@ fn merge_pieces(grid: &Grid<'_>, pieces: &[Piece], params: &SegmentParams) -> Ve
 
 /// Finds the individual flakes of a height map (module docs).
 ///
+/// ```
+/// use flakescatter_stats::heightmap::HeightMap;
+/// use flakescatter_stats::segment::{SegmentParams, segment};
+///
+/// // 40 x 20 pixels of 0.2 µm: a flake z = 0.05 x (left) next to one 4 µm higher.
+/// let z: Vec<f64> = (0..20 * 40)
+///     .map(|i| {
+///         let x = (i % 40) as f64 * 0.2;
+///         if i % 40 < 20 { 0.05 * x } else { 4.0 }
+///     })
+///     .collect();
+/// let map = HeightMap::new(40, 20, 0.2, 0.2, z)?;
+/// let seg = segment(&map, &SegmentParams::default())?;
+/// assert_eq!(seg.flakes.len(), 2);
+/// // tan θn = 0.05 for the left flake; its area is 400 pixels × 0.04 µm² / nz.
+/// assert!((seg.flakes[0].theta_n - 0.05f64.atan()).abs() < 1e-9);
+/// assert_eq!(seg.flakes[0].pixels, 400);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
 /// Invalid pixels are ignored; a map without valid pixels, or without any region large
 /// and planar enough, gives an empty result with [`Segmentation::warning`] set.
 ///
