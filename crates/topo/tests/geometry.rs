@@ -8,6 +8,7 @@ use flakescatter_optics::nalgebra::{DMatrix, DVector, Vector3};
 use flakescatter_optics::polarization::{Transmission, Weighting};
 use flakescatter_stats::HeightMap;
 use flakescatter_topo::{TopoError, TopoModel, TopoOptions};
+use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 
 const N: f64 = 1.5;
@@ -319,7 +320,9 @@ fn result_is_bit_identical_for_any_thread_count() {
     };
     let one = run(1);
     let four = run(4);
+    let default_pool = m.run(&refs, &ti, &cones).unwrap();
     assert_eq!(bits(&one), bits(&four));
+    assert_eq!(bits(&one), bits(&default_pool));
     assert_eq!(one, four);
     assert!(one.points.iter().filter(|p| p.rays > 0).count() > 50);
     assert!(one.rays_lost_tir + one.rays_lost_down < one.rays_traced);
@@ -367,10 +370,15 @@ fn bad_input_gives_clear_errors() {
         .collect();
     let holes = HeightMap::new(10, 10, 1.0, 1.0, z).unwrap();
     let e = m.run(&[&holes], &[0.0], &cone).unwrap_err();
-    assert!(
-        e.to_string().contains("0 of") || e.to_string().contains("50 of 100"),
-        "{e}"
+    assert_eq!(
+        e,
+        TopoError::NoUsablePixels {
+            window: 5,
+            valid: 50,
+            pixels: 100
+        }
     );
+    assert!(e.to_string().contains("50 of 100 pixels are valid"), "{e}");
     let ok = plane(10, 10, 1.0, 1.0, 0.0, 0.0);
     assert_eq!(
         m.run(&[], &[0.0], &cone).unwrap_err(),
@@ -402,4 +410,38 @@ fn bad_input_gives_clear_errors() {
         .run(&[&ok], &[0.3], &[Cone::in_plane(0.2, 0.02).unwrap()])
         .unwrap();
     assert!(r.points[0].relative == 0.0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// On an exact plane with holes, every usable pixel's normal is the plane's normal
+    /// `(−a, −b, 1)/sqrt(1 + a² + b²)`, whatever the pitch, window and hole pattern.
+    #[test]
+    fn plane_normals_are_exact(
+        a in -2.0f64..2.0,
+        b in -2.0f64..2.0,
+        dx in 0.05f64..3.0,
+        dy in 0.05f64..3.0,
+        half in 1usize..4,
+        holes in proptest::collection::vec(0usize..600, 0..12),
+    ) {
+        let (nx, ny) = (30, 20);
+        let mut z: Vec<f64> = (0..nx * ny)
+            .map(|i| a * (i % nx) as f64 * dx + b * (i / nx) as f64 * dy - 7.0)
+            .collect();
+        for h in holes {
+            z[h] = f64::NAN;
+        }
+        let map = HeightMap::new(nx, ny, dx, dy, z).unwrap();
+        let k = 2 * half + 1;
+        let m = TopoModel::new(TopoOptions { window: k, ..TopoOptions::default() }).unwrap();
+        let normals = m.normals(&map).unwrap();
+        let q = (1.0 + a * a + b * b).sqrt();
+        for n in normals.to_vec().into_iter().flatten() {
+            prop_assert!((n.x + a / q).abs() < 1e-9);
+            prop_assert!((n.y + b / q).abs() < 1e-9);
+            prop_assert!((n.z - 1.0 / q).abs() < 1e-9);
+        }
+    }
 }
