@@ -30,7 +30,7 @@ pub mod units;
 pub mod x3p;
 
 pub use map::{
-    MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, read_intensity, read_map,
-    read_map_bytes, write_map,
+    MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, read_intensity,
+    read_intensity_bytes, read_map, read_map_bytes, write_intensity, write_map,
 };
 pub use units::ZUnit;

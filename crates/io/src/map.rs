@@ -152,6 +152,26 @@ pub fn read_map_bytes(
     bytes: &[u8],
     options: &ReadOptions,
 ) -> Result<(HeightMap, MapFormat), MapError> {
+    read_bytes(bytes, options, false)
+}
+
+/// Reads an intensity image from memory: values as the file stores them (see
+/// [`read_intensity`]).
+///
+/// # Errors
+/// As [`read_map_bytes`].
+pub fn read_intensity_bytes(
+    bytes: &[u8],
+    options: &ReadOptions,
+) -> Result<(HeightMap, MapFormat), MapError> {
+    read_bytes(bytes, options, true)
+}
+
+fn read_bytes(
+    bytes: &[u8],
+    options: &ReadOptions,
+    intensity: bool,
+) -> Result<(HeightMap, MapFormat), MapError> {
     // Check the pitch override first, so a bad option is reported as such in every format.
     if let Some((dx, dy)) = options.pixel_um {
         for (axis, value) in [("dx", dx), ("dy", dy)] {
@@ -160,11 +180,22 @@ pub fn read_map_bytes(
             }
         }
     }
+    // Heights go to µm (10^6 per metre); intensities stay as stored (10^0).
+    let z_shift = if intensity { 0 } else { 6 };
+    // Text intensities are taken as stored by declaring them "µm" (a factor of 1).
+    let text_options = if intensity {
+        ReadOptions {
+            z_unit: Some(ZUnit::Um),
+            ..*options
+        }
+    } else {
+        *options
+    };
     let format = MapFormat::detect(bytes);
     let mut map = match format {
-        MapFormat::X3p => x3p::read_x3p_bytes(bytes, options)?,
-        MapFormat::Sdf => sdf::read_sdf_bytes(bytes)?,
-        MapFormat::Text => text::read_text_bytes(bytes, options)?,
+        MapFormat::X3p => x3p::read_x3p_scaled(bytes, options, z_shift)?,
+        MapFormat::Sdf => sdf::read_sdf_scaled(bytes, z_shift)?,
+        MapFormat::Text => text::read_text_bytes(bytes, &text_options)?,
     };
     if let Some((dx, dy)) = options.pixel_um {
         map.set_pitch(dx, dy).map_err(MapError::Pitch)?;
@@ -173,6 +204,9 @@ pub fn read_map_bytes(
         map.set_metadata("pitch_source", "file");
     }
     map.set_metadata("format", format.name());
+    if intensity {
+        map.set_metadata("values", "intensity as stored in the file (unit-less)");
+    }
     Ok((map, format))
 }
 
@@ -213,42 +247,24 @@ pub fn read_intensity(
         path: path.to_path_buf(),
         source,
     })?;
-    // Text values are taken as stored by declaring them "µm" (a factor of 1).
-    let as_stored = ReadOptions {
-        z_unit: Some(ZUnit::Um),
-        ..*options
-    };
-    let (map, format) =
-        read_map_bytes(&bytes, &as_stored).map_err(|error| ReadMapError::Format {
-            path: path.to_path_buf(),
-            error,
-        })?;
-    let map = match format {
-        MapFormat::Text => map,
-        // The calibrated readers converted metres to µm; undo that.
-        MapFormat::X3p | MapFormat::Sdf => {
-            let z = map.heights().iter().map(|v| v * 1e-6).collect();
-            let mut out = HeightMap::with_mask(
-                map.nx(),
-                map.ny(),
-                map.dx(),
-                map.dy(),
-                z,
-                map.valid().to_vec(),
-            )
-            .map_err(|e| ReadMapError::Format {
-                path: path.to_path_buf(),
-                error: MapError::Pitch(e),
-            })?;
-            for (k, v) in map.metadata() {
-                out.set_metadata(k.as_str(), v.as_str());
-            }
-            out
-        }
-    };
-    let mut map = map;
-    map.set_metadata("values", "intensity as stored in the file (unit-less)");
-    Ok((map, format))
+    read_intensity_bytes(&bytes, options).map_err(|error| ReadMapError::Format {
+        path: path.to_path_buf(),
+        error,
+    })
+}
+
+/// Writes an intensity image (unit-less values) to `path` as X3P (Z `Increment` 1) or
+/// plain text (no value unit), so that [`read_intensity`] returns exactly the values
+/// written. Writing [`MapFormat::Sdf`] is not supported and returns an error saying so.
+///
+/// # Errors
+/// [`WriteMapError`] naming the file.
+pub fn write_intensity(
+    map: &HeightMap,
+    path: impl AsRef<Path>,
+    format: MapFormat,
+) -> Result<(), WriteMapError> {
+    write_with(map, path.as_ref(), format, true)
 }
 
 /// Writes `map` to `path` as X3P (float64 heights in metres, `valid.bin` when some point
@@ -262,11 +278,21 @@ pub fn write_map(
     path: impl AsRef<Path>,
     format: MapFormat,
 ) -> Result<(), WriteMapError> {
-    let path = path.as_ref();
-    let bytes = match format {
-        MapFormat::X3p => x3p::write_x3p_bytes(map)?,
-        MapFormat::Text => text::write_text_string(map).into_bytes(),
-        MapFormat::Sdf => {
+    write_with(map, path.as_ref(), format, false)
+}
+
+fn write_with(
+    map: &HeightMap,
+    path: &Path,
+    format: MapFormat,
+    intensity: bool,
+) -> Result<(), WriteMapError> {
+    let bytes = match (format, intensity) {
+        (MapFormat::X3p, false) => x3p::write_x3p_bytes(map)?,
+        (MapFormat::X3p, true) => x3p::write_intensity_x3p_bytes(map)?,
+        (MapFormat::Text, false) => text::write_text_string(map).into_bytes(),
+        (MapFormat::Text, true) => text::write_intensity_text_string(map).into_bytes(),
+        (MapFormat::Sdf, _) => {
             return Err(WriteMapError::Io {
                 path: path.to_path_buf(),
                 source: std::io::Error::new(

@@ -80,9 +80,13 @@ pub enum SdfError {
     Map(HeightMapError),
 }
 
-fn scale_um(field: &'static str, value: f64) -> Result<f64, SdfError> {
+fn scale_um(field: &'static str, value: f64, shift: i32) -> Result<f64, SdfError> {
     // Binary scales are already f64 metres; one multiplication is the best available.
-    let um = value * 1e6;
+    let um = if shift == 0 {
+        value
+    } else {
+        value * 10f64.powi(shift)
+    };
     if um.is_finite() {
         Ok(um)
     } else {
@@ -99,15 +103,21 @@ fn scale_um(field: &'static str, value: f64) -> Result<f64, SdfError> {
 /// # Errors
 /// [`SdfError`] naming the header field, line or data size at fault.
 pub fn read_sdf_bytes(bytes: &[u8]) -> Result<HeightMap, SdfError> {
+    read_sdf_scaled(bytes, 6)
+}
+
+/// As [`read_sdf_bytes`] with Z values `raw × Zscale` multiplied by `10^z_shift` (6 for
+/// µm heights, 0 for values as stored).
+pub(crate) fn read_sdf_scaled(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
     let magic = String::from_utf8_lossy(&bytes[..bytes.len().min(8)]).into_owned();
     match magic.as_str() {
-        "aISO-1.0" => read_text(bytes),
-        "bISO-1.0" | "bISO-2.0" => read_binary(bytes, &magic),
+        "aISO-1.0" => read_text(bytes, z_shift),
+        "bISO-1.0" | "bISO-2.0" => read_binary(bytes, &magic, z_shift),
         _ => Err(SdfError::Version(magic)),
     }
 }
 
-fn read_text(bytes: &[u8]) -> Result<HeightMap, SdfError> {
+fn read_text(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
     let text = String::from_utf8_lossy(bytes);
     let mut lines = text.lines().enumerate().skip(1);
     let mut header: Vec<(String, String)> = Vec::new();
@@ -142,9 +152,9 @@ fn read_text(bytes: &[u8]) -> Result<HeightMap, SdfError> {
             expected: "a non-negative integer",
         })
     };
-    let scale = |name: &'static str| -> Result<f64, SdfError> {
+    let scale = |name: &'static str, shift: i32| -> Result<f64, SdfError> {
         let v = get(name)?;
-        parse_scaled(v, 6)
+        parse_scaled(v, shift)
             .filter(|x| x.is_finite())
             .ok_or_else(|| SdfError::BadField {
                 field: name.to_string(),
@@ -154,9 +164,9 @@ fn read_text(bytes: &[u8]) -> Result<HeightMap, SdfError> {
     };
     let nx = count("NumPoints")?;
     let ny = count("NumProfiles")?;
-    let dx = scale("Xscale")?;
-    let dy = scale("Yscale")?;
-    let zs = scale("Zscale")?;
+    let dx = scale("Xscale", 6)?;
+    let dy = scale("Yscale", 6)?;
+    let zs = scale("Zscale", z_shift)?;
     if let Ok(c) = get("Compression")
         && c != "0"
     {
@@ -212,7 +222,7 @@ fn read_text(bytes: &[u8]) -> Result<HeightMap, SdfError> {
 
 const BIN_HEADER: usize = 81;
 
-fn read_binary(bytes: &[u8], magic: &str) -> Result<HeightMap, SdfError> {
+fn read_binary(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, SdfError> {
     if bytes.len() < BIN_HEADER {
         return Err(SdfError::TruncatedHeader {
             found: bytes.len(),
@@ -235,9 +245,9 @@ fn read_binary(bytes: &[u8], magic: &str) -> Result<HeightMap, SdfError> {
     let modified = text(30, 42);
     let nx = u16_at(42);
     let ny = u16_at(44);
-    let dx = scale_um("Xscale", f64_at(46))?;
-    let dy = scale_um("Yscale", f64_at(54))?;
-    let zs = scale_um("Zscale", f64_at(62))?;
+    let dx = scale_um("Xscale", f64_at(46), 6)?;
+    let dy = scale_um("Yscale", f64_at(54), 6)?;
+    let zs = scale_um("Zscale", f64_at(62), z_shift)?;
     let zres = f64_at(70);
     let compression = bytes[78];
     let dtype = bytes[79];

@@ -117,10 +117,15 @@ fn bad(element: &str, value: &str, expected: &str) -> X3pError {
     }
 }
 
-/// A decimal in metres at `path`, converted to µm; `default` if absent or empty.
-fn metres_to_um(node: Node<'_, '_>, path: &str, default: Option<f64>) -> Result<f64, X3pError> {
+/// A decimal in metres at `path` times `10^shift` (6: µm); `default` if absent or empty.
+fn metres_scaled(
+    node: Node<'_, '_>,
+    path: &str,
+    default: Option<f64>,
+    shift: i32,
+) -> Result<f64, X3pError> {
     match text_at(node, path) {
-        Some(s) if !s.is_empty() => parse_scaled(s, 6)
+        Some(s) if !s.is_empty() => parse_scaled(s, shift)
             .filter(|v| v.is_finite())
             .ok_or_else(|| bad(path, s, "a finite decimal number in metres")),
         _ => default.ok_or_else(|| X3pError::MissingElement(path.to_string())),
@@ -240,6 +245,16 @@ fn check_md5(
 /// # Errors
 /// [`X3pError`] naming the member, element or checksum at fault.
 pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, X3pError> {
+    read_x3p_scaled(bytes, options, 6)
+}
+
+/// As [`read_x3p_bytes`] with Z values `Offset + raw × Increment` multiplied by
+/// `10^z_shift` (6 for µm heights, 0 for values as stored).
+pub(crate) fn read_x3p_scaled(
+    bytes: &[u8],
+    options: &ReadOptions,
+    z_shift: i32,
+) -> Result<HeightMap, X3pError> {
     let mut archive =
         zip::ZipArchive::new(Cursor::new(bytes)).map_err(|e| X3pError::Zip(e.to_string()))?;
 
@@ -311,10 +326,11 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
         }
     }
     let pitch_default = options.pixel_um.map(|_| 1.0);
-    let dx = metres_to_um(root, "Record1/Axes/CX/Increment", pitch_default)?;
-    let dy = metres_to_um(root, "Record1/Axes/CY/Increment", pitch_default)?;
-    let z_scale = metres_to_um(root, "Record1/Axes/CZ/Increment", Some(1e6))?;
-    let z_offset = metres_to_um(root, "Record1/Axes/CZ/Offset", Some(0.0))?;
+    let dx = metres_scaled(root, "Record1/Axes/CX/Increment", pitch_default, 6)?;
+    let dy = metres_scaled(root, "Record1/Axes/CY/Increment", pitch_default, 6)?;
+    let z_unit = 10f64.powi(z_shift);
+    let z_scale = metres_scaled(root, "Record1/Axes/CZ/Increment", Some(z_unit), z_shift)?;
+    let z_offset = metres_scaled(root, "Record1/Axes/CZ/Offset", Some(0.0), z_shift)?;
     let dt_path = "Record1/Axes/CZ/DataType";
     let dtype = required(root, dt_path)?;
     let width = match dtype {
@@ -509,6 +525,19 @@ fn xml_escape(s: &str) -> String {
 /// # Errors
 /// [`WriteMapError::Zip`] if the archive cannot be assembled.
 pub fn write_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, WriteMapError> {
+    write_x3p_with_increment(map, "1e-6")
+}
+
+/// Writes an intensity image (unit-less values) as X3P with Z `Increment` 1, so the file
+/// stores the values themselves; [`crate::read_intensity`] reads them back exactly.
+///
+/// # Errors
+/// [`WriteMapError::Zip`] if the archive cannot be assembled.
+pub fn write_intensity_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, WriteMapError> {
+    write_x3p_with_increment(map, "1")
+}
+
+fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8>, WriteMapError> {
     let zerr = |e: zip::result::ZipError| WriteMapError::Zip(e.to_string());
     let ioerr = |e: std::io::Error| WriteMapError::Zip(e.to_string());
 
@@ -564,7 +593,7 @@ pub fn write_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, WriteMapError> {
       <CZ>
         <AxisType>A</AxisType>
         <DataType>D</DataType>
-        <Increment>1e-6</Increment>
+        <Increment>{z_increment}</Increment>
         <Offset>0</Offset>
       </CZ>
     </Axes>

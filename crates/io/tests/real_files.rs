@@ -291,8 +291,10 @@ fn intensity_values_come_back_as_stored() {
     )
     .unwrap();
     assert_eq!(i.get(1, 0), Some(1.5));
-    // SDF "Zscale = 1.0E-6" and first value 1.00000: stored value 1e-6.
+    // SDF "Zscale = 1.0E-6", first value 1.00000 and sixth 0.96858: stored values
+    // 1.0 x 1e-6 and 0.96858 x 1e-6 (one rounding each).
     let (i, _) =
         read_intensity(data("surfacetopography-sdf-1.sdf"), &ReadOptions::default()).unwrap();
-    assert!((i.get(0, 0).unwrap() - 1e-6).abs() < 1e-21);
+    assert_eq!(i.get(0, 0), Some(1e-6));
+    assert_eq!(i.get(5, 0), Some(0.96858 * 1e-6));
 }

@@ -5,7 +5,9 @@
 //! against each other; the readers are checked against files from other software in
 //! `real_files.rs`.
 
-use flakescatter_io::{MapFormat, ReadOptions, read_map, read_map_bytes, text, write_map, x3p};
+use flakescatter_io::{
+    MapFormat, ReadOptions, read_intensity_bytes, read_map, read_map_bytes, text, write_map, x3p,
+};
 use flakescatter_stats::heightmap::HeightMap;
 use proptest::prelude::*;
 
@@ -83,6 +85,17 @@ proptest! {
         prop_assert_eq!(format, MapFormat::X3p);
         assert_same(&map, &back);
         prop_assert_eq!(back.metadata()["x3p.md5"].as_str(), "ok");
+    }
+
+    #[test]
+    fn intensity_round_trip(map in heightmap()) {
+        for bytes in [
+            x3p::write_intensity_x3p_bytes(&map).unwrap(),
+            text::write_intensity_text_string(&map).into_bytes(),
+        ] {
+            let (back, _) = read_intensity_bytes(&bytes, &ReadOptions::default()).unwrap();
+            assert_same(&map, &back);
+        }
     }
 
     #[test]
