@@ -35,7 +35,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod compare;
+pub mod fit;
 pub mod instrument;
+mod nnls;
 pub mod pipeline;
 
 pub use flakescatter_gaussian as gaussian;
@@ -60,4 +63,10 @@ pub enum PipelineError {
     /// The orientation source gives no distribution.
     #[error("orientation: {0}")]
     Orientation(String),
+    /// A measured curve cannot be used as asked.
+    #[error("{0}")]
+    Measurement(String),
+    /// A fit failed.
+    #[error("fit: {0}")]
+    Fit(String),
 }

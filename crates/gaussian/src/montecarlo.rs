@@ -44,6 +44,13 @@ pub fn monte_carlo(
     seed: u64,
 ) -> Vec<McEstimate> {
     let chunks = samples.div_ceil(CHUNK);
+    // Rays farther than every cone's aperture from the plane of incidence cannot enter an
+    // in-plane cone: one comparison rejects them.
+    let all_in_plane = cones.iter().all(|c| c.axis().y == 0.0);
+    let max_sin = cones
+        .iter()
+        .map(|c| c.half_angle().sin())
+        .fold(0.0, f64::max);
     let partial: Vec<Vec<(f64, f64, u64)>> = (0..chunks)
         .into_par_iter()
         .map(|k| {
@@ -58,6 +65,9 @@ pub fn monte_carlo(
                     continue;
                 };
                 let w = w * model.inv_mean_cos();
+                if all_in_plane && out.y.abs() >= max_sin {
+                    continue;
+                }
                 for (a, cone) in acc.iter_mut().zip(cones) {
                     if cone.contains(&out) {
                         a.0 += w;

@@ -1,0 +1,338 @@
+//! Measurement against model (physics.md §7): regions, the fitted vertical scale and
+//! residuals of `log10` values.
+//!
+//! Conventions: radians. The aspecular distance of an in-plane detector is
+//! `|θs + θi|`. Regions: **specular** within [`SPECULAR_REGION`] (5°) of specular —
+//! the clear coat's peak; **near-specular** from 5° to [`FAR_REGION`] (40°); **far**
+//! beyond 40° (the paper's three regions). The model's vertical scale is fitted, per
+//! incidence, to the near-specular points only (excluding the specular peak), as the
+//! paper does; residuals are `log10(measured) − log10(scale × model)`.
+
+use std::fmt;
+use std::str::FromStr;
+
+use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
+use flakescatter_io::measured::MeasuredCurve;
+use flakescatter_optics::detector::Cone;
+use flakescatter_stats::Orientation;
+
+use crate::PipelineError;
+use crate::pipeline::{Coating, Settings};
+
+/// Half-width of the specular region, radians (5°).
+pub const SPECULAR_REGION: f64 = 5.0 * std::f64::consts::PI / 180.0;
+/// Start of the far region, radians (40° from specular).
+pub const FAR_REGION: f64 = 40.0 * std::f64::consts::PI / 180.0;
+
+/// What the measured `value` column holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MeasuredKind {
+    /// BRDF, sr⁻¹ (default).
+    #[default]
+    Brdf,
+    /// Reflectance factor, `π × BRDF` (dimensionless).
+    ReflectanceFactor,
+    /// Collected power normalised to 1 at the specular direction (the paper's figures).
+    Relative,
+}
+
+impl MeasuredKind {
+    /// The command-line name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Brdf => "brdf",
+            Self::ReflectanceFactor => "reflectance-factor",
+            Self::Relative => "relative",
+        }
+    }
+}
+
+impl fmt::Display for MeasuredKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for MeasuredKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "brdf" => Ok(Self::Brdf),
+            "reflectance-factor" => Ok(Self::ReflectanceFactor),
+            "relative" => Ok(Self::Relative),
+            _ => Err(format!(
+                "unknown measured kind `{s}`: expected brdf, reflectance-factor or relative"
+            )),
+        }
+    }
+}
+
+/// The paper's three regions of a goniometric curve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Region {
+    /// Within 5° of specular.
+    Specular,
+    /// 5° to 40° from specular.
+    NearSpecular,
+    /// More than 40° from specular.
+    Far,
+}
+
+impl Region {
+    /// All regions in order.
+    pub const ALL: [Self; 3] = [Self::Specular, Self::NearSpecular, Self::Far];
+
+    /// The region of detector `theta_s` at incidence `theta_i` (radians).
+    #[must_use]
+    pub fn of(theta_i: f64, theta_s: f64) -> Self {
+        // Points exactly on a boundary (5°, 40°) belong to the near-specular region; the
+        // 1e-12 rad slack absorbs rounding of degree inputs.
+        let d = (theta_s + theta_i).abs();
+        if d < SPECULAR_REGION - 1e-12 {
+            Self::Specular
+        } else if d <= FAR_REGION + 1e-12 {
+            Self::NearSpecular
+        } else {
+            Self::Far
+        }
+    }
+
+    /// A short name (`specular`, `near-specular`, `far`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Specular => "specular",
+            Self::NearSpecular => "near-specular",
+            Self::Far => "far",
+        }
+    }
+}
+
+/// What a model predicts for one detector, in both of the units a measurement may use.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelPoint {
+    /// Cone-averaged BRDF, sr⁻¹.
+    pub brdf: f64,
+    /// Collected power relative to the same detector at the specular direction.
+    pub relative: f64,
+}
+
+impl ModelPoint {
+    /// The model value in the unit of a measurement of kind `kind` (a reflectance factor
+    /// is `π × BRDF`).
+    #[must_use]
+    pub fn in_kind(&self, kind: MeasuredKind) -> f64 {
+        match kind {
+            MeasuredKind::Brdf => self.brdf,
+            MeasuredKind::ReflectanceFactor => std::f64::consts::PI * self.brdf,
+            MeasuredKind::Relative => self.relative,
+        }
+    }
+}
+
+/// The distribution model at incidence `theta_i` for in-plane detectors at `theta_s`
+/// (radians), detectors of half-angle `aperture`.
+///
+/// # Errors
+/// [`PipelineError::Model`] or [`PipelineError::Instrument`] for invalid input.
+pub fn distribution_points(
+    coating: &Coating,
+    settings: &Settings,
+    aperture: f64,
+    orientation: &Orientation,
+    theta_i: f64,
+    theta_s: &[f64],
+) -> Result<Vec<ModelPoint>, PipelineError> {
+    let model = DistributionModel::new(
+        orientation.clone(),
+        coating.n,
+        ModelOptions {
+            transmission: settings.transmission,
+            weighting: settings.weighting,
+            flake: coating.flake,
+            clearcoat: settings.clearcoat,
+            exit_fresnel: true,
+        },
+    )?;
+    let inc = model.incidence(theta_i)?;
+    let cone = |ts: f64| {
+        Cone::in_plane(ts, aperture).map_err(|e| PipelineError::Instrument(e.to_string()))
+    };
+    let method = if aperture == 0.0 {
+        ConeMethod::Exact
+    } else {
+        settings.cone_method
+    };
+    let spec = model.collect(&inc, &cone(-theta_i)?, method).power_per_sr;
+    theta_s
+        .iter()
+        .map(|&ts| {
+            let c = model.collect(&inc, &cone(ts)?, method);
+            Ok(ModelPoint {
+                brdf: c.brdf,
+                relative: if spec > 0.0 {
+                    c.power_per_sr / spec
+                } else {
+                    f64::NAN
+                },
+            })
+        })
+        .collect()
+}
+
+/// A model as a function `(θi, &[θs]) -> model points` (radians).
+pub type ModelFn<'a> = dyn Fn(f64, &[f64]) -> Result<Vec<ModelPoint>, PipelineError> + 'a;
+
+/// One measured point next to the scaled model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ComparedPoint {
+    /// Incidence, radians.
+    pub theta_i: f64,
+    /// Detector, radians.
+    pub theta_s: f64,
+    /// Line in the measured file.
+    pub line: u64,
+    /// Measured value (as in the file).
+    pub measured: f64,
+    /// Model value in the same unit, times the fitted scale.
+    pub model: f64,
+    /// `log10(measured) − log10(model)`.
+    pub residual: f64,
+    /// Region of the point.
+    pub region: Region,
+}
+
+/// Residual statistics of one region at one incidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RegionSummary {
+    /// The region.
+    pub region: Region,
+    /// Number of points.
+    pub points: usize,
+    /// Root mean square of the log10 residuals (`None` without points).
+    pub rms_log10: Option<f64>,
+    /// Mean of the log10 residuals (`None` without points).
+    pub mean_log10: Option<f64>,
+}
+
+/// The comparison at one incidence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IncidenceComparison {
+    /// Incidence, radians.
+    pub theta_i: f64,
+    /// Fitted vertical scale of the model (measured ≈ scale × model near specular).
+    pub scale: f64,
+    /// Per-region summaries, in [`Region::ALL`] order.
+    pub regions: Vec<RegionSummary>,
+    /// The points.
+    pub points: Vec<ComparedPoint>,
+}
+
+/// Points of `measured` at incidence `theta_i` as `(θs, value, line)`, checked for the
+/// log scale.
+///
+/// # Errors
+/// [`PipelineError::Measurement`] for a value ≤ 0.
+pub fn points_at(
+    measured: &MeasuredCurve,
+    theta_i: f64,
+) -> Result<Vec<(f64, f64, u64)>, PipelineError> {
+    measured
+        .points
+        .iter()
+        .filter(|p| p.theta_i == theta_i)
+        .map(|p| {
+            if p.value > 0.0 {
+                Ok((p.theta_s, p.value, p.line))
+            } else {
+                Err(PipelineError::Measurement(format!(
+                    "{}, line {}: value {} is not positive and cannot be compared on a log scale (remove the point, or give values above the noise floor)",
+                    measured.file, p.line, p.value
+                )))
+            }
+        })
+        .collect()
+}
+
+/// Compare a measured curve with a model given as a function
+/// `(θi, &[θs]) -> model points`, per incidence.
+///
+/// # Errors
+/// [`PipelineError::Measurement`] for values ≤ 0 or an incidence without points in the
+/// near-specular region (where the scale is fitted); model errors as they come.
+pub fn compare(
+    measured: &MeasuredCurve,
+    kind: MeasuredKind,
+    model: &ModelFn<'_>,
+) -> Result<Vec<IncidenceComparison>, PipelineError> {
+    let mut out = Vec::new();
+    for ti in measured.incidences() {
+        let pts = points_at(measured, ti)?;
+        let ts: Vec<f64> = pts.iter().map(|p| p.0).collect();
+        let values = model(ti, &ts)?;
+        // Scale: mean log ratio over the near-specular points with a positive model.
+        let logs: Vec<f64> = pts
+            .iter()
+            .zip(&values)
+            .filter(|((ts, _, _), m)| {
+                Region::of(ti, *ts) == Region::NearSpecular && m.in_kind(kind) > 0.0
+            })
+            .map(|((_, y, _), m)| y.ln() - m.in_kind(kind).ln())
+            .collect();
+        if logs.is_empty() {
+            return Err(PipelineError::Measurement(format!(
+                "{}: no measured point 5°–40° from specular with a non-zero model value at θi = {:.3}°; the vertical scale is fitted there",
+                measured.file,
+                ti.to_degrees()
+            )));
+        }
+        let scale = (logs.iter().sum::<f64>() / logs.len() as f64).exp();
+        let points: Vec<ComparedPoint> = pts
+            .iter()
+            .zip(&values)
+            .map(|(&(ts, y, line), m)| {
+                let mv = scale * m.in_kind(kind);
+                ComparedPoint {
+                    theta_i: ti,
+                    theta_s: ts,
+                    line,
+                    measured: y,
+                    model: mv,
+                    residual: if mv > 0.0 {
+                        y.log10() - mv.log10()
+                    } else {
+                        f64::INFINITY
+                    },
+                    region: Region::of(ti, ts),
+                }
+            })
+            .collect();
+        let regions = Region::ALL
+            .iter()
+            .map(|&region| {
+                let r: Vec<f64> = points
+                    .iter()
+                    .filter(|p| p.region == region)
+                    .map(|p| p.residual)
+                    .collect();
+                let n = r.len();
+                RegionSummary {
+                    region,
+                    points: n,
+                    rms_log10: (n > 0)
+                        .then(|| (r.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt()),
+                    mean_log10: (n > 0).then(|| r.iter().sum::<f64>() / n as f64),
+                }
+            })
+            .collect();
+        out.push(IncidenceComparison {
+            theta_i: ti,
+            scale,
+            regions,
+            points,
+        });
+    }
+    Ok(out)
+}

@@ -1,0 +1,237 @@
+//! Comparison and fitting against synthetic measurements with a known truth.
+
+use flakescatter::compare::{MeasuredKind, Region, compare, distribution_points};
+use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
+use flakescatter::gaussian::{DistributionModel, ModelOptions, monte_carlo};
+use flakescatter::io::measured::{MeasuredCurve, MeasuredPoint};
+use flakescatter::optics::detector::Cone;
+use flakescatter::stats::{GaussianWidth, Orientation};
+use flakescatter::{Coating, PipelineError, Settings};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+fn deg(x: f64) -> f64 {
+    x.to_radians()
+}
+
+/// A noisy "measured" BRDF curve from the Monte Carlo ray tracer (which shares no code
+/// with the quadrature the fit uses) with 0.7 % relative noise on top, the instrument's
+/// stated uncertainty. Uncertainties combine the 0.7 % and the Monte Carlo error.
+fn mc_curve(
+    orientation: &Orientation,
+    incidences: &[f64],
+    samples: u64,
+    seed: u64,
+) -> MeasuredCurve {
+    let n = 1.5;
+    let model = DistributionModel::new(orientation.clone(), n, ModelOptions::default()).unwrap();
+    let alpha = deg(1.5);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, 0.007).unwrap();
+    let mut points = Vec::new();
+    let mut line = 2;
+    for &ti in incidences {
+        let ts: Vec<f64> = (-70..=70).map(|d| deg(f64::from(d))).collect();
+        let cones: Vec<Cone> = ts
+            .iter()
+            .map(|&t| Cone::in_plane(t, alpha).unwrap())
+            .collect();
+        let inc = model.incidence(deg(ti)).unwrap();
+        let est = monte_carlo(&model, &inc, &cones, samples, seed ^ ti.to_bits());
+        for ((t, c), e) in ts.iter().zip(&cones).zip(&est) {
+            if e.hits < 400 {
+                continue;
+            }
+            let brdf = e.reflectance / c.projected_solid_angle();
+            let rel_mc = e.std_err / e.reflectance;
+            let value = brdf * (1.0 + noise.sample(&mut rng));
+            points.push(MeasuredPoint {
+                theta_i: deg(ti),
+                theta_s: *t,
+                value,
+                uncertainty: Some(value * (0.007f64.powi(2) + rel_mc * rel_mc).sqrt()),
+                line,
+            });
+            line += 1;
+        }
+    }
+    MeasuredCurve {
+        file: "synthetic.csv".into(),
+        points,
+    }
+}
+
+#[test]
+fn gaussian_width_is_recovered_from_a_noisy_monte_carlo_curve() {
+    let truth = Orientation::gaussian(GaussianWidth::Hwhm(deg(6.0))).unwrap();
+    let measured = mc_curve(&truth, &[30.0, 60.0], 3_000_000, 5);
+    let setup = FitSetup::new(
+        Coating::default(),
+        Settings::default(),
+        deg(1.5),
+        MeasuredKind::Brdf,
+    );
+    let fit = fit_gaussian(&measured, &setup, deg(3.0), false).unwrap();
+    let got = fit.hwhm.to_degrees();
+    assert!((got - 6.0).abs() < 0.2, "hwhm {got}");
+    // The reported uncertainty is honest: the truth lies within 4 standard errors.
+    assert!(
+        (got - 6.0).abs() < 4.0 * fit.hwhm_std.to_degrees() + 0.02,
+        "hwhm {got} ± {}",
+        fit.hwhm_std.to_degrees()
+    );
+    assert!(fit.points > 40);
+    // The data are absolute BRDFs of a fully covering layer: the scales are 1 within noise.
+    for (_, s) in &fit.scales {
+        assert!((s - 1.0).abs() < 0.02, "scale {s}");
+    }
+    // Also with the index free: n comes back near 1.5.
+    let fit_n = fit_gaussian(&measured, &setup, deg(3.0), true).unwrap();
+    assert!((fit_n.n - 1.5).abs() < 0.1, "n {}", fit_n.n);
+    assert!((fit_n.hwhm.to_degrees() - 6.0).abs() < 0.5);
+}
+
+/// Tabulated two-component mixture: a fraction `a` of hwhm `w1` and the rest of hwhm `w2`
+/// (p̃ as a mixture of the two normalised Gaussians), on 0.25° bins to 60°.
+fn mixture(a: f64, w1: f64, w2: f64) -> Orientation {
+    let g1 = Orientation::gaussian(GaussianWidth::Hwhm(deg(w1))).unwrap();
+    let g2 = Orientation::gaussian(GaussianWidth::Hwhm(deg(w2))).unwrap();
+    let edges: Vec<f64> = (0..=240).map(|k| deg(0.25 * f64::from(k))).collect();
+    let masses = edges
+        .windows(2)
+        .map(|e| a * g1.mass_between(e[0], e[1]) + (1.0 - a) * g2.mass_between(e[0], e[1]))
+        .collect();
+    Orientation::tabulated(edges, masses).unwrap()
+}
+
+#[test]
+fn nonparametric_inversion_recovers_a_two_component_shape() {
+    let truth = mixture(0.6, 3.0, 10.0);
+    let measured = mc_curve(&truth, &[30.0, 60.0], 3_000_000, 9);
+    let setup = FitSetup::new(
+        Coating::default(),
+        Settings::default(),
+        deg(1.5),
+        MeasuredKind::Brdf,
+    );
+    let edges: Vec<f64> = (0..=15).map(|k| deg(2.0 * f64::from(k))).collect();
+    let est = fit_nonparametric(&measured, &setup, &edges, 0.05).unwrap();
+    // Compare cumulative area fractions at the bin edges (a shape measure that does not
+    // depend on the bin width): the largest deviation is small.
+    let mut cum_est = 0.0;
+    let mut worst: f64 = 0.0;
+    for (b, f) in est.area_fractions.iter().enumerate() {
+        cum_est += f;
+        let cum_true = truth.mass_between(0.0, edges[b + 1]) / truth.mass_between(0.0, edges[15]);
+        worst = worst.max((cum_est - cum_true).abs());
+    }
+    assert!(worst < 0.06, "largest CDF deviation {worst}");
+    // Two components: much more mass beyond 10° than a single Gaussian of the same
+    // core width would have (hwhm 3°: < 0.1 % beyond 10°); the truth has about 17 %.
+    let beyond10: f64 = est.area_fractions[5..].iter().sum();
+    let truth10 = truth.mass_between(deg(10.0), deg(30.0)) / truth.mass_between(0.0, deg(30.0));
+    assert!((beyond10 - truth10).abs() < 0.05, "{beyond10} vs {truth10}");
+    // A single Gaussian fit to the same data cannot reach the same χ² per point.
+    assert!(est.p_tilde[0] > est.p_tilde[6] * 5.0);
+}
+
+#[test]
+fn compare_finds_a_known_scale_and_zero_residuals() {
+    // "Measured" = 0.3 × the model itself (clear coat on, as in comparisons): the
+    // fitted scale is 0.3 and every residual vanishes, in all three regions.
+    let o = Orientation::gaussian(GaussianWidth::Hwhm(deg(6.0))).unwrap();
+    let settings = Settings {
+        clearcoat: true,
+        ..Settings::default()
+    };
+    let coating = Coating::default();
+    let ts: Vec<f64> = (-70..=70).map(|d| deg(f64::from(d))).collect();
+    let mut points = Vec::new();
+    for ti in [30.0, 60.0] {
+        let m = distribution_points(&coating, &settings, deg(1.5), &o, deg(ti), &ts).unwrap();
+        for (k, (t, p)) in ts.iter().zip(&m).enumerate() {
+            points.push(MeasuredPoint {
+                theta_i: deg(ti),
+                theta_s: *t,
+                value: 0.3 * p.brdf,
+                uncertainty: None,
+                line: k as u64 + 2,
+            });
+        }
+    }
+    let measured = MeasuredCurve {
+        file: "m.csv".into(),
+        points,
+    };
+    let model =
+        |ti: f64, ts: &[f64]| distribution_points(&coating, &settings, deg(1.5), &o, ti, ts);
+    let cmp = compare(&measured, MeasuredKind::Brdf, &model).unwrap();
+    assert_eq!(cmp.len(), 2);
+    for c in &cmp {
+        assert!((c.scale - 0.3).abs() < 1e-12);
+        for r in &c.regions {
+            assert!(r.points > 0);
+            assert!(r.rms_log10.unwrap() < 1e-12, "{:?}", r);
+        }
+    }
+    // Region boundaries: 5° and 40° from specular.
+    assert_eq!(Region::of(deg(30.0), deg(-26.0)), Region::Specular);
+    assert_eq!(Region::of(deg(30.0), deg(-25.0)), Region::NearSpecular);
+    assert_eq!(Region::of(deg(30.0), deg(10.0)), Region::NearSpecular);
+    assert_eq!(Region::of(deg(30.0), deg(10.5)), Region::Far);
+}
+
+#[test]
+fn unusable_measurements_are_clear_errors() {
+    let o = Orientation::gaussian(GaussianWidth::Hwhm(deg(6.0))).unwrap();
+    let setup = FitSetup::new(
+        Coating::default(),
+        Settings::default(),
+        deg(1.5),
+        MeasuredKind::Brdf,
+    );
+    let pt = |ts: f64, v: f64, line: u64| MeasuredPoint {
+        theta_i: deg(30.0),
+        theta_s: deg(ts),
+        value: v,
+        uncertainty: None,
+        line,
+    };
+    // Only specular points: nothing in the fit region.
+    let only_spec = MeasuredCurve {
+        file: "s.csv".into(),
+        points: vec![pt(-30.0, 1.0, 2), pt(-29.0, 0.9, 3)],
+    };
+    let e = fit_gaussian(&only_spec, &setup, deg(3.0), false).unwrap_err();
+    assert!(
+        matches!(e, PipelineError::Measurement(_)) && e.to_string().contains("s.csv"),
+        "{e}"
+    );
+    // A negative value in the fit region.
+    let neg = MeasuredCurve {
+        file: "n.csv".into(),
+        points: vec![pt(-20.0, -1.0, 7), pt(-15.0, 1.0, 8)],
+    };
+    let e = fit_gaussian(&neg, &setup, deg(3.0), false).unwrap_err();
+    assert!(e.to_string().contains("line 7"), "{e}");
+    let model = |ti: f64, ts: &[f64]| {
+        distribution_points(
+            &Coating::default(),
+            &Settings::default(),
+            deg(1.5),
+            &o,
+            ti,
+            ts,
+        )
+    };
+    let e = compare(&neg, MeasuredKind::Brdf, &model).unwrap_err();
+    assert!(e.to_string().contains("line 7"), "{e}");
+    // Too few points for the parameters.
+    let few = MeasuredCurve {
+        file: "f.csv".into(),
+        points: vec![pt(-20.0, 1.0, 2)],
+    };
+    assert!(fit_gaussian(&few, &setup, deg(3.0), false).is_err());
+    // Bad bins.
+    assert!(fit_nonparametric(&few, &setup, &[deg(1.0), deg(0.5)], 0.1).is_err());
+}
