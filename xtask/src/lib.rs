@@ -2,6 +2,7 @@
 //! module with a `run(args)` entry point; tasks that produce committed files also expose
 //! what they produce, so that tests can prove the committed files are current.
 
+pub mod bench;
 pub mod fixtures;
 
 use std::path::PathBuf;

@@ -4,6 +4,11 @@
 const TASKS: &[(&str, &str)] = &[
     ("help", "this text"),
     (
+        "bench [--quick]",
+        "run the criterion benches; table vs targets and floors -> docs/benchmarks.md \
+         (--quick: under 2 min, -> target/benchmarks-quick.md; --report-only: no run)",
+    ),
+    (
         "fixtures [--check]",
         "regenerate the synthetic maps in fixtures/ (--check: only verify they are current)",
     ),
@@ -26,6 +31,7 @@ fn main() -> anyhow::Result<()> {
             print!("{}", usage());
             Ok(())
         }
+        Some("bench") => xtask::bench::run(&rest),
         Some("fixtures") => xtask::fixtures::run(&rest),
         Some(other) => anyhow::bail!("unknown xtask `{other}`\n\n{}", usage()),
     }
