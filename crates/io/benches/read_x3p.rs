@@ -2,6 +2,10 @@
 //!
 //! The file is written once to the system temp directory by this crate's writer
 //! (deflate level 1, with `valid.bin` because some points are NaN), then read repeatedly.
+//!
+//! `read_x3p/floor_4096x4096_f64` is the floor `cargo xtask bench` compares the read
+//! with: reading the same file's bytes into memory and summing them once (no inflate,
+//! no parsing, no checksum).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use flakescatter_io::{MapFormat, ReadOptions, read_map, write_map};
@@ -32,6 +36,12 @@ fn bench_read(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("read_x3p");
     group.sample_size(10);
+    group.bench_function("floor_4096x4096_f64", |b| {
+        b.iter(|| {
+            let bytes = std::fs::read(&path).expect("read bench file bytes");
+            bytes.iter().map(|&v| u64::from(v)).sum::<u64>()
+        })
+    });
     group.bench_function("4096x4096_f64", |b| {
         b.iter(|| {
             let (m, _) = read_map(&path, &ReadOptions::default()).expect("read bench file");
