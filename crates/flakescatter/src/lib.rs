@@ -49,7 +49,10 @@ pub use flakescatter_synth as synth;
 pub use flakescatter_topo as topo;
 
 pub use instrument::{DetectorSet, Instrument};
-pub use pipeline::{Coating, CurveRow, Curves, OrientationSource, Settings, distribution_curves};
+pub use pipeline::{
+    Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
+    topographic_curves,
+};
 
 /// Errors of the pipeline.
 #[derive(Debug, thiserror::Error)]
@@ -69,4 +72,7 @@ pub enum PipelineError {
     /// A fit failed.
     #[error("fit: {0}")]
     Fit(String),
+    /// The topographic model rejected its input.
+    #[error("topographic model: {0}")]
+    Topo(#[from] flakescatter_topo::TopoError),
 }

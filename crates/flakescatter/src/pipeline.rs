@@ -8,8 +8,10 @@
 use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::polarization::{Transmission, Weighting};
+use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_stats::histogram::AreaHistogram;
 use flakescatter_stats::{Flake, Orientation};
+use flakescatter_topo::{TopoModel, TopoOptions, TopoResult};
 
 use crate::PipelineError;
 use crate::instrument::Instrument;
@@ -179,6 +181,90 @@ pub fn distribution_curves(
         rows,
         source: description,
     })
+}
+
+/// Options of the topographic model that are not instrument or coating settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TopoSettings {
+    /// Least-squares window, odd, ≥ 3 pixels (default 5: the paper's 5 × 5).
+    pub window: usize,
+    /// Side of the map tiles whose spread gives the standard errors, µm (default 32).
+    pub tile_um: f64,
+}
+
+impl Default for TopoSettings {
+    fn default() -> Self {
+        Self {
+            window: 5,
+            tile_um: flakescatter_topo::DEFAULT_BLOCK_UM,
+        }
+    }
+}
+
+/// The topographic model (physics.md §5) over `maps` (their masks already holding any
+/// intensity cutoff), accumulated into one result. `progress(done, total)` is called
+/// from the calling thread as tiles finish. Returns the curves (with `rays` and
+/// `std_err` per row) and the model's own totals (pixels, usable pixels, rays traced and
+/// lost).
+///
+/// # Errors
+/// [`PipelineError::Topo`] for invalid options or maps (no usable pixel, window too
+/// large, ...); [`PipelineError::Instrument`] for point detectors (aperture 0), which
+/// rays cannot enter.
+pub fn topographic_curves(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    topo: &TopoSettings,
+    maps: &[&HeightMap],
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(Curves, TopoResult), PipelineError> {
+    if instrument.aperture() <= 0.0 {
+        return Err(PipelineError::Instrument(
+            "the topographic model counts rays into detector cones: the aperture must be > 0"
+                .into(),
+        ));
+    }
+    let model = TopoModel::new(TopoOptions {
+        n: coating.n,
+        transmission: settings.transmission,
+        weighting: settings.weighting,
+        flake: coating.flake,
+        clearcoat: settings.clearcoat,
+        window: topo.window,
+    })?
+    .with_block_um(topo.tile_um)?;
+    let result =
+        model.run_with_progress(maps, instrument.theta_i(), instrument.cones(), progress)?;
+    let nd = instrument.cones().len();
+    let rows = result
+        .points
+        .iter()
+        .enumerate()
+        .map(|(k, p)| CurveRow {
+            theta_i: p.theta_i,
+            detector: k % nd,
+            brdf: p.brdf,
+            reflectance: Some(p.reflectance),
+            relative: p.relative,
+            rays: Some(p.rays),
+            std_err: Some(p.brdf_std_err),
+        })
+        .collect();
+    let curves = Curves {
+        model: "topographic",
+        instrument: instrument.clone(),
+        coating: *coating,
+        settings: *settings,
+        rows,
+        source: format!(
+            "{} height map(s), {} usable of {} pixels",
+            maps.len(),
+            result.usable_pixels,
+            result.pixels
+        ),
+    };
+    Ok((curves, result))
 }
 
 /// A short description of a distribution for metadata (radians).

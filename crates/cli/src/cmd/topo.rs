@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::io::read_map;
 use flakescatter::stats::heightmap::HeightMap;
-use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoModel, TopoOptions, TopoResult};
-use flakescatter::{CurveRow, Curves};
+use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult};
+use flakescatter::{Curves, TopoSettings, topographic_curves};
 use serde_json::{Value, json};
 
 use crate::cmd::info::MapArgs;
@@ -127,24 +127,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--aperture 0: the topographic model counts rays into detector cones; give a half-angle > 0"
         );
     }
-    let options = TopoOptions {
-        n: coating.n,
-        transmission: settings.transmission,
-        weighting: settings.weighting,
-        flake: coating.flake,
-        clearcoat: settings.clearcoat,
-        window: args.window,
-    };
     if args.window < 3 || args.window.is_multiple_of(2) {
         bail!(
             "--window {}: the least-squares window must be an odd number of pixels >= 3",
             args.window
         );
     }
-    let model = TopoModel::new(options)
-        .context("topographic model options (--n, --flake-index)")?
-        .with_block_um(args.tile_um)
-        .with_context(|| format!("--tile-um {}", args.tile_um))?;
+    let topo = TopoSettings {
+        window: args.window,
+        tile_um: args.tile_um,
+    };
     let maps = load_maps(&args)?;
     let refs: Vec<&HeightMap> = maps.iter().collect();
 
@@ -165,35 +157,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             b.set_position(done);
         }
     };
-    let result = model
-        .run_with_progress(&refs, instrument.theta_i(), instrument.cones(), &progress)
-        .context("topographic model")?;
+    let (curves, result) =
+        topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
+            .with_context(|| format!("--window {}, --tile-um {}", args.window, args.tile_um))?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-
-    let rows = result
-        .points
-        .iter()
-        .enumerate()
-        .map(|(k, p)| CurveRow {
-            theta_i: p.theta_i,
-            detector: k % instrument.cones().len(),
-            brdf: p.brdf,
-            reflectance: Some(p.reflectance),
-            relative: p.relative,
-            rays: Some(p.rays),
-            std_err: Some(p.brdf_std_err),
-        })
-        .collect();
-    let curves = Curves {
-        model: "topographic",
-        instrument,
-        coating,
-        settings,
-        rows,
-        source: format!("{} height map(s)", maps.len()),
-    };
     if to_stdout {
         write_curves_csv(&mut std::io::stdout().lock(), &curves, true)?;
     } else if let Some(path) = &args.out {
