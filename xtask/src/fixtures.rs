@@ -11,7 +11,7 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use flakescatter_io::x3p::write_x3p_bytes;
+use flakescatter_io::x3p::{write_intensity_x3p_bytes, write_x3p_bytes};
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_stats::{GaussianWidth, Orientation};
 use flakescatter_synth::{LayerParams, LayerSpec, generate, truth_csv};
@@ -80,16 +80,17 @@ impl Fixture {
              equivalent to `{}`",
             self.command()
         );
-        let x3p = |map: &mut HeightMap, what: &str| -> anyhow::Result<Vec<u8>> {
+        let label = |map: &mut HeightMap, what: &str| {
             map.set_metadata("x3p.creator", "flakescatter-synth (cargo xtask fixtures)");
             map.set_metadata("x3p.comment", format!("{what}. {comment}"));
-            Ok(write_x3p_bytes(map)?)
         };
-        let height = x3p(&mut layer.height, "Height above the substrate")?;
-        let intensity = x3p(
+        label(&mut layer.height, "Height above the substrate");
+        label(
             &mut layer.intensity,
-            "Intensity, unit-less (stored as if metres x 1e-6: read the raw value)",
-        )?;
+            "Intensity, unit-less (Z increment 1: the stored value is the intensity)",
+        );
+        let height = write_x3p_bytes(&layer.height)?;
+        let intensity = write_intensity_x3p_bytes(&layer.intensity)?;
         Ok(vec![
             (format!("{}.height.x3p", self.name), height),
             (format!("{}.intensity.x3p", self.name), intensity),

@@ -24,7 +24,7 @@ fn fixture_truth_tables_match_their_maps() {
         let visible: usize = lines
             .map(|l| l.split(',').nth(col).unwrap().parse::<usize>().unwrap())
             .sum();
-        let (map, _) = flakescatter_io::read_map(
+        let (map, _) = flakescatter_io::read_intensity(
             dir.join(format!("{}.intensity.x3p", f.name)),
             &flakescatter_io::ReadOptions::default(),
         )

@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use flakescatter::io::read_map;
+use flakescatter::io::{read_intensity, read_map};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::segment::{SegmentParams, Segmentation, SegmentedFlake, segment};
 use serde_json::json;
@@ -103,7 +103,7 @@ pub fn segment_file(map: &Path, args: &SegmentArgs) -> anyhow::Result<(HeightMap
     let (mut height, _) =
         read_map(map, &options).with_context(|| format!("reading MAP {}", map.display()))?;
     if let (Some(ipath), Some(cutoff)) = (&args.intensity, args.cutoff) {
-        let (intensity, _) = read_map(ipath, &options)
+        let (intensity, _) = read_intensity(ipath, &options)
             .with_context(|| format!("reading --intensity {}", ipath.display()))?;
         height
             .apply_intensity_cutoff(&intensity, cutoff)

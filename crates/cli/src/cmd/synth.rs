@@ -4,7 +4,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use flakescatter::io::{MapFormat, write_map};
+use flakescatter::io::{MapFormat, write_intensity, write_map};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::synth::{
@@ -158,7 +158,7 @@ fn pair<T: std::str::FromStr + Copy>(s: &str, flag: &str) -> anyhow::Result<(T, 
     }
 }
 
-fn write_out(map: &HeightMap, path: &Path, flag: &str) -> anyhow::Result<()> {
+fn write_out(map: &HeightMap, path: &Path, flag: &str, intensity: bool) -> anyhow::Result<()> {
     let is_txt = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
@@ -167,7 +167,12 @@ fn write_out(map: &HeightMap, path: &Path, flag: &str) -> anyhow::Result<()> {
     } else {
         MapFormat::X3p
     };
-    write_map(map, path, format).map_err(|e| anyhow::Error::new(Failure(format!("{flag}: {e}"))))
+    let written = if intensity {
+        write_intensity(map, path, format)
+    } else {
+        write_map(map, path, format)
+    };
+    written.map_err(|e| anyhow::Error::new(Failure(format!("{flag}: {e}"))))
 }
 
 /// Runs the subcommand.
@@ -216,10 +221,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let layer = generate(&params).context("generating the layer")?;
 
     if let Some(p) = &args.out {
-        write_out(&layer.height, p, "--out")?;
+        write_out(&layer.height, p, "--out", false)?;
     }
     if let Some(p) = &args.intensity_out {
-        write_out(&layer.intensity, p, "--intensity-out")?;
+        write_out(&layer.intensity, p, "--intensity-out", true)?;
     }
     if let Some(p) = &args.truth_out {
         let text = truth_csv(&layer);

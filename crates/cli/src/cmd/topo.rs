@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::io::read_map;
+use flakescatter::io::{read_intensity, read_map};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult};
 use flakescatter::{Curves, TopoSettings, topographic_curves};
@@ -77,7 +77,7 @@ fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
         let (mut map, _) = read_map(path, &options)
             .with_context(|| format!("reading height map {}", path.display()))?;
         if let (Some(ipath), Some(cutoff)) = (args.intensity.get(k), args.cutoff) {
-            let (intensity, _) = read_map(ipath, &options)
+            let (intensity, _) = read_intensity(ipath, &options)
                 .with_context(|| format!("reading --intensity {}", ipath.display()))?;
             map.apply_intensity_cutoff(&intensity, cutoff)
                 .with_context(|| {
