@@ -641,6 +641,75 @@ fn target_dir(root: &Path) -> PathBuf {
     }
 }
 
+/// The arguments after `--` for criterion.
+fn criterion_args(quick: bool) -> Vec<&'static str> {
+    let mut a = vec!["--noplot"];
+    if quick {
+        a.extend(["--quick", "--warm-up-time", "1", "--measurement-time", "2"]);
+    }
+    a
+}
+
+/// Builds and runs every bench of [`TARGETS`]. All together in one cargo command (one
+/// build, one feature resolution); if that build fails (a crate under construction),
+/// each bench on its own so the others still run. Returns the benches that failed.
+fn run_benches(cargo: &str, root: &Path, quick: bool) -> anyhow::Result<Vec<String>> {
+    let bench_cmd = |targets: &[BenchTarget]| {
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(root).arg("bench");
+        for t in targets {
+            cmd.args(["-p", t.package, "--bench", t.bench]);
+        }
+        if quick {
+            cmd.env("FLAKESCATTER_BENCH_QUICK", "1");
+        }
+        cmd
+    };
+    let clock = Instant::now();
+    eprintln!("xtask bench: building the benches (bench profile)");
+    let built = bench_cmd(TARGETS)
+        .arg("--no-run")
+        .status()
+        .context("cannot run cargo")?
+        .success();
+    eprintln!(
+        "xtask bench: build finished after {:.0} s",
+        clock.elapsed().as_secs_f64()
+    );
+    if built {
+        let status = bench_cmd(TARGETS)
+            .arg("--no-fail-fast")
+            .arg("--")
+            .args(criterion_args(quick))
+            .status()
+            .context("cannot run cargo bench")?;
+        if status.success() {
+            return Ok(Vec::new());
+        }
+        eprintln!("xtask bench: some benches failed ({status}); see above");
+        return Ok(vec![
+            "cargo bench --no-fail-fast (see its output)".to_owned(),
+        ]);
+    }
+    eprintln!("xtask bench: building all benches together failed; running them one by one");
+    let mut failed = Vec::new();
+    for t in TARGETS {
+        let status = bench_cmd(std::slice::from_ref(t))
+            .arg("--")
+            .args(criterion_args(quick))
+            .status()
+            .with_context(|| format!("cannot run cargo bench for {}", t.package))?;
+        if !status.success() {
+            eprintln!(
+                "xtask bench: `cargo bench -p {} --bench {}` failed ({status})",
+                t.package, t.bench
+            );
+            failed.push(format!("{}/{}", t.package, t.bench));
+        }
+    }
+    Ok(failed)
+}
+
 /// Entry point of `cargo xtask bench`.
 ///
 /// # Errors
@@ -653,45 +722,11 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
     let start = SystemTime::now();
     let clock = Instant::now();
-    let mut failed = Vec::new();
-    if !opts.report_only {
-        // One build of every bench first, so that timing runs do not wait on the compiler.
-        let mut build = Command::new(&cargo);
-        build.current_dir(&root).args(["bench", "--no-run"]);
-        for t in TARGETS {
-            build.args(["-p", t.package, "--bench", t.bench]);
-        }
-        eprintln!("xtask bench: building the benches (release profile)");
-        let status = build.status().context("cannot run cargo")?;
-        if !status.success() {
-            eprintln!("xtask bench: building all benches together failed; running one by one");
-        }
-        eprintln!(
-            "xtask bench: built in {:.0} s",
-            clock.elapsed().as_secs_f64()
-        );
-        for t in TARGETS {
-            let mut cmd = Command::new(&cargo);
-            cmd.current_dir(&root)
-                .args(["bench", "-p", t.package, "--bench", t.bench, "--"])
-                .arg("--noplot");
-            if opts.quick {
-                cmd.args(["--quick", "--warm-up-time", "1", "--measurement-time", "2"])
-                    .env("FLAKESCATTER_BENCH_QUICK", "1");
-            }
-            eprintln!("xtask bench: {} / {}", t.package, t.bench);
-            let status = cmd
-                .status()
-                .with_context(|| format!("cannot run cargo bench for {}", t.package))?;
-            if !status.success() {
-                eprintln!(
-                    "xtask bench: `cargo bench -p {} --bench {}` failed ({status})",
-                    t.package, t.bench
-                );
-                failed.push(format!("{}/{}", t.package, t.bench));
-            }
-        }
-    }
+    let failed = if opts.report_only {
+        Vec::new()
+    } else {
+        run_benches(&cargo, &root, opts.quick)?
+    };
     let specs: Vec<RowSpec> = ROWS
         .iter()
         .filter(|r| r.quick || !opts.quick)
