@@ -1,8 +1,16 @@
-//! Plots of curves (SVG), log axis for reflectance, labelled axes with units.
+//! Plots of curves (SVG or PNG), log axis for reflectance, labelled axes with units.
+//!
+//! PNG text is drawn with DejaVu Sans, embedded from the `dejavu` crate (crate MIT /
+//! Apache-2.0; the fonts are under the permissive Bitstream Vera / DejaVu licence), so
+//! plots need no system font. The PNG file itself is written here (8-bit RGB, zlib via
+//! `flate2`, chunk CRCs via `crc32fast`).
 
+use std::io::Write;
 use std::path::Path;
+use std::sync::OnceLock;
 
 use anyhow::{Context, bail};
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::common::Failure;
@@ -14,12 +22,14 @@ pub enum Style {
     Line,
     /// Dashed line.
     Dashed,
+    /// Markers only (measured points).
+    Points,
 }
 
 /// One series of `(x, y)` points.
 #[derive(Debug, Clone)]
 pub struct Series {
-    /// Legend text.
+    /// Legend text (empty: no legend entry, e.g. for the second edge of a band).
     pub label: String,
     /// Points; non-finite or (on a log axis) non-positive values are skipped.
     pub points: Vec<(f64, f64)>,
@@ -55,12 +65,96 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(23, 190, 207),
 ];
 
-/// Draw `fig` to `path`; the extension must be `.svg`.
-pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {
-    match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => {}
-        _ => bail!("--plot {}: only .svg plots are supported", path.display()),
+/// Plot size in pixels (SVG user units and PNG pixels alike).
+const SIZE: (u32, u32) = (900, 620);
+
+/// Register the embedded font under the family name the figures use (once per process).
+fn register_fonts() -> anyhow::Result<()> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+            .is_ok()
+    });
+    if !ok {
+        bail!("the embedded DejaVu Sans font could not be loaded");
     }
+    Ok(())
+}
+
+/// Draw `fig` to `path`; the extension must be `.svg` or `.png`. The title's first line
+/// is the caption, a second line (after `\n`) a smaller note under it.
+pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {
+    let png = match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") => false,
+        Some("png") => true,
+        _ => bail!(
+            "--plot {}: the plot file must end in .svg or .png",
+            path.display()
+        ),
+    };
+    register_fonts()?;
+    let err = |e: String| anyhow::Error::new(Failure(format!("drawing {}: {e}", path.display())));
+    if png {
+        let (w, h) = SIZE;
+        let mut buf = vec![255u8; w as usize * h as usize * 3];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
+            render(&root, fig, path)?;
+            root.present().map_err(|e| err(e.to_string()))?;
+        }
+        write_png(path, w, h, &buf)
+            .map_err(|e| Failure(format!("writing {}: {e}", path.display())))?;
+    } else {
+        let root = SVGBackend::new(path, SIZE).into_drawing_area();
+        render(&root, fig, path)?;
+        root.present()
+            .map_err(|e| err(e.to_string()))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Write an 8-bit RGB image (`rgb` row-major, 3 bytes a pixel) as a PNG file.
+fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> std::io::Result<()> {
+    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+        let len = u32::try_from(data.len()).unwrap_or(u32::MAX);
+        out.extend_from_slice(&len.to_be_bytes());
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(kind);
+        crc.update(data);
+        out.extend_from_slice(kind);
+        out.extend_from_slice(data);
+        out.extend_from_slice(&crc.finalize().to_be_bytes());
+    }
+    let row = w as usize * 3;
+    // Filter type 0 (none) before every row, then one zlib stream.
+    let mut raw = Vec::with_capacity((row + 1) * h as usize);
+    for line in rgb.chunks_exact(row) {
+        raw.push(0);
+        raw.extend_from_slice(line);
+    }
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    z.write_all(&raw)?;
+    let idat = z.finish()?;
+    let mut ihdr = Vec::with_capacity(13);
+    ihdr.extend_from_slice(&w.to_be_bytes());
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    // Bit depth 8, colour type 2 (RGB), deflate, adaptive filtering, no interlace.
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    let mut out = Vec::with_capacity(idat.len() + 64);
+    out.extend_from_slice(b"\x89PNG\r\n\x1a\n");
+    chunk(&mut out, b"IHDR", &ihdr);
+    chunk(&mut out, b"IDAT", &idat);
+    chunk(&mut out, b"IEND", &[]);
+    std::fs::write(path, out)
+}
+
+/// Draw `fig` on `root` (any backend); `path` only names the file in errors.
+fn render<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+    path: &Path,
+) -> anyhow::Result<()> {
     let usable = |x: f64, y: f64| x.is_finite() && y.is_finite() && (!fig.log_y || y > 0.0);
     let pts = || {
         fig.series
@@ -99,13 +193,24 @@ pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {
         y0 -= pad;
         y1 += pad;
     }
-    let backend = SVGBackend::new(path, (900, 620));
-    let root = backend.into_drawing_area();
     let err = |e: String| anyhow::Error::new(Failure(format!("drawing {}: {e}", path.display())));
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let mut builder = ChartBuilder::on(&root);
+    let mut lines = fig.title.lines();
+    let caption = lines.next().unwrap_or("");
+    let note: Vec<&str> = lines.collect();
+    let mut area = root
+        .titled(caption, ("sans-serif", 20))
+        .map_err(|e| err(e.to_string()))?;
+    if !note.is_empty() {
+        area = area
+            .titled(
+                &note.join(" "),
+                ("sans-serif", 14).into_font().color(&RGBColor(90, 90, 90)),
+            )
+            .map_err(|e| err(e.to_string()))?;
+    }
+    let mut builder = ChartBuilder::on(&area);
     builder
-        .caption(&fig.title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(80);
@@ -128,7 +233,25 @@ pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {
                     .copied()
                     .filter(|&(x, y)| usable(x, y) && (!fig.log_y || y >= y0))
                     .collect();
+                let labelled = !s.label.is_empty();
                 match s.style {
+                    Style::Line if !labelled => {
+                        chart
+                            .draw_series(LineSeries::new(data, colour.stroke_width(2)))
+                            .map_err(|e| err(e.to_string()))?;
+                    }
+                    Style::Dashed if !labelled => {
+                        chart
+                            .draw_series(DashedLineSeries::new(data, 6, 4, colour.stroke_width(1)))
+                            .map_err(|e| err(e.to_string()))?;
+                    }
+                    Style::Points if !labelled => {
+                        chart
+                            .draw_series(
+                                data.into_iter().map(|p| Circle::new(p, 2, colour.filled())),
+                            )
+                            .map_err(|e| err(e.to_string()))?;
+                    }
                     Style::Line => {
                         chart
                             .draw_series(LineSeries::new(data, colour.stroke_width(2)))
@@ -146,6 +269,15 @@ pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {
                             .legend(move |(x, y)| {
                                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(1))
                             });
+                    }
+                    Style::Points => {
+                        chart
+                            .draw_series(
+                                data.into_iter().map(|p| Circle::new(p, 2, colour.filled())),
+                            )
+                            .map_err(|e| err(e.to_string()))?
+                            .label(s.label.as_str())
+                            .legend(move |(x, y)| Circle::new((x + 10, y), 3, colour.filled()));
                     }
                 }
             }
@@ -171,9 +303,6 @@ pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {
                 .map_err(|e| err(e.to_string()))?
         );
     }
-    root.present()
-        .map_err(|e| err(e.to_string()))
-        .with_context(|| format!("writing {}", path.display()))?;
     Ok(())
 }
 
