@@ -27,6 +27,10 @@ struct Cli {
 enum Command {
     /// Distribution model: reflectance from a flake orientation distribution (eqs. 9-13, corrected).
     Model(cmd::model::Args),
+    /// Measured goniometric curve against a model: fitted scale, residuals per region.
+    Compare(cmd::compare::Args),
+    /// Fit the flake orientation distribution (Gaussian width or tabulated) to a measured curve.
+    Fit(cmd::fit::Args),
     /// Topographic model: ray tracing over confocal height maps, accumulated.
     Topo(cmd::topo::Args),
     /// What a height-map file holds: size, pitch, valid points, height statistics, metadata.
@@ -43,6 +47,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: anyhow::Result<()> = match cli.command {
         Command::Model(a) => cmd::model::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
+        Command::Fit(a) => cmd::fit::run(a),
         Command::Topo(a) => cmd::topo::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Segment(a) => cmd::segment::run(a),

@@ -38,6 +38,7 @@
 pub mod compare;
 pub mod fit;
 pub mod instrument;
+pub mod multiangle;
 mod nnls;
 pub mod pipeline;
 

@@ -1,4 +1,6 @@
 //! One module per subcommand: each has `Args` (clap) and `run(Args) -> anyhow::Result<()>`.
+pub mod compare;
+pub mod fit;
 pub mod info;
 pub mod model;
 pub mod segment;

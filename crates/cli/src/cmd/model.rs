@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::gaussian::ConeMethod;
 use flakescatter::io::flakes::read_histogram;
+use flakescatter::multiangle::multi_angle;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::{OrientationSource, distribution_curves};
 use serde_json::json;
@@ -30,18 +31,10 @@ pub enum ConeKind {
     Constant,
 }
 
-/// Reflectance of flat mirror flakes under a clear coat, from their orientation
-/// distribution (paper eqs. 9–13 as corrected in docs/physics.md §4).
-///
-/// Writes one CSV row per incidence × detector: theta_i_deg, theta_s_deg, phi_s_deg,
-/// aperture_deg, brdf_per_sr, reflectance (fraction of the beam), relative (to the same
-/// detector at the specular direction). With no flags: the defaults below and a hwhm 6°
-/// Gaussian.
-#[derive(Debug, clap::Args)]
+/// Where the orientation distribution comes from (shared by model, compare, fit).
+#[derive(Debug, Clone, clap::Args)]
 #[command(group = clap::ArgGroup::new("width").multiple(false).args(["hwhm", "sigma", "rms_tilt"]))]
-pub struct Args {
-    #[command(flatten)]
-    pub instrument: InstrumentArgs,
+pub struct OrientationArgs {
     /// Orientation source.
     #[arg(long, value_enum, default_value = "gaussian")]
     pub orientation: OrientationKind,
@@ -56,21 +49,41 @@ pub struct Args {
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub rms_tilt: Option<f64>,
     /// Histogram CSV (`theta_lo_deg, theta_hi_deg, area_fraction`, as written by
-    /// `flakescatter stats`) for `--orientation table`.
+    /// `flakescatter stats` or `fit --nonparametric`) for `--orientation table`.
     #[arg(long, value_name = "FILE")]
     pub distribution: Option<PathBuf>,
+}
+
+/// Reflectance of flat mirror flakes under a clear coat, from their orientation
+/// distribution (paper eqs. 9–13 as corrected in docs/physics.md §4).
+///
+/// Writes one CSV row per incidence × detector: theta_i_deg, theta_s_deg, phi_s_deg,
+/// aperture_deg, brdf_per_sr, reflectance (fraction of the beam), relative (to the same
+/// detector at the specular direction). With no flags: the defaults below and a hwhm 6°
+/// Gaussian.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub instrument: InstrumentArgs,
+    #[command(flatten)]
+    pub source: OrientationArgs,
     /// Cone integration.
     #[arg(long, value_enum, default_value = "exact")]
     pub cone: ConeKind,
+    /// Multi-angle readout instead of a curve: 45° incidence, aspecular −15°, 15°, 25°,
+    /// 45°, 75°, 110°, reflectance factors (π × BRDF over the --aperture cone) and the
+    /// flop index (single-wavelength approximation; see docs/physics.md).
+    #[arg(long)]
+    pub multi_angle: bool,
     /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// Print a JSON summary on stdout (inputs, units, version, rows).
     #[arg(long)]
     pub json: bool,
-    /// Draw the relative curves (log axis) to this SVG file, with the Gaussian p~ drawn
-    /// about the specular direction as in the paper's Fig. 4.
-    #[arg(long, value_name = "FILE.svg")]
+    /// Draw the relative curves (log axis) to this .svg or .png file, with the Gaussian
+    /// p~ drawn about the specular direction as in the paper's Fig. 4.
+    #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
 }
 
@@ -82,8 +95,10 @@ fn width(flag: &str, deg: f64) -> anyhow::Result<f64> {
     Ok(deg.to_radians())
 }
 
-/// The orientation distribution the flags ask for.
-fn orientation(args: &Args) -> anyhow::Result<(Orientation, serde_json::Value)> {
+/// The orientation distribution the flags ask for, with its JSON echo.
+pub fn orientation_from(
+    args: &OrientationArgs,
+) -> anyhow::Result<(Orientation, serde_json::Value)> {
     match args.orientation {
         OrientationKind::Gaussian => {
             if args.distribution.is_some() {
@@ -145,8 +160,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ConeKind::Exact => ConeMethod::Exact,
         ConeKind::Constant => ConeMethod::ConstantIntegrand,
     };
-    let (orientation, orientation_echo) = orientation(&args)?;
+    let (orientation, orientation_echo) = orientation_from(&args.source)?;
     let source = OrientationSource::Distribution(orientation.clone());
+    if args.multi_angle {
+        return multi_angle_run(&args, &coating, &settings, &source, orientation_echo);
+    }
     let curves = distribution_curves(&coating, &instrument, &settings, &source)?;
 
     if to_stdout {
@@ -234,4 +252,71 @@ fn figure(curves: &flakescatter::Curves, orientation: &Orientation) -> Figure {
         log_y: true,
         series,
     }
+}
+
+/// `--multi-angle`: the six-angle readout and the flop index.
+fn multi_angle_run(
+    args: &Args,
+    coating: &flakescatter::Coating,
+    settings: &flakescatter::Settings,
+    source: &OrientationSource,
+    orientation_echo: serde_json::Value,
+) -> anyhow::Result<()> {
+    if args.plot.is_some() {
+        bail!("--plot draws curves; it does not apply to --multi-angle");
+    }
+    let m = multi_angle(
+        coating,
+        settings,
+        source,
+        args.instrument.aperture.to_radians(),
+    )
+    .context("--multi-angle (needs --aperture > 0)")?;
+    let to_stdout = match &args.out {
+        Some(p) => p.as_os_str() == "-",
+        None => !args.json,
+    };
+    if to_stdout || args.out.is_some() {
+        let mut out: Box<dyn std::io::Write> = match &args.out {
+            Some(p) if p.as_os_str() != "-" => open_out(p)?,
+            _ => Box::new(std::io::stdout().lock()),
+        };
+        let mut text = String::from(
+            "theta_i_deg,aspecular_deg,theta_s_deg,aperture_deg,reflectance_factor,lightness_l_star\n",
+        );
+        for r in &m.readouts {
+            text.push_str(&format!(
+                "45,{},{},{},{:.9e},{:.4}\n",
+                r.aspecular.to_degrees().round(),
+                r.theta_s.to_degrees().round(),
+                args.instrument.aperture,
+                r.reflectance_factor,
+                r.lightness
+            ));
+        }
+        out.write_all(text.as_bytes()).map_err(|e| {
+            anyhow::Error::new(crate::common::Failure(format!("writing the readout: {e}")))
+        })?;
+    }
+    if args.json {
+        let summary = json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "command": "model --multi-angle",
+            "inputs": {"instrument": args.instrument.echo(), "orientation": orientation_echo},
+            "theta_i_deg": 45.0,
+            "aperture_deg": args.instrument.aperture,
+            "readouts": m.readouts.iter().map(|r| json!({
+                "aspecular_deg": r.aspecular.to_degrees().round(),
+                "theta_s_deg": r.theta_s.to_degrees().round(),
+                "reflectance_factor": r.reflectance_factor,
+                "lightness_l_star": r.lightness,
+            })).collect::<Vec<_>>(),
+            "flop_index": m.flop_index,
+            "flop_index_formula": "2.69 (L*15 - L*110)^1.11 / (L*45)^0.86, L* = CIE 1976 lightness of the reflectance factor",
+            "approximation": "single wavelength: the monochromatic reflectance factor stands in for the luminance factor Y",
+            "units": {"reflectance_factor": "pi x BRDF averaged over the detector cone (1 for a perfect diffuser)"},
+        });
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    }
+    Ok(())
 }

@@ -1,0 +1,243 @@
+//! `flakescatter fit`: the flake orientation distribution from a measured curve.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use flakescatter::compare::{FAR_REGION, SPECULAR_REGION};
+use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
+use serde_json::json;
+
+use crate::cmd::compare::{MeasuredArgs, model_inputs};
+use crate::instrument::{InstrumentArgs, open_out, parse_angles};
+
+/// Fit the flake orientation distribution to a measured curve.
+///
+/// Default: a Gaussian p~ — its hwhm (with a standard uncertainty), the vertical scale
+/// (per incidence, or --common-scale) and, with --fit-n, the clear-coat index — by
+/// least squares on log values of the points 5°–40° from specular (the specular peak is
+/// excluded). With --nonparametric: a tabulated p~ on --bins by regularised
+/// non-negative least squares (the paper's "estimate the distribution that can give rise
+/// to a measured reflectance curve"); --out then writes it as a histogram CSV that
+/// `model --orientation table --distribution` reads.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub measured: MeasuredArgs,
+    #[command(flatten)]
+    pub instrument: InstrumentArgs,
+    /// Start value of the Gaussian hwhm, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 4.0)]
+    pub hwhm_start: f64,
+    /// Fit the clear-coat index too (start: --n).
+    #[arg(long)]
+    pub fit_n: bool,
+    /// One vertical scale for all incidences (absolute data of one sample) instead of one
+    /// per incidence.
+    #[arg(long)]
+    pub common_scale: bool,
+    /// Aspecular range of the points used, degrees, `LO:HI`.
+    #[arg(long, value_name = "LO:HI", default_value = "5:40")]
+    pub region: String,
+    /// Estimate a tabulated p~ instead of a Gaussian.
+    #[arg(long)]
+    pub nonparametric: bool,
+    /// Bin edges of the tabulated p~, degrees (list or range), for --nonparametric.
+    #[arg(long, value_name = "LIST", default_value = "0:30:2")]
+    pub bins: String,
+    /// Smoothness weight of the non-parametric estimate (second differences of p~,
+    /// relative to the data), >= 0.
+    #[arg(long, value_name = "X", default_value_t = 0.05)]
+    pub lambda: f64,
+    /// --nonparametric: write the estimated histogram CSV (theta_lo_deg, theta_hi_deg,
+    /// area_fraction, p_per_rad, p_tilde) here.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Print a JSON summary on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let measured = args.measured.read()?;
+    let coating = args.instrument.coating()?;
+    let settings = args.measured.settings(&args.instrument);
+    let aperture = args.instrument.aperture;
+    if !(aperture.is_finite() && (0.0..=20.0).contains(&aperture)) {
+        bail!("--aperture {aperture}: expected a half-angle in [0, 20] degrees");
+    }
+    let region = match args
+        .region
+        .split_once(':')
+        .map(|(a, b)| (a.trim().parse::<f64>(), b.trim().parse::<f64>()))
+    {
+        Some((Ok(lo), Ok(hi))) if lo >= 0.0 && hi > lo && hi < 180.0 => {
+            (lo.to_radians(), hi.to_radians())
+        }
+        _ => bail!(
+            "--region `{}`: expected LO:HI in degrees with 0 <= LO < HI (default 5:40)",
+            args.region
+        ),
+    };
+    let mut setup = FitSetup::new(
+        coating,
+        settings,
+        aperture.to_radians(),
+        args.measured.measured_kind,
+    );
+    setup.region = region;
+    setup.common_scale = args.common_scale;
+    let inputs = json!({
+        "measured": measured.file,
+        "measured_kind": args.measured.measured_kind.name(),
+        "model": model_inputs(&coating, &settings),
+        "aperture_deg": aperture,
+        "region_deg": [region.0.to_degrees(), region.1.to_degrees()],
+        "common_scale": args.common_scale,
+    });
+    if args.nonparametric {
+        if args.fit_n {
+            bail!("--fit-n applies to the Gaussian fit, not --nonparametric");
+        }
+        let edges_deg = parse_angles("--bins", &args.bins)?;
+        if edges_deg.len() < 2
+            || edges_deg.windows(2).any(|w| w[1] <= w[0])
+            || edges_deg[0] < 0.0
+            || edges_deg[edges_deg.len() - 1] > 90.0
+        {
+            bail!(
+                "--bins `{}`: expected at least two increasing edges within [0, 90] degrees",
+                args.bins
+            );
+        }
+        if !(args.lambda.is_finite() && args.lambda >= 0.0) {
+            bail!("--lambda {}: expected a finite number >= 0", args.lambda);
+        }
+        let edges: Vec<f64> = edges_deg.iter().map(|d| d.to_radians()).collect();
+        let est = fit_nonparametric(&measured, &setup, &edges, args.lambda)
+            .with_context(|| format!("non-parametric fit of {}", measured.file))?;
+        if let Some(path) = &args.out {
+            // The histogram CSV of `stats` (p per radian = fraction/Δθ, p~ =
+            // fraction/(cos lo − cos hi)), which `model --orientation table` reads.
+            let mut w = csv::Writer::from_writer(open_out(path)?);
+            let fail = |e: csv::Error| {
+                anyhow::Error::new(crate::common::Failure(format!(
+                    "writing --out {}: {e}",
+                    path.display()
+                )))
+            };
+            w.write_record([
+                "theta_lo_deg",
+                "theta_hi_deg",
+                "area_fraction",
+                "p_per_rad",
+                "p_tilde",
+            ])
+            .map_err(fail)?;
+            for (e, (f, p)) in est
+                .edges
+                .windows(2)
+                .zip(est.area_fractions.iter().zip(&est.p_tilde))
+            {
+                w.write_record([
+                    format!("{}", (e[0].to_degrees() * 1e9).round() / 1e9),
+                    format!("{}", (e[1].to_degrees() * 1e9).round() / 1e9),
+                    format!("{f:.9e}"),
+                    format!("{:.9e}", f / (e[1] - e[0])),
+                    format!("{p:.9e}"),
+                ])
+                .map_err(fail)?;
+            }
+            w.flush().map_err(|e| {
+                anyhow::Error::new(crate::common::Failure(format!(
+                    "writing --out {}: {e}",
+                    path.display()
+                )))
+            })?;
+        }
+        if args.json {
+            let summary = json!({
+                "version": env!("CARGO_PKG_VERSION"),
+                "command": "fit --nonparametric",
+                "inputs": inputs,
+                "lambda": est.lambda,
+                "points": est.points,
+                "chi2_relative": est.chi2,
+                "bins": est.edges.windows(2).zip(&est.area_fractions).zip(&est.p_tilde).map(|((e, f), p)| json!({
+                    "theta_lo_deg": e[0].to_degrees(),
+                    "theta_hi_deg": e[1].to_degrees(),
+                    "area_fraction": f,
+                    "p_tilde": p,
+                })).collect::<Vec<_>>(),
+                "units": {"p_tilde": "per steradian x 2 pi, normalised so that the integral of p~ sin(theta) dtheta is 1"},
+            });
+            println!("{}", serde_json::to_string_pretty(&summary)?);
+        } else if args.out.is_none() {
+            println!("theta_lo_deg,theta_hi_deg,area_fraction,p_tilde");
+            for (e, (f, p)) in est
+                .edges
+                .windows(2)
+                .zip(est.area_fractions.iter().zip(&est.p_tilde))
+            {
+                println!("{},{},{f:.6},{p:.6}", e[0].to_degrees(), e[1].to_degrees());
+            }
+        }
+        return Ok(());
+    }
+    if args.out.is_some() {
+        bail!("--out writes the --nonparametric histogram; the Gaussian fit reports with --json");
+    }
+    if !(args.hwhm_start.is_finite() && args.hwhm_start > 0.0 && args.hwhm_start < 60.0) {
+        bail!(
+            "--hwhm-start {}: expected a width in (0, 60) degrees",
+            args.hwhm_start
+        );
+    }
+    let fit = fit_gaussian(&measured, &setup, args.hwhm_start.to_radians(), args.fit_n)
+        .with_context(|| format!("Gaussian fit of {}", measured.file))?;
+    let scales: Vec<_> = fit
+        .scales
+        .iter()
+        .map(|(t, s)| json!({"theta_i_deg": if t.is_nan() { None } else { Some(t.to_degrees()) }, "scale": s}))
+        .collect();
+    if args.json {
+        let summary = json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "command": "fit",
+            "inputs": inputs,
+            "hwhm_deg": fit.hwhm.to_degrees(),
+            "hwhm_std_deg": fit.hwhm_std.to_degrees(),
+            "n": fit.n,
+            "n_std": fit.n_std,
+            "scales": scales,
+            "chi2": fit.chi2,
+            "dof": fit.dof,
+            "points": fit.points,
+            "iterations": fit.iterations,
+            "uncertainty_basis": if fit.uncertainties_given { "the file's uncertainties" } else { "residual scatter (no uncertainty column)" },
+            "default_region_deg": [SPECULAR_REGION.to_degrees(), FAR_REGION.to_degrees()],
+        });
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!(
+            "hwhm_deg = {:.4} ± {:.4}",
+            fit.hwhm.to_degrees(),
+            fit.hwhm_std.to_degrees()
+        );
+        if let Some(s) = fit.n_std {
+            println!("n = {:.4} ± {s:.4}", fit.n);
+        }
+        for (t, s) in &fit.scales {
+            if t.is_nan() {
+                println!("scale (all incidences) = {s:.5e}");
+            } else {
+                println!("scale at theta_i_deg {:.2} = {s:.5e}", t.to_degrees());
+            }
+        }
+        println!(
+            "chi2 = {:.3} for {} degrees of freedom ({} points)",
+            fit.chi2, fit.dof, fit.points
+        );
+    }
+    Ok(())
+}
