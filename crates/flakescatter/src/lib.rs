@@ -6,34 +6,65 @@
 //! [`optics`] (Snell, Fresnel, detectors), [`stats`] (orientation distributions, flake
 //! statistics, height maps), [`gaussian`] (the distribution model), [`io`] (file
 //! formats), [`synth`] (synthetic flake layers) — and adds the composition they cannot
-//! own: a [`Coating`], an [`Instrument`] and an [`OrientationSource`] turned into
-//! [`Curves`] by [`distribution_curves`].
+//! own: a [`Coating`], an [`Instrument`] and an [`OrientationSource`] (a distribution
+//! or a flake table) turned into [`Curves`] by [`distribution_curves`], or height maps
+//! turned into curves by [`topographic_curves`] ([`topo`] is the topographic layer);
+//! measurement against model in [`compare`], fitting of the orientation distribution in
+//! [`fit`], multi-angle readouts in [`multiangle`].
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
 //! `θs = −θi` the specular direction.
 //!
-//! # Example
-//! From flake normals to the distribution model's curve at 45° incidence:
+//! # Workflow
+//! From a confocal height map (a shipped synthetic fixture) to flake statistics to both
+//! models' curves:
 //! ```
-//! use flakescatter::{Coating, DetectorSet, Instrument, OrientationSource, Settings, distribution_curves};
-//! use flakescatter::stats::{GaussianWidth, Orientation};
+//! use flakescatter::io::{ReadOptions, read_intensity, read_map};
+//! use flakescatter::stats::fit::fit_gaussian_ml;
+//! use flakescatter::stats::segment::{SegmentParams, segment};
+//! use flakescatter::{
+//!     Coating, DetectorSet, Instrument, OrientationSource, Settings, TopoSettings,
+//!     distribution_curves, topographic_curves,
+//! };
 //!
-//! let orientation = Orientation::gaussian(GaussianWidth::Hwhm(6f64.to_radians()))?;
-//! let detectors = DetectorSet::InPlane((-60..=60).map(|d| f64::from(d).to_radians()).collect());
-//! let instrument = Instrument::new(vec![45f64.to_radians()], detectors, 1.5f64.to_radians())?;
-//! let curves = distribution_curves(
-//!     &Coating::default(),
+//! let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures");
+//! let opts = ReadOptions::default();
+//! // 1. The height map, masked by its intensity map (cutoff 0.49).
+//! let (mut map, _) = read_map(format!("{dir}/synth-hwhm6-rough.height.x3p"), &opts)?;
+//! let (intensity, _) = read_intensity(format!("{dir}/synth-hwhm6-rough.intensity.x3p"), &opts)?;
+//! map.apply_intensity_cutoff(&intensity, 0.49)?;
+//!
+//! // 2. Flakes, and the area-weighted Gaussian width of their tilts.
+//! let flakes: Vec<_> = segment(&map, &SegmentParams::default())?
+//!     .flakes
+//!     .iter()
+//!     .map(|f| f.to_flake())
+//!     .collect();
+//! let tilts: Vec<(f64, f64)> = flakes.iter().map(|f| (f.theta_n(), f.area_um2)).collect();
+//! let width = fit_gaussian_ml(&tilts)?;
+//! assert!(flakes.len() > 30 && width.hwhm() > 0.0);
+//!
+//! // 3. Both models at 60° incidence, in-plane detectors of 1.5° half-angle.
+//! let ts: Vec<f64> = (-70..=70).map(|d| f64::from(d).to_radians()).collect();
+//! let instrument = Instrument::new(vec![60f64.to_radians()], DetectorSet::InPlane(ts), 1.5f64.to_radians())?;
+//! let (coating, settings) = (Coating::default(), Settings::default());
+//! let gaussian = distribution_curves(
+//!     &coating,
 //!     &instrument,
-//!     &Settings::default(),
-//!     &OrientationSource::Distribution(orientation),
+//!     &settings,
+//!     &OrientationSource::Distribution(width.orientation()?),
 //! )?;
-//! // The row at the specular detector (θs = −45°) is the reference of `relative`.
-//! let spec = &curves.rows[60 - 45];
-//! assert!((spec.relative - 1.0).abs() < 1e-12);
-//! assert!(spec.reflectance.unwrap() > 0.0);
+//! let (topo, totals) =
+//!     topographic_curves(&coating, &instrument, &settings, &TopoSettings::default(), &[&map], &|_, _| {})?;
+//! // The row of the specular detector (θs = −60°) is the reference of `relative`.
+//! assert!((gaussian.rows[10].relative - 1.0).abs() < 1e-12);
+//! assert!(totals.rays_traced > 0 && topo.rows[10].rays.unwrap() > 0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! A longer version of the same workflow is the example `map_to_curves`
+//! (`cargo run --release -p flakescatter --example map_to_curves`).
 
 pub mod compare;
 pub mod fit;
