@@ -15,7 +15,7 @@
 //!   `target/criterion/<id>/new/estimates.json`. Throughput is `work / median`.
 //! * The full run writes `docs/benchmarks.md` (the table plus the machine: CPU model,
 //!   cores, memory, rustc, date, commit); `--quick` (criterion's quick mode, at most 2 s
-//!   per bench, no 4096² maps) writes `target/benchmarks-quick.md` instead, so that a
+//!   per bench, no 4096² topographic maps, no rough layer) writes `target/benchmarks-quick.md` instead, so that a
 //!   check before a commit does not touch the committed file.
 //! * A benchmark that did not produce an `estimates.json` in this run (bench renamed,
 //!   crate failing to build) shows as "not measured" with the path that was expected;
@@ -508,7 +508,8 @@ pub fn render_table(rows: &[Row]) -> String {
     s
 }
 
-/// The machine the numbers come from: CPU model, cores, memory, rustc, date, commit.
+/// The machine the numbers come from: CPU model, cores, memory, load average, rustc,
+/// date, commit.
 #[must_use]
 pub fn machine_description(root: &Path) -> Vec<(String, String)> {
     let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
@@ -528,6 +529,11 @@ pub fn machine_description(root: &Path) -> Vec<(String, String)> {
             || "unknown".to_owned(),
             |kb| format!("{:.1} GiB", kb / (1024.0 * 1024.0)),
         );
+    // Other work on the machine changes absolute times: state how busy it was.
+    let load = std::fs::read_to_string("/proc/loadavg").map_or_else(
+        |_| "unknown".to_owned(),
+        |l| l.split_whitespace().take(3).collect::<Vec<_>>().join(", "),
+    );
     let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".to_owned());
     let rustc_version = command_output(Command::new(rustc).arg("--version"), root);
     let commit = command_output(
@@ -538,6 +544,7 @@ pub fn machine_description(root: &Path) -> Vec<(String, String)> {
         ("CPU".to_owned(), cpu),
         ("Cores available".to_owned(), cores.to_string()),
         ("Memory".to_owned(), memory),
+        ("Load average when written (1, 5, 15 min)".to_owned(), load),
         ("Compiler".to_owned(), rustc_version),
         ("Date (UTC)".to_owned(), utc_date(SystemTime::now())),
         ("Commit".to_owned(), commit),
@@ -592,7 +599,7 @@ pub fn render_document(rows: &[Row], machine: &[(String, String)], quick: bool) 
     );
     if quick {
         s.push_str(
-            "**Quick run** (criterion `--quick`, at most 2 s per benchmark, no 4096² maps): \
+            "**Quick run** (criterion `--quick`, at most 2 s per benchmark, no 4096² topographic maps, no rough layer): \
              indicative only.\n\n",
         );
     }
@@ -604,9 +611,12 @@ pub fn render_document(rows: &[Row], machine: &[(String, String)], quick: bool) 
     s.push_str(&render_table(rows));
     s.push_str(
         "\nRays = usable pixels (complete 5 × 5 window) × incidences; detectors = \
-         incidences × detector cones; MB = 10⁶ bytes of float64 heights. Reproduce with \
-         `cargo xtask bench` (about 10 minutes) or `cargo xtask bench --quick` (under 2 \
-         minutes, written to `target/benchmarks-quick.md`).\n",
+         incidences × detector cones; MB = 10⁶ bytes of float64 heights. A load average \
+         above the number of cores means other work shared the machine: compare the \
+         `time / floor` column rather than absolute times. Reproduce with \
+         `cargo xtask bench` (about 5 minutes on 2 cores once the benches are built) or \
+         `cargo xtask bench --quick` (under a minute once built, written to \
+         `target/benchmarks-quick.md`).\n",
     );
     s
 }
