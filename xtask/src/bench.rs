@@ -14,9 +14,10 @@
 //! * The median is criterion's `median.point_estimate` (nanoseconds per iteration) from
 //!   `target/criterion/<id>/new/estimates.json`. Throughput is `work / median`.
 //! * The full run writes `docs/benchmarks.md` (the table plus the machine: CPU model,
-//!   cores, memory, rustc, date, commit); `--quick` (criterion's quick mode, at most 2 s
-//!   per bench, no 4096² topographic maps, no rough layer) writes `target/benchmarks-quick.md` instead, so that a
-//!   check before a commit does not touch the committed file.
+//!   cores, memory, load average, rustc, date, commit); `--quick` (criterion's quick
+//!   mode, at most 2 s per bench, no 4096² topographic maps, no rough layer) writes
+//!   `target/benchmarks-quick.md` instead, so that a check before a commit does not
+//!   touch the committed file.
 //! * A benchmark that did not produce an `estimates.json` in this run (bench renamed,
 //!   crate failing to build) shows as "not measured" with the path that was expected;
 //!   the task exits non-zero only when a `cargo bench` command itself failed.
