@@ -729,7 +729,9 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     let opts = parse(args)?;
     let root = crate::workspace_root();
     let target = target_dir(&root);
-    let criterion_dir = target.join("criterion");
+    // Criterion writes under $CRITERION_HOME when set, else <target>/criterion.
+    let criterion_dir = std::env::var_os("CRITERION_HOME")
+        .map_or_else(|| target.join("criterion"), |d| root.join(d));
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
     let start = SystemTime::now();
     let clock = Instant::now();
