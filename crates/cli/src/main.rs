@@ -31,6 +31,8 @@ enum Command {
     Compare(cmd::compare::Args),
     /// Fit the flake orientation distribution (Gaussian width or tabulated) to a measured curve.
     Fit(cmd::fit::Args),
+    /// The paper's Figs. 4, 7, 9, 10 in kind (CSV, SVG, PNG, index.md) from the fixtures and seeded synthetic layers.
+    Reproduce(cmd::reproduce::Args),
     /// Topographic model: ray tracing over confocal height maps, accumulated.
     Topo(cmd::topo::Args),
     /// What a height-map file holds: size, pitch, valid points, height statistics, metadata.
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
         Command::Model(a) => cmd::model::run(a),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Fit(a) => cmd::fit::run(a),
+        Command::Reproduce(a) => cmd::reproduce::run(a),
         Command::Topo(a) => cmd::topo::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Segment(a) => cmd::segment::run(a),

@@ -227,57 +227,64 @@ fn render<DB: DrawingBackend>(
                 .map_err(|e| err(e.to_string()))?;
             for s in &fig.series {
                 let colour = PALETTE[s.colour % PALETTE.len()];
-                let data: Vec<(f64, f64)> = s
-                    .points
-                    .iter()
-                    .copied()
-                    .filter(|&(x, y)| usable(x, y) && (!fig.log_y || y >= y0))
-                    .collect();
+                let keep = |&(x, y): &(f64, f64)| usable(x, y) && (!fig.log_y || y >= y0);
+                // Lines break where a point cannot be drawn (NaN, or ≤ 0 on a log axis):
+                // a gap in the data stays a gap in the plot.
+                let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+                for p in &s.points {
+                    if keep(p) {
+                        runs.last_mut().map(|r| r.push(*p));
+                    } else if runs.last().is_some_and(|r| !r.is_empty()) {
+                        runs.push(Vec::new());
+                    }
+                }
+                let first = std::mem::take(&mut runs[0]);
+                let rest = runs.into_iter().skip(1).filter(|r| !r.is_empty());
                 let labelled = !s.label.is_empty();
                 match s.style {
-                    Style::Line if !labelled => {
-                        chart
-                            .draw_series(LineSeries::new(data, colour.stroke_width(2)))
-                            .map_err(|e| err(e.to_string()))?;
-                    }
-                    Style::Dashed if !labelled => {
-                        chart
-                            .draw_series(DashedLineSeries::new(data, 6, 4, colour.stroke_width(1)))
-                            .map_err(|e| err(e.to_string()))?;
-                    }
-                    Style::Points if !labelled => {
-                        chart
-                            .draw_series(
-                                data.into_iter().map(|p| Circle::new(p, 2, colour.filled())),
-                            )
-                            .map_err(|e| err(e.to_string()))?;
-                    }
                     Style::Line => {
-                        chart
-                            .draw_series(LineSeries::new(data, colour.stroke_width(2)))
-                            .map_err(|e| err(e.to_string()))?
-                            .label(s.label.as_str())
-                            .legend(move |(x, y)| {
+                        let line = |d: Vec<(f64, f64)>| LineSeries::new(d, colour.stroke_width(2));
+                        for run in rest {
+                            chart
+                                .draw_series(line(run))
+                                .map_err(|e| err(e.to_string()))?;
+                        }
+                        let anno = chart
+                            .draw_series(line(first))
+                            .map_err(|e| err(e.to_string()))?;
+                        if labelled {
+                            anno.label(s.label.as_str()).legend(move |(x, y)| {
                                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
                             });
+                        }
                     }
                     Style::Dashed => {
-                        chart
-                            .draw_series(DashedLineSeries::new(data, 6, 4, colour.stroke_width(1)))
-                            .map_err(|e| err(e.to_string()))?
-                            .label(s.label.as_str())
-                            .legend(move |(x, y)| {
+                        let line = |d: Vec<(f64, f64)>| {
+                            DashedLineSeries::new(d, 6, 4, colour.stroke_width(1))
+                        };
+                        for run in rest {
+                            chart
+                                .draw_series(line(run))
+                                .map_err(|e| err(e.to_string()))?;
+                        }
+                        let anno = chart
+                            .draw_series(line(first))
+                            .map_err(|e| err(e.to_string()))?;
+                        if labelled {
+                            anno.label(s.label.as_str()).legend(move |(x, y)| {
                                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(1))
                             });
+                        }
                     }
                     Style::Points => {
-                        chart
-                            .draw_series(
-                                data.into_iter().map(|p| Circle::new(p, 2, colour.filled())),
-                            )
-                            .map_err(|e| err(e.to_string()))?
-                            .label(s.label.as_str())
-                            .legend(move |(x, y)| Circle::new((x + 10, y), 3, colour.filled()));
+                        let data = std::iter::once(first).chain(rest).flatten();
+                        let anno = chart
+                            .draw_series(data.map(|p| Circle::new(p, 2, colour.filled())))
+                            .map_err(|e| err(e.to_string()))?;
+                        if labelled {
+                            anno.label(s.label.as_str())
+                                .legend(move |(x, y)| Circle::new((x + 10, y), 3, colour.filled()));
+                        }
                     }
                 }
             }

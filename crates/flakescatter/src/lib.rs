@@ -70,6 +70,7 @@ pub mod compare;
 pub mod fit;
 pub mod instrument;
 pub mod multiangle;
+pub mod reproduce;
 mod nnls;
 pub mod pipeline;
 

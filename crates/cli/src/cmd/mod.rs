@@ -3,6 +3,7 @@ pub mod compare;
 pub mod fit;
 pub mod info;
 pub mod model;
+pub mod reproduce;
 pub mod segment;
 pub mod stats;
 pub mod synth;
