@@ -3,6 +3,7 @@
 //! what they produce, so that tests can prove the committed files are current.
 
 pub mod bench;
+pub mod figures;
 pub mod fixtures;
 
 use std::path::PathBuf;

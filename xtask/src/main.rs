@@ -9,6 +9,10 @@ const TASKS: &[(&str, &str)] = &[
          (--quick: under 2 min, -> target/benchmarks-quick.md; --report-only: no run)",
     ),
     (
+        "figures",
+        "run `flakescatter reproduce` (the paper's Figs. 4, 7, 9, 10 in kind) into docs/figures",
+    ),
+    (
         "fixtures [--check]",
         "regenerate the synthetic maps in fixtures/ (--check: only verify they are current)",
     ),
@@ -32,6 +36,7 @@ fn main() -> anyhow::Result<()> {
             Ok(())
         }
         Some("bench") => xtask::bench::run(&rest),
+        Some("figures") => xtask::figures::run(&rest),
         Some("fixtures") => xtask::fixtures::run(&rest),
         Some(other) => anyhow::bail!("unknown xtask `{other}`\n\n{}", usage()),
     }
