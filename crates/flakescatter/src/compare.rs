@@ -11,13 +11,13 @@
 use std::fmt;
 use std::str::FromStr;
 
-use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
+use flakescatter_gaussian::ConeMethod;
 use flakescatter_io::measured::MeasuredCurve;
 use flakescatter_optics::detector::Cone;
 use flakescatter_stats::Orientation;
 
 use crate::PipelineError;
-use crate::pipeline::{Coating, Settings};
+use crate::pipeline::{Coating, Settings, distribution_model};
 
 /// Half-width of the specular region, radians (5°).
 pub const SPECULAR_REGION: f64 = 5.0 * std::f64::consts::PI / 180.0;
@@ -145,17 +145,7 @@ pub fn distribution_points(
     theta_i: f64,
     theta_s: &[f64],
 ) -> Result<Vec<ModelPoint>, PipelineError> {
-    let model = DistributionModel::new(
-        orientation.clone(),
-        coating.n,
-        ModelOptions {
-            transmission: settings.transmission,
-            weighting: settings.weighting,
-            flake: coating.flake,
-            clearcoat: settings.clearcoat,
-            exit_fresnel: true,
-        },
-    )?;
+    let model = distribution_model(coating, settings, orientation.clone())?;
     let inc = model.incidence(theta_i)?;
     let cone = |ts: f64| {
         Cone::in_plane(ts, aperture).map_err(|e| PipelineError::Instrument(e.to_string()))

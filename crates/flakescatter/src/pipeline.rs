@@ -115,6 +115,28 @@ pub struct Curves {
     pub source: String,
 }
 
+/// The distribution model for a coating, settings and orientation distribution.
+///
+/// # Errors
+/// [`PipelineError::Model`] for an invalid index or flake index.
+pub fn distribution_model(
+    coating: &Coating,
+    settings: &Settings,
+    orientation: Orientation,
+) -> Result<DistributionModel, PipelineError> {
+    Ok(DistributionModel::new(
+        orientation,
+        coating.n,
+        ModelOptions {
+            transmission: settings.transmission,
+            weighting: settings.weighting,
+            flake: coating.flake,
+            clearcoat: settings.clearcoat,
+            exit_fresnel: true,
+        },
+    )?)
+}
+
 /// The distribution model (physics.md §4) for `source` seen by `instrument`.
 ///
 /// # Errors
@@ -128,18 +150,7 @@ pub fn distribution_curves(
 ) -> Result<Curves, PipelineError> {
     let orientation = source.orientation()?;
     let description = describe(&orientation);
-    let model = DistributionModel::new(
-        orientation,
-        coating.n,
-        ModelOptions {
-            transmission: settings.transmission,
-            weighting: settings.weighting,
-            flake: coating.flake,
-            clearcoat: settings.clearcoat,
-            exit_fresnel: true,
-        },
-    )
-    .map_err(PipelineError::Model)?;
+    let model = distribution_model(coating, settings, orientation)?;
     let points = flakescatter_gaussian::curve(
         &model,
         instrument.theta_i(),

@@ -42,6 +42,18 @@ fn scale_breaks(hi: f64) -> Vec<f64> {
     v
 }
 
+/// Inner adaptive integral over `[0, hi]` with break points.
+fn inner_integral(f: impl FnMut(f64) -> f64, hi: f64, breaks: &[f64]) -> f64 {
+    adaptive(f, 0.0, hi, breaks, 1e-300, INNER_REL, INNER_PANELS).0
+}
+
+/// Outer integral over the azimuth `[0, π]`, doubled for the mirror half `[π, 2π]`
+/// (`y → −y` symmetry); `(value, error)`.
+fn over_both_halves(f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    let (val, err) = adaptive(f, 0.0, PI, &[FRAC_PI_2], 1e-300, OUTER_REL, OUTER_PANELS);
+    (2.0 * val, 2.0 * err)
+}
+
 /// The hemispherical total in detector space, with its error estimate (fraction of the
 /// incident beam; the clear coat is not included).
 #[must_use]
@@ -59,27 +71,9 @@ pub fn total_detector_space(model: &DistributionModel, inc: &Incidence) -> (f64,
             let r = a * cb + side * sb;
             model.brdf(inc, &r) * r.z.max(0.0) * sb
         };
-        adaptive(
-            inner,
-            0.0,
-            horizon,
-            &scale_breaks(horizon),
-            1e-300,
-            INNER_REL,
-            INNER_PANELS,
-        )
-        .0
+        inner_integral(inner, horizon, &scale_breaks(horizon))
     };
-    let (val, err) = adaptive(
-        outer,
-        0.0,
-        PI,
-        &[FRAC_PI_2],
-        1e-300,
-        OUTER_REL,
-        OUTER_PANELS,
-    );
-    (2.0 * val, 2.0 * err)
+    over_both_halves(outer)
 }
 
 /// Normal-space integrals at one incidence (fractions of the beam, or dimensionless
@@ -191,29 +185,12 @@ pub fn totals_normal_space(model: &DistributionModel, inc: &Incidence) -> Normal
                     _ => 0.0,
                 }
             };
-            adaptive(
-                inner,
-                0.0,
-                theta_max,
-                &breaks,
-                1e-300,
-                INNER_REL,
-                INNER_PANELS,
-            )
-            .0
+            inner_integral(inner, theta_max, &breaks)
         };
-        let (val, err) = adaptive(
-            outer,
-            0.0,
-            PI,
-            &[FRAC_PI_2],
-            1e-300,
-            OUTER_REL,
-            OUTER_PANELS,
-        );
-        results[slot] = 2.0 * val;
+        let (val, err) = over_both_halves(outer);
+        results[slot] = val;
         if slot == 0 {
-            results[4] = 2.0 * err;
+            results[4] = err;
         }
     }
     NormalSpaceTotals {

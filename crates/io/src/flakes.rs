@@ -411,6 +411,22 @@ pub fn write_histogram(
     file: &str,
     hist: &AreaHistogram,
 ) -> Result<(), FlakeTableError> {
+    write_histogram_bins(writer, file, hist.edges(), hist.area_fractions())
+}
+
+/// Writes any binned distribution in the histogram CSV format of [`write_histogram`]:
+/// `edges_rad` (`n + 1` increasing edges, radians) and `n` area fractions; per bin
+/// `p_per_rad = fraction / Δθ` and `p_tilde = fraction / (cos θlo − cos θhi)` (the exact
+/// solid-angle normalisation, `Σ p̃ (cos θlo − cos θhi) = Σ fraction`).
+///
+/// # Errors
+/// [`FlakeTableError::Io`] if writing fails; `file` names the destination.
+pub fn write_histogram_bins(
+    writer: impl Write,
+    file: &str,
+    edges_rad: &[f64],
+    area_fractions: &[f64],
+) -> Result<(), FlakeTableError> {
     let mut w = csv::Writer::from_writer(writer);
     w.write_record([
         "theta_lo_deg",
@@ -420,13 +436,13 @@ pub fn write_histogram(
         "p_tilde",
     ])
     .map_err(|e| csv_err(file, e))?;
-    for b in hist.bins() {
+    for (e, f) in edges_rad.windows(2).zip(area_fractions) {
         w.write_record([
-            b.theta_lo.to_degrees().to_string(),
-            b.theta_hi.to_degrees().to_string(),
-            b.area_fraction.to_string(),
-            b.p_per_rad.to_string(),
-            b.p_tilde.to_string(),
+            e[0].to_degrees().to_string(),
+            e[1].to_degrees().to_string(),
+            f.to_string(),
+            (f / (e[1] - e[0])).to_string(),
+            (f / (e[0].cos() - e[1].cos())).to_string(),
         ])
         .map_err(|e| csv_err(file, e))?;
     }
