@@ -131,12 +131,16 @@ pub struct SyntheticMeasurement {
     pub topo: TopoResult,
     /// Visible flakes over all layers (from the generator's truth).
     pub visible_flakes: usize,
+    /// Detectors left out of `curve` because no ray reached them (a zero is below any
+    /// real instrument's noise floor and cannot be compared on a log scale).
+    pub dropped_points: usize,
 }
 
 /// Generates the layers of `sample` (masked with the intensity midpoint, as a confocal
 /// user would), runs the topographic model for `instrument` (in-plane detectors), and
 /// multiplies every BRDF by `1 + rel_sd · N(0, 1)` with the noise drawn by
-/// [`gaussian_noise`] from `noise_seed`. `progress(stage)` is told what is being done.
+/// [`gaussian_noise`] from `noise_seed`. Detectors that no ray reached are left out of
+/// the curve (counted in `dropped_points`). `progress(stage)` is told what is being done.
 ///
 /// # Errors
 /// [`ReproduceError`] for invalid parameters or a failing model.
@@ -205,7 +209,9 @@ pub fn synthetic_measurement(
             uncertainty: Some(r.brdf * rel_sd),
             line: k as u64 + 2,
         })
-        .collect();
+        .filter(|p| p.value > 0.0)
+        .collect::<Vec<_>>();
+    let dropped_points = clean.rows.len() - points.len();
     Ok(SyntheticMeasurement {
         curve: MeasuredCurve {
             file: "synthetic measured curve (topographic model on rough synthetic layers)".into(),
@@ -214,6 +220,7 @@ pub fn synthetic_measurement(
         clean,
         topo,
         visible_flakes,
+        dropped_points,
     })
 }
 
@@ -293,7 +300,7 @@ mod tests {
             &|_| {},
         )
         .unwrap();
-        assert_eq!(m.curve.points.len(), ts.len());
+        assert_eq!(m.curve.points.len() + m.dropped_points, ts.len());
         assert!(m.visible_flakes > 0);
         // The specular detector (θs = −30°) collects the clear coat's own reflection,
         // R_av(30°) for n = 1.5: Rs = 0.057796, Rp = 0.025249 (Fresnel), mean 0.041523. As
@@ -314,9 +321,7 @@ mod tests {
             .curve
             .points
             .iter()
-            .zip(&m.clean.rows)
-            .filter(|(_, r)| r.brdf > 0.0)
-            .map(|(p, r)| p.value / r.brdf)
+            .map(|p| p.value / m.clean.rows[p.line as usize - 2].brdf)
             .collect();
         let n = ratios.len() as f64;
         let mean = ratios.iter().sum::<f64>() / n;

@@ -129,7 +129,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
          (flake hwhm {hwhm}°, roughness rms {rr} µm with correlation length {rc} µm, z step \
          {zs} µm, height noise {hn} µm, seeds {s0}–{s1}, intensity cutoff at the midpoint \
          0.49): {flakes} visible flakes, {usable} usable pixels of {pixels}; then each BRDF \
-         × (1 + {NOISE} · N(0,1)), noise seed {NOISE_SEED}",
+         × (1 + {NOISE} · N(0,1)), noise seed {NOISE_SEED}; {dropped} detectors that no \
+         ray reached left out",
         maps = sample.maps,
         size = sample.size,
         pitch = sample.pitch_um,
@@ -143,6 +144,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         flakes = m.visible_flakes,
         usable = m.topo.usable_pixels,
         pixels = m.topo.pixels,
+        dropped = m.dropped_points,
     );
     index.measured = measured_desc.clone();
 
