@@ -17,7 +17,8 @@
 //!   cores, memory, load average, rustc, date, commit); `--quick` (criterion's quick
 //!   mode, at most 2 s per bench, no 4096² topographic maps, no rough layer) writes
 //!   `target/benchmarks-quick.md` instead, so that a check before a commit does not
-//!   touch the committed file.
+//!   touch the committed file. `--report-only` runs nothing and only prints the table
+//!   of what `target/criterion` holds.
 //! * A benchmark that did not produce an `estimates.json` in this run (bench renamed,
 //!   crate failing to build) shows as "not measured" with the path that was expected;
 //!   the task exits non-zero only when a `cargo bench` command itself failed.
@@ -755,15 +756,30 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         root.join("docs").join("benchmarks.md")
     };
     println!("{}", render_table(&rows));
-    if let Some(dir) = out.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for row in rows.iter().filter(|r| r.met() == Some(false)) {
+        if let Ok(t) = row.median_s {
+            eprintln!(
+                "xtask bench: target not met: {} {}: {} ({})",
+                row.spec.operation,
+                row.spec.size,
+                format_time(t),
+                row.spec.target_note
+            );
+        }
     }
-    std::fs::write(&out, doc).with_context(|| format!("cannot write {}", out.display()))?;
-    eprintln!(
-        "xtask bench: wrote {} ({:.0} s in all)",
-        out.display(),
-        clock.elapsed().as_secs_f64()
-    );
+    // Without a run the machine's date and load would not describe the numbers: print only.
+    if !opts.report_only {
+        if let Some(dir) = out.parent() {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+        }
+        std::fs::write(&out, doc).with_context(|| format!("cannot write {}", out.display()))?;
+        eprintln!(
+            "xtask bench: wrote {} ({:.0} s in all)",
+            out.display(),
+            clock.elapsed().as_secs_f64()
+        );
+    }
     if !failed.is_empty() {
         bail!("benches failed: {}", failed.join(", "));
     }

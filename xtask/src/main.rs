@@ -6,7 +6,8 @@ const TASKS: &[(&str, &str)] = &[
     (
         "bench [--quick]",
         "run the criterion benches; table vs targets and floors -> docs/benchmarks.md \
-         (--quick: under 2 min, -> target/benchmarks-quick.md; --report-only: no run)",
+         (--quick: under 2 min, -> target/benchmarks-quick.md; --report-only: print the \
+         last results, run nothing)",
     ),
     (
         "figures",

@@ -64,6 +64,7 @@ fn medians_are_read_from_median_point_estimate_in_seconds() {
     // 2.5e6 ns = 2.5 ms (the mean was written as 7.5 ms).
     let t = read_median(&dir, "grp/fn/1024", None).unwrap();
     assert!((t - 2.5e-3).abs() < 1e-15, "{t}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -113,6 +114,7 @@ fn missing_invalid_and_stale_estimates_give_messages_naming_the_file() {
     assert!(err.contains("earlier run"), "{err}");
     // Without `since` (report only) it is accepted: 1000 ns = 1 µs.
     assert!((read_median(&dir, "old/fn", None).unwrap() - 1e-6).abs() < 1e-18);
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -220,6 +222,7 @@ fn rows_pair_floors_compute_throughput_and_decide_targets() {
     assert!(doc.contains("* CPU: Test CPU @ 1 GHz"));
     assert!(doc.contains("**Quick run**"));
     assert!(doc.contains(lines[3]));
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
