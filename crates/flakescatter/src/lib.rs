@@ -70,9 +70,9 @@ pub mod compare;
 pub mod fit;
 pub mod instrument;
 pub mod multiangle;
-pub mod reproduce;
 mod nnls;
 pub mod pipeline;
+pub mod reproduce;
 
 pub use flakescatter_gaussian as gaussian;
 pub use flakescatter_io as io;

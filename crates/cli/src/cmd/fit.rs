@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::compare::{FAR_REGION, SPECULAR_REGION};
 use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
+use flakescatter::io::flakes::write_histogram_bins;
 use serde_json::json;
 
 use crate::cmd::compare::{MeasuredArgs, model_inputs};
@@ -117,43 +118,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let est = fit_nonparametric(&measured, &setup, &edges, args.lambda)
             .with_context(|| format!("non-parametric fit of {}", measured.file))?;
         if let Some(path) = &args.out {
-            // The histogram CSV of `stats` (p per radian = fraction/Δθ, p~ =
-            // fraction/(cos lo − cos hi)), which `model --orientation table` reads.
-            let mut w = csv::Writer::from_writer(open_out(path)?);
-            let fail = |e: csv::Error| {
-                anyhow::Error::new(crate::common::Failure(format!(
-                    "writing --out {}: {e}",
-                    path.display()
-                )))
-            };
-            w.write_record([
-                "theta_lo_deg",
-                "theta_hi_deg",
-                "area_fraction",
-                "p_per_rad",
-                "p_tilde",
-            ])
-            .map_err(fail)?;
-            for (e, (f, p)) in est
-                .edges
-                .windows(2)
-                .zip(est.area_fractions.iter().zip(&est.p_tilde))
-            {
-                w.write_record([
-                    format!("{}", (e[0].to_degrees() * 1e9).round() / 1e9),
-                    format!("{}", (e[1].to_degrees() * 1e9).round() / 1e9),
-                    format!("{f:.9e}"),
-                    format!("{:.9e}", f / (e[1] - e[0])),
-                    format!("{p:.9e}"),
-                ])
-                .map_err(fail)?;
-            }
-            w.flush().map_err(|e| {
-                anyhow::Error::new(crate::common::Failure(format!(
-                    "writing --out {}: {e}",
-                    path.display()
-                )))
-            })?;
+            // The histogram CSV of `stats`, which `model --orientation table` reads.
+            write_histogram_bins(
+                open_out(path)?,
+                &path.display().to_string(),
+                &est.edges,
+                &est.area_fractions,
+            )
+            .map_err(|e| anyhow::Error::new(crate::common::Failure(e.to_string())))?;
         }
         if args.json {
             let summary = json!({

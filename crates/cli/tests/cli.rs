@@ -1,0 +1,51 @@
+//! The binary's own surface: --help, --version, usage errors (exit status 2).
+
+use std::process::Command;
+
+fn run(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn help_lists_the_subcommands_of_the_contract() {
+    let (code, out, _) = run(&["--help"]);
+    assert_eq!(code, 0);
+    for sub in [
+        "model", "topo", "compare", "fit", "stats", "segment", "info", "synth",
+    ] {
+        assert!(
+            out.lines().any(|l| l.trim_start().starts_with(sub)),
+            "--help lacks `{sub}`:\n{out}"
+        );
+    }
+}
+
+#[test]
+fn version_is_the_package_version() {
+    let (code, out, _) = run(&["--version"]);
+    assert_eq!(code, 0);
+    assert_eq!(
+        out.trim(),
+        format!("flakescatter {}", env!("CARGO_PKG_VERSION"))
+    );
+}
+
+#[test]
+fn usage_errors_exit_2_with_a_message() {
+    for args in [&["frobnicate"][..], &["model", "--no-such-flag"], &[]] {
+        let (code, _, err) = run(args);
+        assert_eq!(code, 2, "{args:?}");
+        assert!(
+            err.contains("Usage") || err.contains("error"),
+            "{args:?}: {err}"
+        );
+    }
+}
