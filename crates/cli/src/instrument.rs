@@ -365,6 +365,34 @@ fn fail(e: csv::Error) -> anyhow::Error {
     anyhow::Error::new(Failure(format!("writing CSV: {e}")))
 }
 
+/// Whether a subcommand's table goes to stdout: `--out -`, or no `--out` and no
+/// `--json`. Both the table and the JSON summary on stdout is a usage error.
+pub fn table_to_stdout(out: Option<&Path>, json: bool) -> anyhow::Result<bool> {
+    let to_stdout = match out {
+        Some(p) => p.as_os_str() == "-",
+        None => !json,
+    };
+    if to_stdout && json {
+        bail!("--out - and --json both write to stdout: give --out a file name");
+    }
+    Ok(to_stdout)
+}
+
+/// The writer for a subcommand's table and its name for messages: stdout when
+/// `to_stdout` (from [`table_to_stdout`]), else the `--out` file, else none.
+pub fn table_writer(
+    out: Option<&Path>,
+    to_stdout: bool,
+) -> anyhow::Result<Option<(Box<dyn Write>, String)>> {
+    if to_stdout {
+        return Ok(Some((Box::new(std::io::stdout().lock()), "stdout".into())));
+    }
+    match out {
+        Some(path) => Ok(Some((open_out(path)?, path.display().to_string()))),
+        None => Ok(None),
+    }
+}
+
 /// Open `--out` (`-` = stdout) for writing; failures are not the user's fault (exit 1).
 pub fn open_out(path: &Path) -> anyhow::Result<Box<dyn Write>> {
     if path.as_os_str() == "-" {

@@ -10,7 +10,10 @@ use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::{OrientationSource, distribution_curves};
 use serde_json::json;
 
-use crate::instrument::{InstrumentArgs, open_out, rows_json, units_json, write_curves_csv};
+use crate::instrument::{
+    InstrumentArgs, open_out, rows_json, table_to_stdout, table_writer, units_json,
+    write_curves_csv,
+};
 use crate::plot::{Figure, Series, Style, draw};
 
 /// Where the flake orientation distribution comes from.
@@ -146,13 +149,7 @@ pub fn orientation_from(
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let to_stdout = match &args.out {
-        Some(p) => p.as_os_str() == "-",
-        None => !args.json,
-    };
-    if to_stdout && args.json {
-        bail!("--out - and --json both write to stdout: give --out a file name");
-    }
+    let to_stdout = table_to_stdout(args.out.as_deref(), args.json)?;
     let coating = args.instrument.coating()?;
     let instrument = args.instrument.instrument()?;
     let mut settings = args.instrument.settings();
@@ -167,10 +164,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let curves = distribution_curves(&coating, &instrument, &settings, &source)?;
 
-    if to_stdout {
-        write_curves_csv(&mut std::io::stdout().lock(), &curves, false)?;
-    } else if let Some(path) = &args.out {
-        write_curves_csv(&mut open_out(path)?, &curves, false)?;
+    if let Some((mut w, _)) = table_writer(args.out.as_deref(), to_stdout)? {
+        write_curves_csv(&mut w, &curves, false)?;
     }
     if let Some(path) = &args.plot {
         draw(path, &figure(&curves, &orientation))?;

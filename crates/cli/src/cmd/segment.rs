@@ -15,6 +15,7 @@ use serde_json::json;
 
 use crate::cmd::info::MapArgs;
 use crate::common::Failure;
+use crate::instrument::{table_to_stdout, table_writer};
 
 /// Columns of the flake table written by `segment` (the first eight are the flake-table
 /// "normals" set with centre and angles, readable by `stats --flakes`).
@@ -179,28 +180,10 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let to_stdout = match &args.out {
-        Some(p) => p.as_os_str() == "-",
-        None => !args.json,
-    };
-    if to_stdout && args.json {
-        bail!("--out - and --json both write to stdout: give --out a file name");
-    }
+    let to_stdout = table_to_stdout(args.out.as_deref(), args.json)?;
     let (map, seg) = segment_file(&args.map, &args.segment)?;
-    if to_stdout {
-        write_table(std::io::stdout().lock(), "stdout", &seg.flakes)?;
-    } else if let Some(path) = &args.out {
-        let file = std::fs::File::create(path).map_err(|e| {
-            anyhow::Error::new(Failure(format!(
-                "cannot write --out {}: {e}",
-                path.display()
-            )))
-        })?;
-        write_table(
-            std::io::BufWriter::new(file),
-            &path.display().to_string(),
-            &seg.flakes,
-        )?;
+    if let Some((w, name)) = table_writer(args.out.as_deref(), to_stdout)? {
+        write_table(w, &name, &seg.flakes)?;
     }
     if args.json {
         let s = &args.segment;

@@ -10,6 +10,7 @@ use flakescatter::stats::histogram::AreaHistogram;
 
 use crate::cmd::segment::{SegmentArgs, segment_file, write_table};
 use crate::common::Failure;
+use crate::instrument::{open_out, table_to_stdout, table_writer};
 
 /// Orientation statistics of a flake table (--flakes) or of the flakes segmented from a
 /// height map (--map, as `flakescatter segment`): writes the area-weighted histogram of the
@@ -63,13 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.bin
         );
     }
-    let to_stdout = match &args.out {
-        Some(p) => p.as_os_str() == "-",
-        None => !args.json,
-    };
-    if to_stdout && args.json {
-        bail!("--out - and --json both write to stdout: give --out a file name");
-    }
+    let to_stdout = table_to_stdout(args.out.as_deref(), args.json)?;
     let (flakes, source, column_set) = match (&args.flakes, &args.map) {
         (Some(path), _) => {
             let table = read_flakes(path)
@@ -79,17 +74,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, Some(map)) => {
             let (_, seg) = segment_file(map, &args.segment)?;
             if let Some(out) = &args.flakes_out {
-                let file = std::fs::File::create(out).map_err(|e| {
-                    anyhow::Error::new(Failure(format!(
-                        "cannot write --flakes-out {}: {e}",
-                        out.display()
-                    )))
-                })?;
-                write_table(
-                    std::io::BufWriter::new(file),
-                    &out.display().to_string(),
-                    &seg.flakes,
-                )?;
+                write_table(open_out(out)?, &out.display().to_string(), &seg.flakes)?;
             }
             if seg.flakes.is_empty() {
                 bail!(
@@ -108,23 +93,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let fit = fit_gaussian_ml(&samples)
         .with_context(|| format!("fitting a Gaussian to {}", source.display()));
 
-    if to_stdout {
-        let stdout = std::io::stdout();
-        write_histogram(stdout.lock(), "stdout", &hist)
-            .map_err(|e| anyhow::Error::new(Failure(e.to_string())))?;
-    } else if let Some(path) = &args.out {
-        let file = std::fs::File::create(path).map_err(|e| {
-            anyhow::Error::new(Failure(format!(
-                "cannot write --out {}: {e}",
-                path.display()
-            )))
-        })?;
-        write_histogram(
-            std::io::BufWriter::new(file),
-            &path.display().to_string(),
-            &hist,
-        )
-        .map_err(|e| anyhow::Error::new(Failure(e.to_string())))?;
+    if let Some((w, name)) = table_writer(args.out.as_deref(), to_stdout)? {
+        write_histogram(w, &name, &hist).map_err(|e| anyhow::Error::new(Failure(e.to_string())))?;
     }
 
     if args.json {

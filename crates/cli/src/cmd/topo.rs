@@ -12,7 +12,9 @@ use flakescatter::{Curves, TopoSettings, topographic_curves};
 use serde_json::{Value, json};
 
 use crate::cmd::info::MapArgs;
-use crate::instrument::{InstrumentArgs, open_out, rows_json, units_json, write_curves_csv};
+use crate::instrument::{
+    InstrumentArgs, rows_json, table_to_stdout, table_writer, units_json, write_curves_csv,
+};
 use crate::plot::{Figure, Series, Style, draw};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
@@ -112,13 +114,7 @@ fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let to_stdout = match &args.out {
-        Some(p) => p.as_os_str() == "-",
-        None => !args.json,
-    };
-    if to_stdout && args.json {
-        bail!("--out - and --json both write to stdout: give --out a file name");
-    }
+    let to_stdout = table_to_stdout(args.out.as_deref(), args.json)?;
     let coating = args.instrument.coating()?;
     let instrument = args.instrument.instrument()?;
     let settings = args.instrument.settings();
@@ -163,10 +159,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    if to_stdout {
-        write_curves_csv(&mut std::io::stdout().lock(), &curves, true)?;
-    } else if let Some(path) = &args.out {
-        write_curves_csv(&mut open_out(path)?, &curves, true)?;
+    if let Some((mut w, _)) = table_writer(args.out.as_deref(), to_stdout)? {
+        write_curves_csv(&mut w, &curves, true)?;
     }
     if let Some(path) = &args.plot {
         draw(path, &figure(&curves))?;
