@@ -231,9 +231,9 @@ fn read_detectors(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
         );
     };
     let mut out = Vec::new();
-    for (k, rec) in rdr.records().enumerate() {
-        let line = k + 2;
-        let rec = rec.with_context(|| format!("--detectors {name}, line {line}"))?;
+    for rec in rdr.records() {
+        let rec = rec.with_context(|| format!("--detectors {name}"))?;
+        let line = rec.position().map_or(0, |p| p.line());
         let get = |c: usize, what: &str| -> anyhow::Result<f64> {
             let s = rec.get(c).unwrap_or("");
             let v: f64 = s.parse().map_err(|_| {
@@ -300,7 +300,12 @@ pub fn write_curves_csv(
             row.reflectance
                 .map(|r| format!("{r:.9e}"))
                 .unwrap_or_default(),
-            format!("{:.9e}", row.relative),
+            // Undefined (the specular detector collects nothing): an empty cell.
+            if row.relative.is_finite() {
+                format!("{:.9e}", row.relative)
+            } else {
+                String::new()
+            },
         ];
         if topo_columns {
             rec.push(row.rays.map(|r| r.to_string()).unwrap_or_default());
@@ -311,6 +316,21 @@ pub fn write_curves_csv(
     w.flush()
         .map_err(|e| anyhow::Error::new(Failure(format!("writing CSV: {e}"))))?;
     Ok(())
+}
+
+/// Warn on stderr for each incidence whose `relative` values are undefined because the
+/// same-aperture detector at the specular direction collects nothing.
+pub fn warn_undefined_relative(curves: &Curves) {
+    let mut seen: Vec<f64> = Vec::new();
+    for row in curves.rows.iter().filter(|r| !r.relative.is_finite()) {
+        if !seen.contains(&row.theta_i) {
+            seen.push(row.theta_i);
+            eprintln!(
+                "warning: theta_i {}°: the detector at the specular direction collects nothing, so `relative` is undefined (empty in the CSV, null in JSON)",
+                round(row.theta_i.to_degrees())
+            );
+        }
+    }
 }
 
 /// Rows as JSON objects with unit-suffixed keys.

@@ -251,3 +251,47 @@ fn multi_angle_readout() {
     let (code, _, err) = run(&["model", "--multi-angle", "--aperture", "0"]);
     assert_eq!(code, 2, "{err}");
 }
+
+#[test]
+fn undefined_relative_is_an_empty_cell_with_a_warning() {
+    // Flakes tilted 2°–3° only: the specular detector (1.5° cone) sees none of them, so
+    // `relative` has no reference.
+    let dir = tmp("relative");
+    let hist = dir.join("h.csv");
+    std::fs::write(&hist, "theta_lo_deg,theta_hi_deg,area_fraction\n2,3,1\n").unwrap();
+    let (code, out, err) = run(&[
+        "model",
+        "--orientation",
+        "table",
+        "--distribution",
+        hist.to_str().unwrap(),
+        "--theta-i",
+        "30",
+        "--theta-s",
+        "-36",
+        "--aperture",
+        "0.5",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("relative") && err.contains("undefined"),
+        "{err}"
+    );
+    let row = out.lines().nth(1).unwrap();
+    assert!(row.ends_with(','), "{row}");
+    // Both CSV and JSON on stdout is a usage error for compare and fit too.
+    let m = measured_from_model(&dir, "6", 1.0);
+    for cmd in ["compare", "fit"] {
+        let (code, _, err) = run(&[
+            cmd,
+            "--measured",
+            m.to_str().unwrap(),
+            "--out",
+            "-",
+            "--json",
+            "--nonparametric",
+        ][..if cmd == "fit" { 7 } else { 6 }]);
+        assert_eq!(code, 2, "{cmd}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -115,11 +115,28 @@ impl Region {
 pub struct ModelPoint {
     /// Cone-averaged BRDF, sr⁻¹.
     pub brdf: f64,
-    /// Collected power relative to the same detector at the specular direction.
+    /// Collected power relative to the same detector at the specular direction (NaN
+    /// when that detector collects nothing).
     pub relative: f64,
+    /// Collected power per steradian of aperture, not normalised (`ρ / ΔΩ`; for a point
+    /// detector `f cos θ`): what `relative` divides by its specular value.
+    pub power: f64,
 }
 
 impl ModelPoint {
+    /// The model point of a curve row computed with detectors of half-angle `aperture`
+    /// (radians): `power = reflectance / ΔΩ`, `ΔΩ = 2π(1 − cos α)`; NaN for a point
+    /// detector, whose row has no reflectance.
+    #[must_use]
+    pub fn from_row(brdf: f64, relative: f64, reflectance: Option<f64>, aperture: f64) -> Self {
+        let solid = 4.0 * std::f64::consts::PI * (0.5 * aperture).sin().powi(2);
+        Self {
+            brdf,
+            relative,
+            power: reflectance.map_or(f64::NAN, |r| r / solid),
+        }
+    }
+
     /// The model value in the unit of a measurement of kind `kind` (a reflectance factor
     /// is `π × BRDF`).
     #[must_use]
@@ -167,6 +184,7 @@ pub fn distribution_points(
                 } else {
                     f64::NAN
                 },
+                power: c.power_per_sr,
             })
         })
         .collect()
@@ -188,7 +206,8 @@ pub struct ComparedPoint {
     pub measured: f64,
     /// Model value in the same unit, times the fitted scale.
     pub model: f64,
-    /// `log10(measured) − log10(model)`.
+    /// `log10(measured) − log10(model)`; NaN where the model is zero (such points are
+    /// counted in [`RegionSummary::no_model`] and left out of the statistics).
     pub residual: f64,
     /// Region of the point.
     pub region: Region,
@@ -199,8 +218,10 @@ pub struct ComparedPoint {
 pub struct RegionSummary {
     /// The region.
     pub region: Region,
-    /// Number of points.
+    /// Number of points in the statistics.
     pub points: usize,
+    /// Points left out because the model is zero (or undefined) there.
+    pub no_model: usize,
     /// Root mean square of the log10 residuals (`None` without points).
     pub rms_log10: Option<f64>,
     /// Mean of the log10 residuals (`None` without points).
@@ -293,7 +314,7 @@ pub fn compare(
                     residual: if mv > 0.0 {
                         y.log10() - mv.log10()
                     } else {
-                        f64::INFINITY
+                        f64::NAN
                     },
                     region: Region::of(ti, ts),
                 }
@@ -302,15 +323,17 @@ pub fn compare(
         let regions = Region::ALL
             .iter()
             .map(|&region| {
-                let r: Vec<f64> = points
+                let all: Vec<f64> = points
                     .iter()
                     .filter(|p| p.region == region)
                     .map(|p| p.residual)
                     .collect();
+                let r: Vec<f64> = all.iter().copied().filter(|x| x.is_finite()).collect();
                 let n = r.len();
                 RegionSummary {
                     region,
                     points: n,
+                    no_model: all.len() - n,
                     rms_log10: (n > 0)
                         .then(|| (r.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt()),
                     mean_log10: (n > 0).then(|| r.iter().sum::<f64>() / n as f64),

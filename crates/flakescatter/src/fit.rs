@@ -16,7 +16,7 @@ use flakescatter_stats::{GaussianWidth, Orientation};
 use nalgebra::{DMatrix, DVector};
 
 use crate::PipelineError;
-use crate::compare::{MeasuredKind, distribution_points};
+use crate::compare::{MeasuredKind, ModelPoint, distribution_points};
 use crate::nnls::nnls;
 use crate::pipeline::{Coating, Settings};
 
@@ -67,6 +67,12 @@ fn select(
     measured: &MeasuredCurve,
     setup: &FitSetup,
 ) -> Result<(Vec<Used>, Vec<f64>, bool), PipelineError> {
+    if setup.common_scale && setup.kind == MeasuredKind::Relative {
+        return Err(PipelineError::Measurement(format!(
+            "{}: relative values are normalised per incidence; a common scale needs brdf or reflectance-factor data",
+            measured.file
+        )));
+    }
     let incidences = measured.incidences();
     let mut used = Vec::new();
     let mut have_u = true;
@@ -101,6 +107,16 @@ fn select(
             group,
         });
     }
+    // Only incidences with points in the region get a scale (and count as parameters).
+    let incidences: Vec<f64> = incidences
+        .into_iter()
+        .filter(|&t| used.iter().any(|u| u.theta_i == t))
+        .collect();
+    for u in &mut used {
+        if !setup.common_scale {
+            u.group = incidences.iter().position(|&t| t == u.theta_i).unwrap_or(0);
+        }
+    }
     if used.is_empty() {
         return Err(PipelineError::Measurement(format!(
             "{}: no measured point between {:.1}° and {:.1}° from specular; widen the fit region or measure there",
@@ -120,6 +136,7 @@ fn model_values(
     setup: &FitSetup,
     orientation: &Orientation,
     n: f64,
+    pick: &dyn Fn(&ModelPoint) -> f64,
 ) -> Result<Vec<f64>, PipelineError> {
     let coating = Coating { n, ..setup.coating };
     let mut out = vec![0.0; used.len()];
@@ -138,7 +155,7 @@ fn model_values(
             &ts,
         )?;
         for (k, p) in idx.iter().zip(pts) {
-            out[*k] = p.in_kind(setup.kind);
+            out[*k] = pick(&p);
         }
     }
     Ok(out)
@@ -236,7 +253,7 @@ pub fn fit_gaussian(
         let o = Orientation::gaussian(GaussianWidth::Hwhm(q[0].exp()))
             .map_err(|e| PipelineError::Fit(e.to_string()))?;
         let n = if fit_n { q[1] } else { setup.coating.n };
-        let m = model_values(&used, &incidences, setup, &o, n)?;
+        let m = model_values(&used, &incidences, setup, &o, n, &|p| p.in_kind(setup.kind))?;
         Ok(residuals(&used, &m, groups))
     };
     let mut q = vec![hwhm_start.max(1e-4).ln()];
@@ -263,13 +280,17 @@ pub fn fit_gaussian(
             let (mut qp, mut qm) = (q.clone(), q.clone());
             qp[j] += h;
             qm[j] -= h;
+            // One-sided at a bound: keep both points inside the allowed range.
+            clamp(&mut qp);
+            clamp(&mut qm);
+            let h2 = qp[j] - qm[j];
             let (Some((rp, _)), Some((rm, _))) = (eval(&qp)?, eval(&qm)?) else {
                 return Err(PipelineError::Fit(
                     "the model vanished at a fitted point while differentiating".into(),
                 ));
             };
             for k in 0..used.len() {
-                jac[(k, j)] = (rp[k] - rm[k]) / (2.0 * h);
+                jac[(k, j)] = (rp[k] - rm[k]) / h2;
             }
         }
         let jt = jac.transpose();
@@ -410,13 +431,29 @@ pub fn fit_nonparametric(
     };
     // Column b: the model for all flakes in bin b, times that bin's ⟨cos θn⟩, so that a
     // mixture with masses μ_b and scale s is Σ_b x_b A_b with x_b = s μ_b / ⟨cos⟩.
+    // Columns must be linear in the bin masses: no clear-coat term (a constant in the
+    // specular cone), and for relative data the un-normalised collected power (each
+    // column's own specular value is not the mixture's; the per-incidence scale absorbs
+    // the normalisation).
+    let columns = FitSetup {
+        settings: Settings {
+            clearcoat: false,
+            ..setup.settings
+        },
+        ..*setup
+    };
+    let kind = setup.kind;
+    let pick = move |p: &ModelPoint| match kind {
+        MeasuredKind::Relative => p.power,
+        other => p.in_kind(other),
+    };
     let mut a = DMatrix::<f64>::zeros(used.len(), nb);
     for b in 0..nb {
         let mut mass = vec![0.0; nb];
         mass[b] = 1.0;
         let o = Orientation::tabulated(edges.to_vec(), mass)
             .map_err(|e| PipelineError::Fit(e.to_string()))?;
-        let col = model_values(&used, &incidences, setup, &o, setup.coating.n)?;
+        let col = model_values(&used, &incidences, &columns, &o, setup.coating.n, &pick)?;
         for (k, v) in col.iter().enumerate() {
             a[(k, b)] = v * o.mean_cos();
         }

@@ -71,6 +71,11 @@ pub enum ModelError {
     /// Nothing to compute.
     #[error("{0} list is empty")]
     Empty(&'static str),
+    /// The flat (delta) distribution has no density to integrate.
+    #[error(
+        "all flakes flat (a delta distribution): the reflectance is a delta at the specular direction; use a Gaussian of small width instead"
+    )]
+    Delta,
 }
 
 /// One row of a reflectance curve: one incidence × one detector.

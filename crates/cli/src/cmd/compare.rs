@@ -105,19 +105,33 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
             )
         })?;
     }
+    let col = |want: &str| headers.iter().position(|h| h == want);
+    let (phi_col, refl_col) = (col("phi_s_deg"), col("reflectance"));
     let mut out = Vec::new();
-    for (k, rec) in rdr.records().enumerate() {
-        let line = k + 2;
-        let rec = rec.with_context(|| format!("--model {name}, line {line}"))?;
+    for rec in rdr.records() {
+        let rec = rec.with_context(|| format!("--model {name}"))?;
+        let line = rec.position().map_or(0, |p| p.line());
+        // An empty cell (relative or reflectance undefined) reads as NaN.
+        let num = |c: usize, what: &str| -> anyhow::Result<f64> {
+            let s = rec.get(c).unwrap_or("");
+            if s.is_empty() {
+                return Ok(f64::NAN);
+            }
+            s.parse().map_err(|_| {
+                anyhow::anyhow!("--model {name}, line {line}, column {what}: `{s}` is not a number")
+            })
+        };
         let mut v = [0.0; 5];
         for (j, &c) in idx.iter().enumerate() {
-            let s = rec.get(c).unwrap_or("");
-            v[j] = s.parse().map_err(|_| {
-                anyhow::anyhow!(
-                    "--model {name}, line {line}, column {}: `{s}` is not a number",
-                    need[j]
-                )
-            })?;
+            v[j] = num(c, need[j])?;
+        }
+        if let Some(c) = phi_col {
+            let phi = num(c, "phi_s_deg")?;
+            if phi != 0.0 {
+                bail!(
+                    "--model {name}, line {line}: phi_s_deg {phi}: out-of-plane detectors cannot be matched to in-plane measured angles"
+                );
+            }
         }
         if (v[2] - aperture_deg).abs() > 1e-6 {
             bail!(
@@ -125,13 +139,14 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
                 v[2]
             );
         }
+        let reflectance = match refl_col {
+            Some(c) => Some(num(c, "reflectance")?).filter(|r| r.is_finite()),
+            None => None,
+        };
         out.push((
             v[0],
             v[1],
-            ModelPoint {
-                brdf: v[3],
-                relative: v[4],
-            },
+            ModelPoint::from_row(v[3], v[4], reflectance, aperture_deg.to_radians()),
         ));
     }
     if out.is_empty() {
@@ -142,6 +157,10 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let out_to_stdout = args.out.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    if out_to_stdout && args.json {
+        bail!("--out - and --json both write to stdout: give --out a file name");
+    }
     let measured = args.measured.read()?;
     let coating = args.instrument.coating()?;
     let settings = args.measured.settings(&args.instrument);
@@ -203,7 +222,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "incidences": incidences_json(&results),
         });
         println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else {
+    } else if !out_to_stdout {
         print_table(&results);
     }
     Ok(())
@@ -220,6 +239,7 @@ fn incidences_json(results: &[IncidenceComparison]) -> Value {
                     "regions": c.regions.iter().map(|r| json!({
                         "region": r.region.name(),
                         "points": r.points,
+                        "points_without_model": r.no_model,
                         "rms_log10": r.rms_log10,
                         "mean_log10": r.mean_log10,
                     })).collect::<Vec<_>>(),

@@ -60,6 +60,10 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let out_to_stdout = args.out.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    if out_to_stdout && args.json {
+        bail!("--out - and --json both write to stdout: give --out a file name");
+    }
     let measured = args.measured.read()?;
     let coating = args.instrument.coating()?;
     let settings = args.measured.settings(&args.instrument);
@@ -136,8 +140,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "points": est.points,
                 "chi2_relative": est.chi2,
                 "bins": est.edges.windows(2).zip(&est.area_fractions).zip(&est.p_tilde).map(|((e, f), p)| json!({
-                    "theta_lo_deg": e[0].to_degrees(),
-                    "theta_hi_deg": e[1].to_degrees(),
+                    "theta_lo_deg": round_deg(e[0]),
+                    "theta_hi_deg": round_deg(e[1]),
                     "area_fraction": f,
                     "p_tilde": p,
                 })).collect::<Vec<_>>(),
@@ -151,7 +155,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .windows(2)
                 .zip(est.area_fractions.iter().zip(&est.p_tilde))
             {
-                println!("{},{},{f:.6},{p:.6}", e[0].to_degrees(), e[1].to_degrees());
+                println!("{},{},{f:.6},{p:.6}", round_deg(e[0]), round_deg(e[1]));
             }
         }
         return Ok(());
@@ -212,4 +216,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Degrees without float noise (`6`, not `6.000000000000001`).
+fn round_deg(rad: f64) -> f64 {
+    (rad.to_degrees() * 1e9).round() / 1e9
 }

@@ -12,7 +12,7 @@ use serde_json::json;
 
 use crate::instrument::{
     InstrumentArgs, open_out, rows_json, table_to_stdout, table_writer, units_json,
-    write_curves_csv,
+    warn_undefined_relative, write_curves_csv,
 };
 use crate::plot::{Figure, Series, Style, draw};
 
@@ -164,6 +164,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let curves = distribution_curves(&coating, &instrument, &settings, &source)?;
 
+    warn_undefined_relative(&curves);
     if let Some((mut w, _)) = table_writer(args.out.as_deref(), to_stdout)? {
         write_curves_csv(&mut w, &curves, false)?;
     }

@@ -777,9 +777,13 @@ fn fig10(
             ts.iter()
                 .map(|&t| {
                     lookup(ti, t)
-                        .map(|r| ModelPoint {
-                            brdf: r.brdf,
-                            relative: r.relative,
+                        .map(|r| {
+                            ModelPoint::from_row(
+                                r.brdf,
+                                r.relative,
+                                r.reflectance,
+                                APERTURE_DEG.to_radians(),
+                            )
                         })
                         .ok_or_else(|| {
                             PipelineError::Measurement(format!(

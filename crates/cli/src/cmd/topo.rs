@@ -13,7 +13,8 @@ use serde_json::{Value, json};
 
 use crate::cmd::info::MapArgs;
 use crate::instrument::{
-    InstrumentArgs, rows_json, table_to_stdout, table_writer, units_json, write_curves_csv,
+    InstrumentArgs, rows_json, table_to_stdout, table_writer, units_json, warn_undefined_relative,
+    write_curves_csv,
 };
 use crate::plot::{Figure, Series, Style, draw};
 
@@ -159,6 +160,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    warn_undefined_relative(&curves);
     if let Some((mut w, _)) = table_writer(args.out.as_deref(), to_stdout)? {
         write_curves_csv(&mut w, &curves, true)?;
     }
