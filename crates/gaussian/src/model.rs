@@ -90,13 +90,19 @@ impl DistributionModel {
     ///
     /// # Errors
     /// [`ModelError::Index`] when `n` is not a finite real ≥ 1;
-    /// [`ModelError::FlakeIndex`] for an invalid complex flake index.
+    /// [`ModelError::FlakeIndex`] for an invalid complex flake index;
+    /// [`ModelError::Delta`] for [`Orientation::flat`], which has no density.
     pub fn new(
         orientation: Orientation,
         n: f64,
         options: ModelOptions,
     ) -> Result<Self, ModelError> {
         flakescatter_optics::check_index(n).map_err(ModelError::Index)?;
+        // A delta has no density: its reflectance is a delta at specular, which this
+        // model cannot represent (it would return 0 everywhere, a silent wrong number).
+        if orientation.is_delta() {
+            return Err(ModelError::Delta);
+        }
         if let FlakeReflectance::Complex { n: fn_, k } = options.flake {
             FlakeReflectance::complex(fn_, k).map_err(ModelError::FlakeIndex)?;
         }

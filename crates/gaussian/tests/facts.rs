@@ -273,6 +273,10 @@ fn bad_input_is_an_error() {
     assert!(DistributionModel::new(o.clone(), f64::NAN, ModelOptions::default()).is_err());
     let m = DistributionModel::new(o, 1.5, ModelOptions::default()).unwrap();
     assert!(matches!(
+        DistributionModel::new(Orientation::flat(), 1.5, ModelOptions::default()),
+        Err(ModelError::Delta)
+    ));
+    assert!(matches!(
         m.incidence(PI / 2.0),
         Err(ModelError::Incidence(_))
     ));
