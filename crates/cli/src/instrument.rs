@@ -106,6 +106,17 @@ impl InstrumentArgs {
         }
     }
 
+    /// The detector half-angle in radians, checked to be in `[0, 20°]`.
+    pub fn aperture_rad(&self) -> anyhow::Result<f64> {
+        if !(self.aperture.is_finite() && (0.0..=20.0).contains(&self.aperture)) {
+            bail!(
+                "--aperture {}: expected a half-angle in [0, 20] degrees",
+                self.aperture
+            );
+        }
+        Ok(self.aperture.to_radians())
+    }
+
     /// The instrument these flags describe (angles converted to radians).
     pub fn instrument(&self) -> anyhow::Result<Instrument> {
         let theta_i = parse_angles("--theta-i", &self.theta_i)?;
@@ -114,12 +125,7 @@ impl InstrumentArgs {
                 bail!("--theta-i: {t}° is outside [0, 90)");
             }
         }
-        if !(self.aperture.is_finite() && (0.0..=20.0).contains(&self.aperture)) {
-            bail!(
-                "--aperture {}: expected a half-angle in [0, 20] degrees",
-                self.aperture
-            );
-        }
+        let aperture = self.aperture_rad()?;
         let detectors = match &self.detectors {
             Some(path) => DetectorSet::OutOfPlane(
                 read_detectors(path)?
@@ -140,7 +146,7 @@ impl InstrumentArgs {
         Ok(Instrument::new(
             theta_i.into_iter().map(f64::to_radians).collect(),
             detectors,
-            self.aperture.to_radians(),
+            aperture,
         )?)
     }
 

@@ -153,6 +153,12 @@ pub fn synthetic_measurement(
     noise_seed: u64,
     progress: &dyn Fn(&str),
 ) -> Result<SyntheticMeasurement, ReproduceError> {
+    // Checked before the expensive layers are generated and traced.
+    let crate::instrument::DetectorSet::InPlane(theta_s) = instrument.detectors() else {
+        return Err(ReproduceError::Sample(
+            "a synthetic measured curve needs in-plane detectors".into(),
+        ));
+    };
     if sample.maps == 0 {
         return Err(ReproduceError::Sample("at least one map is needed".into()));
     }
@@ -191,11 +197,6 @@ pub fn synthetic_measurement(
         &refs,
         &|_, _| {},
     )?;
-    let crate::instrument::DetectorSet::InPlane(theta_s) = instrument.detectors() else {
-        return Err(ReproduceError::Sample(
-            "a synthetic measured curve needs in-plane detectors".into(),
-        ));
-    };
     let noise = gaussian_noise(clean.rows.len(), noise_seed);
     let points = clean
         .rows

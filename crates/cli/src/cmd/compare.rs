@@ -164,11 +164,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let measured = args.measured.read()?;
     let coating = args.instrument.coating()?;
     let settings = args.measured.settings(&args.instrument);
+    let aperture = args.instrument.aperture_rad()?;
     let aperture_deg = args.instrument.aperture;
-    if !(aperture_deg.is_finite() && (0.0..=20.0).contains(&aperture_deg)) {
-        bail!("--aperture {aperture_deg}: expected a half-angle in [0, 20] degrees");
-    }
-    let aperture = aperture_deg.to_radians();
     let kind = args.measured.measured_kind;
     let (results, model_desc) = if let Some(path) = &args.model {
         let table = model_file(path, aperture_deg)?;

@@ -67,10 +67,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let measured = args.measured.read()?;
     let coating = args.instrument.coating()?;
     let settings = args.measured.settings(&args.instrument);
+    let aperture_rad = args.instrument.aperture_rad()?;
     let aperture = args.instrument.aperture;
-    if !(aperture.is_finite() && (0.0..=20.0).contains(&aperture)) {
-        bail!("--aperture {aperture}: expected a half-angle in [0, 20] degrees");
-    }
     let region = match args
         .region
         .split_once(':')
@@ -84,12 +82,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.region
         ),
     };
-    let mut setup = FitSetup::new(
-        coating,
-        settings,
-        aperture.to_radians(),
-        args.measured.measured_kind,
-    );
+    let mut setup = FitSetup::new(coating, settings, aperture_rad, args.measured.measured_kind);
     setup.region = region;
     setup.common_scale = args.common_scale;
     let inputs = json!({

@@ -656,9 +656,8 @@ fn fig9(ctx: &Ctx, measured: &MeasuredCurve, index: &mut Index) -> anyhow::Resul
     );
     let mut json_rows = Vec::new();
     let mut files = vec!["fig9.csv".to_string()];
-    for (k, &ti) in INCIDENCES.iter().enumerate() {
-        let a = &results[0][k];
-        let b = &results[1][k];
+    for (a, b) in results[0].iter().zip(&results[1]) {
+        let ti = a.theta_i.to_degrees().round();
         for (p, q) in a.points.iter().zip(&b.points) {
             let _ = writeln!(
                 csv,
@@ -795,8 +794,12 @@ fn fig10(
                 .collect()
         };
         let result = compare(&kept, MeasuredKind::Brdf, &model)?;
-        for (k, r) in result.iter().enumerate() {
-            let ti = INCIDENCES[k];
+        for r in &result {
+            let ti = r.theta_i.to_degrees().round();
+            let k = INCIDENCES
+                .iter()
+                .position(|&d| d == ti)
+                .context("compare returned an incidence the figure was not asked for")?;
             let total = measured
                 .points
                 .iter()
