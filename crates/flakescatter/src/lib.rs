@@ -84,7 +84,7 @@ pub use flakescatter_topo as topo;
 pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
-    topographic_curves,
+    p_tilde_about_specular, topographic_curves,
 };
 
 /// Errors of the pipeline.

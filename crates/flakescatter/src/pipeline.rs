@@ -278,6 +278,21 @@ pub fn topographic_curves(
     Ok((curves, result))
 }
 
+/// The orientation distribution drawn about the specular direction, as in the paper's
+/// Fig. 4: `p̃(|θs + θi|) / p̃(0)` for the in-plane detector `theta_s` at incidence
+/// `theta_i` (radians; the flake tilt is read off as the aspecular angle). NaN when
+/// `p̃(0) = 0`.
+#[must_use]
+pub fn p_tilde_about_specular(orientation: &Orientation, theta_i: f64, theta_s: f64) -> f64 {
+    let p0 = orientation.p_tilde(0.0);
+    if p0 > 0.0 {
+        let aspecular = flakescatter_optics::detector::theta_s_to_aspecular(theta_i, theta_s);
+        orientation.p_tilde(aspecular.abs()) / p0
+    } else {
+        f64::NAN
+    }
+}
+
 /// A short description of a distribution for metadata (radians).
 fn describe(o: &Orientation) -> String {
     if o.is_delta() {

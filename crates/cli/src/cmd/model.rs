@@ -7,7 +7,7 @@ use flakescatter::gaussian::ConeMethod;
 use flakescatter::io::flakes::read_histogram;
 use flakescatter::multiangle::multi_angle;
 use flakescatter::stats::{GaussianWidth, Orientation};
-use flakescatter::{OrientationSource, distribution_curves};
+use flakescatter::{OrientationSource, distribution_curves, p_tilde_about_specular};
 use serde_json::json;
 
 use crate::instrument::{
@@ -214,16 +214,10 @@ fn figure(curves: &flakescatter::Curves, orientation: &Orientation) -> Figure {
         });
         if in_plane && orientation.gaussian_width().is_some() {
             // p~(θn)/p~(0) drawn about the specular direction θs = −θi (paper Fig. 4).
-            let p0 = orientation.p_tilde(0.0);
             let points = (-900..=900)
-                .map(|j| {
-                    let d = f64::from(j) * 0.1;
-                    (
-                        -ti.to_degrees() + d,
-                        orientation.p_tilde(d.abs().to_radians()) / p0,
-                    )
-                })
-                .filter(|&(x, _)| x > -90.0 && x < 90.0)
+                .map(|j| -ti.to_degrees() + f64::from(j) * 0.1)
+                .filter(|&x| x > -90.0 && x < 90.0)
+                .map(|x| (x, p_tilde_about_specular(orientation, ti, x.to_radians())))
                 .collect();
             series.push(Series {
                 label: format!("p~ about specular, θi = {:.1}°", ti.to_degrees()),

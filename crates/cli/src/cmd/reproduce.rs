@@ -24,7 +24,7 @@ use flakescatter::stats::segment::{SegmentParams, segment};
 use flakescatter::stats::{Flake, GaussianWidth, Orientation};
 use flakescatter::{
     Coating, Curves, DetectorSet, Instrument, OrientationSource, PipelineError, Settings,
-    TopoSettings, distribution_curves, topographic_curves,
+    TopoSettings, distribution_curves, p_tilde_about_specular, topographic_curves,
 };
 use serde_json::{Value, json};
 
@@ -401,14 +401,13 @@ fn fig4(ctx: &Ctx, index: &mut Index) -> anyhow::Result<()> {
             &ctx.settings(false),
             &OrientationSource::Distribution(o.clone()),
         )?;
-        let p0 = o.p_tilde(0.0);
         for (k, &ti) in INCIDENCES.iter().enumerate() {
             let rows = rows_at(&curves, ti);
             let mut model = Vec::new();
             let mut pt = Vec::new();
             for r in rows {
                 let ts = ctx.theta_s_deg[r.detector];
-                let p = o.p_tilde((ts + ti).abs().to_radians()) / p0;
+                let p = p_tilde_about_specular(&o, ti.to_radians(), ts.to_radians());
                 let _ = writeln!(
                     csv,
                     "{w},{ti},{ts},{APERTURE_DEG},{:.9e},{:.9e},{:.9e}",
