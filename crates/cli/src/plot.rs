@@ -81,6 +81,47 @@ fn register_fonts() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The relative curves of a model result, one line per incidence, on a log axis (the
+/// paper's "normalised to 1 in the specular direction"). Out-of-plane detectors are
+/// placed by their polar angle `θr`.
+pub fn relative_figure(curves: &flakescatter::Curves, title: String) -> Figure {
+    let in_plane = matches!(
+        curves.instrument.detectors(),
+        flakescatter::DetectorSet::InPlane(_)
+    );
+    let series = curves
+        .instrument
+        .theta_i()
+        .iter()
+        .enumerate()
+        .map(|(k, &ti)| Series {
+            label: format!("θi = {:.1}°", ti.to_degrees()),
+            points: curves
+                .rows
+                .iter()
+                .filter(|r| r.theta_i == ti)
+                .map(|r| {
+                    let (ts, _) = crate::instrument::detector_deg(&curves.instrument, r.detector);
+                    (ts, r.relative)
+                })
+                .collect(),
+            style: Style::Line,
+            colour: k,
+        })
+        .collect();
+    Figure {
+        title,
+        x_label: if in_plane {
+            "θs (degrees; θs = −θi is specular)".into()
+        } else {
+            "θr, detector polar angle (degrees)".into()
+        },
+        y_label: "relative reflectance (1 at specular)".into(),
+        log_y: true,
+        series,
+    }
+}
+
 /// Draw `fig` to `path`; the extension must be `.svg` or `.png`. The title's first line
 /// is the caption, a second line (after `\n`) a smaller note under it.
 pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {

@@ -14,7 +14,7 @@ use crate::instrument::{
     InstrumentArgs, open_out, rows_json, table_to_stdout, table_writer, units_json,
     warn_undefined_relative, write_curves_csv,
 };
-use crate::plot::{Figure, Series, Style, draw};
+use crate::plot::{Figure, Series, Style, draw, relative_figure};
 
 /// Where the flake orientation distribution comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -191,35 +191,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// Relative curves per incidence on a log axis, plus p~ about specular (Fig. 4 style).
 fn figure(curves: &flakescatter::Curves, orientation: &Orientation) -> Figure {
-    let mut series = Vec::new();
+    let mut fig = relative_figure(
+        curves,
+        format!(
+            "Distribution model, n = {}, aperture {:.2}°",
+            curves.coating.n,
+            curves.instrument.aperture().to_degrees()
+        ),
+    );
     let in_plane = matches!(
         curves.instrument.detectors(),
         flakescatter::DetectorSet::InPlane(_)
     );
-    for (k, &ti) in curves.instrument.theta_i().iter().enumerate() {
-        let points: Vec<(f64, f64)> = curves
-            .rows
-            .iter()
-            .filter(|r| r.theta_i == ti)
-            .map(|r| {
-                let (ts, _) = crate::instrument::detector_deg(&curves.instrument, r.detector);
-                (ts, r.relative)
-            })
-            .collect();
-        series.push(Series {
-            label: format!("θi = {:.1}°", ti.to_degrees()),
-            points,
-            style: Style::Line,
-            colour: k,
-        });
-        if in_plane && orientation.gaussian_width().is_some() {
+    if in_plane && orientation.gaussian_width().is_some() {
+        for (k, &ti) in curves.instrument.theta_i().iter().enumerate() {
             // p~(θn)/p~(0) drawn about the specular direction θs = −θi (paper Fig. 4).
             let points = (-900..=900)
                 .map(|j| -ti.to_degrees() + f64::from(j) * 0.1)
                 .filter(|&x| x > -90.0 && x < 90.0)
                 .map(|x| (x, p_tilde_about_specular(orientation, ti, x.to_radians())))
                 .collect();
-            series.push(Series {
+            fig.series.push(Series {
                 label: format!("p~ about specular, θi = {:.1}°", ti.to_degrees()),
                 points,
                 style: Style::Dashed,
@@ -227,21 +219,7 @@ fn figure(curves: &flakescatter::Curves, orientation: &Orientation) -> Figure {
             });
         }
     }
-    Figure {
-        title: format!(
-            "Distribution model, n = {}, aperture {:.2}°",
-            curves.coating.n,
-            curves.instrument.aperture().to_degrees()
-        ),
-        x_label: if in_plane {
-            "θs (degrees; θs = −θi is specular)".into()
-        } else {
-            "θ projected on the plane of incidence (degrees)".into()
-        },
-        y_label: "relative reflectance (1 at specular)".into(),
-        log_y: true,
-        series,
-    }
+    fig
 }
 
 /// `--multi-angle`: the six-angle readout and the flop index.

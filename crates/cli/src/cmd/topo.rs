@@ -16,7 +16,7 @@ use crate::instrument::{
     InstrumentArgs, rows_json, table_to_stdout, table_writer, units_json, warn_undefined_relative,
     write_curves_csv,
 };
-use crate::plot::{Figure, Series, Style, draw};
+use crate::plot::{Figure, draw, relative_figure};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -229,35 +229,12 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
 
 /// Relative curves per incidence on a log axis.
 fn figure(curves: &Curves) -> Figure {
-    let series = curves
-        .instrument
-        .theta_i()
-        .iter()
-        .enumerate()
-        .map(|(k, &ti)| Series {
-            label: format!("θi = {:.1}°", ti.to_degrees()),
-            points: curves
-                .rows
-                .iter()
-                .filter(|r| r.theta_i == ti)
-                .map(|r| {
-                    let (ts, _) = crate::instrument::detector_deg(&curves.instrument, r.detector);
-                    (ts, r.relative)
-                })
-                .collect(),
-            style: Style::Line,
-            colour: k,
-        })
-        .collect();
-    Figure {
-        title: format!(
+    relative_figure(
+        curves,
+        format!(
             "Topographic model, n = {}, aperture {:.2}°",
             curves.coating.n,
             curves.instrument.aperture().to_degrees()
         ),
-        x_label: "θs (degrees; θs = −θi is specular)".into(),
-        y_label: "relative reflectance (1 at specular)".into(),
-        log_y: true,
-        series,
-    }
+    )
 }
