@@ -394,10 +394,13 @@ fn fail(e: csv::Error) -> anyhow::Error {
 /// Whether a subcommand's table goes to stdout: `--out -`, or no `--out` and no
 /// `--json`. Both the table and the JSON summary on stdout is a usage error.
 pub fn table_to_stdout(out: Option<&Path>, json: bool) -> anyhow::Result<bool> {
-    let to_stdout = match out {
-        Some(p) => p.as_os_str() == "-",
-        None => !json,
-    };
+    Ok(out_is_stdout(out, json)? || (out.is_none() && !json))
+}
+
+/// Whether `--out` is `-` (stdout); `--out -` together with `--json` is a usage error
+/// (both would write to stdout).
+pub fn out_is_stdout(out: Option<&Path>, json: bool) -> anyhow::Result<bool> {
+    let to_stdout = out.is_some_and(|p| p.as_os_str() == "-");
     if to_stdout && json {
         bail!("--out - and --json both write to stdout: give --out a file name");
     }

@@ -11,7 +11,7 @@ use flakescatter::{Coating, PipelineError, Settings};
 use serde_json::{Value, json};
 
 use crate::cmd::model::{OrientationArgs, orientation_from};
-use crate::instrument::{InstrumentArgs, open_out};
+use crate::instrument::{InstrumentArgs, open_out, out_is_stdout};
 use crate::plot::{Figure, Series, Style, draw};
 
 /// The measured curve and what its values are.
@@ -157,10 +157,7 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let out_to_stdout = args.out.as_deref().is_some_and(|p| p.as_os_str() == "-");
-    if out_to_stdout && args.json {
-        bail!("--out - and --json both write to stdout: give --out a file name");
-    }
+    let out_to_stdout = out_is_stdout(args.out.as_deref(), args.json)?;
     let measured = args.measured.read()?;
     let coating = args.instrument.coating()?;
     let settings = args.measured.settings(&args.instrument);

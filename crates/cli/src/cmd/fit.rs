@@ -9,7 +9,7 @@ use flakescatter::io::flakes::write_histogram_bins;
 use serde_json::json;
 
 use crate::cmd::compare::{MeasuredArgs, model_inputs};
-use crate::instrument::{InstrumentArgs, open_out, parse_angles};
+use crate::instrument::{InstrumentArgs, open_out, out_is_stdout, parse_angles};
 
 /// Fit the flake orientation distribution to a measured curve.
 ///
@@ -60,10 +60,7 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let out_to_stdout = args.out.as_deref().is_some_and(|p| p.as_os_str() == "-");
-    if out_to_stdout && args.json {
-        bail!("--out - and --json both write to stdout: give --out a file name");
-    }
+    out_is_stdout(args.out.as_deref(), args.json)?;
     let measured = args.measured.read()?;
     let coating = args.instrument.coating()?;
     let settings = args.measured.settings(&args.instrument);
