@@ -173,7 +173,9 @@ impl DistributionModel {
         // Inside direction that leaves along r.
         let tx = r.x / n;
         let ty = r.y / n;
-        let c2 = (1.0 - tx * tx - ty * ty).max(0.0).sqrt();
+        // cos θ2 = sqrt(1 − (r.x² + r.y²)/n²) written as sqrt(n² − 1 + r.z²)/n (|r| = 1):
+        // no cancellation near the horizon, so f·cos θr stays finite as r.z → 0.
+        let c2 = (n * n - 1.0 + r.z * r.z).max(0.0).sqrt() / n;
         let h = Vec3::new(tx - inc.k1.x, ty - inc.k1.y, c2 - inc.k1.z);
         let hn = h.norm();
         let mz = h.z / hn;

@@ -40,8 +40,13 @@ proptest! {
         let expected = inc.t_in * (1.0 + nor.back - nor.lost);
         prop_assert!((det - expected).abs() <= 1e-6 * expected, "detector {det} vs {expected}");
         prop_assert!((nor.escaping + nor.lost - nor.back - 1.0).abs() < 1e-8);
-        // Back-lit flakes carry below 1e-3 of the area for widths under 15° (physics.md).
-        prop_assert!(nor.back < 1e-3);
+        // Back-lit flakes carry below 1e-3 of the area for widths under 15° (physics.md)
+        // — at coating indices n ≥ 1.5, where θt ≤ 41.8° and a flake must tilt by more
+        // than 48° to be lit from behind. Near n = 1 and grazing incidence it is not so
+        // (see `back_lit_share_near_n_1_exceeds_1e_3`).
+        if n >= 1.5 {
+            prop_assert!(nor.back < 1e-3, "back {}", nor.back);
+        }
     }
 }
 
@@ -91,4 +96,42 @@ fn conservation_holds_for_every_option() {
             );
         }
     }
+}
+
+#[test]
+fn grazing_exit_at_n_1_stays_finite() {
+    // Found by the proptest above (CI run of 2026-11-22): n = 1, θi = 66.88°, w = 14.90°,
+    // exit factor 1. Near the horizon cos θ2 was computed as sqrt(1 − r.x² − r.y²), which
+    // cancels to 0 while r.z > 0 and made f·cos θr infinite. The totals must agree.
+    let opts = ModelOptions {
+        exit_fresnel: false,
+        ..ModelOptions::default()
+    };
+    let m = model(1.0, 14.901681552063863, opts);
+    let inc = m.incidence(66.88470078100487f64.to_radians()).unwrap();
+    let (det, _) = total_detector_space(&m, &inc);
+    let nor = totals_normal_space(&m, &inc);
+    let expected = inc.t_in * (1.0 + nor.back - nor.lost);
+    assert!(det.is_finite());
+    assert!(
+        (det - expected).abs() <= 1e-6 * expected,
+        "detector {det} vs {expected}"
+    );
+}
+
+#[test]
+fn back_lit_share_near_n_1_exceeds_1e_3() {
+    // physics.md §4 says back-lit flakes (γ < 0) carry below 1e-3 for widths under 15°.
+    // That holds for n = 1.5 but not for bare facets at grazing incidence: at n = 1,
+    // θi = 69.6°, the beam meets the back of every flake tilted more than 20.4° away from
+    // it, and a hwhm 10.7° Gaussian (s = 9.05°) has a few 1e-3 of its area there
+    // (P(θn > 20.4°) = exp(−20.4²/(2 s²)) ≈ 0.079 before the azimuth and γ weighting).
+    let m = model(1.0, 10.661623258477187, ModelOptions::default());
+    let inc = m.incidence(69.62394285312607f64.to_radians()).unwrap();
+    let nor = totals_normal_space(&m, &inc);
+    assert!(nor.back > 1e-3 && nor.back < 0.079, "back {}", nor.back);
+    // The same width at n = 1.5 and the same incidence stays below 1e-3.
+    let m = model(1.5, 10.661623258477187, ModelOptions::default());
+    let inc = m.incidence(69.62394285312607f64.to_radians()).unwrap();
+    assert!(totals_normal_space(&m, &inc).back < 1e-3);
 }

@@ -31,7 +31,9 @@ pub fn snell_outside(theta_inside: f64, n: f64) -> Option<f64> {
 pub fn into_coating(k_in: &UnitVec3, n: f64) -> UnitVec3 {
     let tx = k_in.x / n;
     let ty = k_in.y / n;
-    let tz = (1.0 - tx * tx - ty * ty).max(0.0).sqrt();
+    // sqrt(1 − (k.x² + k.y²)/n²) = sqrt(n² − 1 + k.z²)/n for a unit k, without the
+    // cancellation of the first form at grazing incidence.
+    let tz = (n * n - 1.0 + k_in.z * k_in.z).max(0.0).sqrt() / n;
     UnitVec3::new_unchecked(Vec3::new(tx, ty, -tz))
 }
 
@@ -59,6 +61,7 @@ pub fn out_of_coating(k2: &UnitVec3, n: f64) -> Option<UnitVec3> {
 pub fn exit_to_inside(r: &UnitVec3, n: f64) -> UnitVec3 {
     let tx = r.x / n;
     let ty = r.y / n;
-    let tz = (1.0 - tx * tx - ty * ty).max(0.0).sqrt();
+    // As in `into_coating`: exact for a unit r, and accurate near the horizon.
+    let tz = (n * n - 1.0 + r.z * r.z).max(0.0).sqrt() / n;
     UnitVec3::new_unchecked(Vec3::new(tx, ty, tz))
 }
