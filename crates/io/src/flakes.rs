@@ -177,6 +177,29 @@ impl Table {
         self.header.iter().position(|h| h == name)
     }
 
+    /// The indices of the columns `need`, or an error at line 1 naming the missing ones
+    /// with `message` (what the file needs).
+    pub(crate) fn require<const N: usize>(
+        &self,
+        need: [&str; N],
+        message: &str,
+    ) -> Result<[usize; N], FlakeTableError> {
+        let missing: Vec<&str> = need
+            .iter()
+            .copied()
+            .filter(|c| self.col(c).is_none())
+            .collect();
+        if !missing.is_empty() {
+            return Err(FlakeTableError::BadValue {
+                file: self.file.clone(),
+                line: 1,
+                column: missing.join(", "),
+                message: message.to_string(),
+            });
+        }
+        Ok(need.map(|c| self.col(c).unwrap_or(0)))
+    }
+
     pub(crate) fn bad(&self, line: u64, column: &str, message: String) -> FlakeTableError {
         FlakeTableError::BadValue {
             file: self.file.clone(),
@@ -483,31 +506,15 @@ pub fn read_histogram_from(
 ) -> Result<HistogramTable, FlakeTableError> {
     let t = Table::read(reader, file)?;
     let need = ["theta_lo_deg", "theta_hi_deg", "area_fraction"];
-    let missing: Vec<String> = need
-        .iter()
-        .filter(|c| t.col(c).is_none())
-        .map(|c| c.to_string())
-        .collect();
-    if !missing.is_empty() {
-        return Err(FlakeTableError::BadValue {
-            file: file.to_string(),
-            line: 1,
-            column: missing.join(", "),
-            message:
-                "missing histogram column(s); expected theta_lo_deg, theta_hi_deg, area_fraction"
-                    .into(),
-        });
-    }
+    let [ilo, ihi, ifr] = t.require(
+        need,
+        "missing histogram column(s); expected theta_lo_deg, theta_hi_deg, area_fraction",
+    )?;
     if t.rows.is_empty() {
         return Err(FlakeTableError::Empty {
             file: file.to_string(),
         });
     }
-    let (ilo, ihi, ifr) = (
-        t.col(need[0]).expect("checked"),
-        t.col(need[1]).expect("checked"),
-        t.col(need[2]).expect("checked"),
-    );
     let mut edges_deg: Vec<f64> = Vec::with_capacity(t.rows.len() + 1);
     let mut fractions = Vec::with_capacity(t.rows.len());
     let mut last_line = 0;

@@ -70,25 +70,10 @@ pub fn read_measured(path: &Path) -> Result<MeasuredCurve, FlakeTableError> {
 /// As [`read_measured`].
 pub fn read_measured_from(reader: impl Read, file: &str) -> Result<MeasuredCurve, FlakeTableError> {
     let t = Table::read(reader, file)?;
-    let need = ["theta_i_deg", "theta_s_deg", "value"];
-    let missing: Vec<String> = need
-        .iter()
-        .filter(|c| t.col(c).is_none())
-        .map(|c| c.to_string())
-        .collect();
-    if !missing.is_empty() {
-        return Err(FlakeTableError::BadValue {
-            file: file.to_string(),
-            line: 1,
-            column: missing.join(", "),
-            message: "missing column(s); a measured curve needs theta_i_deg, theta_s_deg, value (and optionally uncertainty)".into(),
-        });
-    }
-    let (ci, cs, cv) = (
-        t.col("theta_i_deg").unwrap_or(0),
-        t.col("theta_s_deg").unwrap_or(0),
-        t.col("value").unwrap_or(0),
-    );
+    let [ci, cs, cv] = t.require(
+        ["theta_i_deg", "theta_s_deg", "value"],
+        "missing column(s); a measured curve needs theta_i_deg, theta_s_deg, value (and optionally uncertainty)",
+    )?;
     let cu = t.col("uncertainty");
     let mut points = Vec::with_capacity(t.rows.len());
     for (line, rec) in &t.rows {
