@@ -369,6 +369,38 @@ fn summation_weights(
 
 fn lagrange_weights(wl: &[f64], ends: Ends, product: &impl Fn(usize) -> [f64; 3]) -> Vec<[f64; 3]> {
     let n = wl.len();
+    if ends == Ends::Truncate {
+        return lagrange_on_nodes(wl, ends, product);
+    }
+    // ASTM E308's end practice: continue the sample grid at its end spacings down to
+    // 360 nm and up to 830 nm with the end values held, weight the extended grid, and
+    // add the weights of the added nodes to the end samples. (The interpolating cubics
+    // then run smoothly across the first and last sample.)
+    let (h_lo, h_hi) = (wl[1] - wl[0], wl[n - 1] - wl[n - 2]);
+    let below = ((wl[0] - f64::from(START_NM)) / h_lo + GRID_TOL_NM).floor() as usize;
+    let above = ((f64::from(END_NM) - wl[n - 1]) / h_hi + GRID_TOL_NM).floor() as usize;
+    let mut nodes: Vec<f64> = (1..=below).rev().map(|k| wl[0] - h_lo * k as f64).collect();
+    nodes.extend_from_slice(wl);
+    nodes.extend((1..=above).map(|k| wl[n - 1] + h_hi * k as f64));
+    let extended = lagrange_on_nodes(&nodes, Ends::Extend, product);
+    let mut w = extended[below..below + n].to_vec();
+    for v in &extended[..below] {
+        add(&mut w[0], *v);
+    }
+    for v in &extended[below + n..] {
+        add(&mut w[n - 1], *v);
+    }
+    w
+}
+
+/// Weights of local Lagrange interpolation through `wl` integrated on the 1 nm grid;
+/// 1 nm wavelengths outside `wl` go to the end nodes ([`Ends::Extend`]) or are dropped.
+fn lagrange_on_nodes(
+    wl: &[f64],
+    ends: Ends,
+    product: &impl Fn(usize) -> [f64; 3],
+) -> Vec<[f64; 3]> {
+    let n = wl.len();
     let mut w = vec![[0.0; 3]; n];
     // `j` is the interval [wl[j], wl[j+1]] holding the current 1 nm wavelength.
     let mut j = 0;
