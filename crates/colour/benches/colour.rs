@@ -16,8 +16,8 @@ fn grid(start: f64, end: f64, step: f64) -> Vec<f64> {
 
 fn irregular() -> Vec<f64> {
     // Steps cycle through 3, 5, 7, 4, 6 nm (seeded by construction, no RNG needed).
-    let steps = [3.0, 5.0, 7.0, 4.0, 6.0];
-    let mut wl = vec![380.0];
+    let steps = [3.0f64, 5.0, 7.0, 4.0, 6.0];
+    let mut wl = vec![380.0f64];
     let mut i = 0;
     while *wl.last().unwrap() < 780.0 {
         let next = (wl.last().unwrap() + steps[i % steps.len()]).min(780.0);

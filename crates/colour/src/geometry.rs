@@ -32,7 +32,7 @@ impl Geometry {
     /// [`ColourError::InvalidValue`] if `θi ∉ [0, π/2)`, an angle is not finite, or the
     /// detector `θs = −θi + aspecular` is not strictly above the surface (`|θs| < π/2`).
     pub fn new(theta_i: f64, aspecular: f64) -> Result<Self, ColourError> {
-        if !(theta_i >= 0.0 && theta_i < std::f64::consts::FRAC_PI_2) {
+        if !(0.0..std::f64::consts::FRAC_PI_2).contains(&theta_i) {
             return Err(ColourError::InvalidValue {
                 name: "incidence angle (rad)",
                 value: theta_i,
