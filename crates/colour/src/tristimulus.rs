@@ -32,9 +32,10 @@
 //! Outside the spectrum's range the 1 nm tables still reach 360 and 830 nm. By default
 //! ([`Ends::Extend`], ASTM E308) the spectrum is continued with its end values: the
 //! sample grid is extended at its first and last spacing toward 360 and 830 nm, the
-//! extended grid is weighted as above, and the weights of the added samples (and of any
-//! 1 nm rows beyond the last whole step) are added to the end samples, as E308 adds the
-//! weights outside the measured range to the end weights. [`Ends::Truncate`] sums only
+//! extended grid is weighted as above, and the weights of the added samples (with
+//! Lagrange weights also any 1 nm rows beyond the last whole step) go to the end
+//! samples, as E308 adds the weights outside the measured range to the end weights.
+//! [`Ends::Truncate`] sums only
 //! over the spectrum's own range (the practice behind CIE 015's tabulated white points,
 //! which sum 380–780 nm at 5 nm).
 //!
