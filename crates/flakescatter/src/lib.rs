@@ -5,7 +5,7 @@
 //! This facade is the one dependency downstream code needs. It re-exports each layer —
 //! [`optics`] (Snell, Fresnel, detectors), [`stats`] (orientation distributions, flake
 //! statistics, height maps), [`gaussian`] (the distribution model), [`io`] (file
-//! formats), [`synth`] (synthetic flake layers) — and adds the composition they cannot
+//! formats), [`synth`] (synthetic flake layers), [`colour`] (colorimetry) — and adds the composition they cannot
 //! own: a [`Coating`], an [`Instrument`] and an [`OrientationSource`] (a distribution
 //! or a flake table) turned into [`Curves`] by [`distribution_curves`], or height maps
 //! turned into curves by [`topographic_curves`] ([`topo`] is the topographic layer);
@@ -74,6 +74,7 @@ mod nnls;
 pub mod pipeline;
 pub mod reproduce;
 
+pub use flakescatter_colour as colour;
 pub use flakescatter_gaussian as gaussian;
 pub use flakescatter_io as io;
 pub use flakescatter_optics as optics;

@@ -21,7 +21,7 @@ use crate::pipeline::{Coating, OrientationSource, Settings, distribution_curves}
 pub const INCIDENCE: f64 = std::f64::consts::FRAC_PI_4;
 
 /// Aspecular angles of the readout, degrees (the flop index uses 15°, 45° and 110°).
-pub const ASPECULAR_DEG: [f64; 6] = [-15.0, 15.0, 25.0, 45.0, 75.0, 110.0];
+pub const ASPECULAR_DEG: [f64; 6] = crate::colour::geometry::ASTM_E2194_ASPECULAR_DEG;
 
 /// One readout.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,23 +48,18 @@ pub struct MultiAngle {
     pub flop_index: Option<f64>,
 }
 
-/// CIE 1976 lightness of a luminance factor `y` (white = 1).
+/// CIE 1976 lightness of a luminance factor `y` (white = 1); the colorimetry crate's
+/// [`crate::colour::lightness`].
 #[must_use]
 pub fn lightness(y: f64) -> f64 {
-    let e = (6.0f64 / 29.0).powi(3);
-    let f = if y > e {
-        y.cbrt()
-    } else {
-        y / (3.0 * (6.0f64 / 29.0).powi(2)) + 4.0 / 29.0
-    };
-    116.0 * f - 16.0
+    crate::colour::lightness(y)
 }
 
 /// Flop index from `L*` at 15°, 45° and 110° aspecular, `None` when `L15 ≤ L110` or
-/// `L45 ≤ 0`.
+/// `L45 ≤ 0`; the colorimetry crate's [`crate::colour::flop_index`].
 #[must_use]
 pub fn flop_index(l15: f64, l45: f64, l110: f64) -> Option<f64> {
-    (l15 > l110 && l45 > 0.0).then(|| 2.69 * (l15 - l110).powf(1.11) / l45.powf(0.86))
+    crate::colour::flop_index(l15, l45, l110)
 }
 
 /// The distribution model's multi-angle readout for `source` with detectors of

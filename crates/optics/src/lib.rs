@@ -11,6 +11,8 @@
 //!   the obliquity `γ` (eq. 2, corrected) and the solid-angle Jacobians;
 //! * [`detector`]: incidence, specular and detector directions, detector cones;
 //! * [`flake`]: flake reflectance (perfect conductor or complex index);
+//! * [`material`]: optical constants of flake metals versus wavelength (built-in
+//!   aluminium tables, user tables);
 //! * [`polarization`]: how Fresnel factors combine (`exact-unpolarized`, `paper`, `s`,
 //!   `p`), the `physical` vs `paper-printed` weighting, and the clear coat's own
 //!   specular reflectance (physics.md §6).
@@ -48,6 +50,7 @@
 pub mod detector;
 pub mod flake;
 pub mod fresnel;
+pub mod material;
 pub mod polarization;
 pub mod reflection;
 pub mod refraction;
