@@ -254,7 +254,7 @@ pub(crate) fn ome(xml: &str) -> Result<Declared, String> {
 }
 
 /// Magic numbers of `CZ_LSMINFO` (LSM 1.3 and LSM 1.5 and later).
-pub(crate) const LSM_MAGIC: [u32; 2] = [0x0030_494C, 0x0040_494C];
+pub(crate) const LSM_MAGIC: [u32; 2] = [0x0300_494C, 0x0400_494C];
 
 /// Parses the `CZ_LSMINFO` record (TIFF tag 34412) of a Zeiss LSM file.
 ///
@@ -277,7 +277,7 @@ pub(crate) fn lsm(bytes: &[u8]) -> Result<Declared, String> {
     let magic = u32_at(0);
     if !LSM_MAGIC.contains(&magic) {
         return Err(format!(
-            "CZ_LSMINFO magic number is {magic:#010x}, expected 0x0030494c or 0x0040494c"
+            "CZ_LSMINFO magic number is {magic:#010x}, expected 0x0300494c or 0x0400494c"
         ));
     }
     let dims = [
@@ -394,7 +394,7 @@ mod tests {
     #[test]
     fn lsm_record_layout() {
         let mut rec = vec![0u8; 500];
-        rec[0..4].copy_from_slice(&0x0040_494Cu32.to_le_bytes());
+        rec[0..4].copy_from_slice(&0x0400_494Cu32.to_le_bytes());
         rec[4..8].copy_from_slice(&500i32.to_le_bytes());
         for (o, v) in [(8, 6i32), (12, 5), (16, 4), (20, 1), (24, 1), (28, 2)] {
             rec[o..o + 4].copy_from_slice(&v.to_le_bytes());

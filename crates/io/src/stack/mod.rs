@@ -481,10 +481,13 @@ impl StackReader<BufReader<File>> {
 }
 
 fn tiff_err(page: usize, e: &tiff::TiffError) -> StackError {
-    StackError::Decode {
-        page,
-        message: e.to_string(),
-    }
+    let message = match e {
+        tiff::TiffError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "the file ends inside this page's directory or data (truncated?)".to_string()
+        }
+        e => e.to_string(),
+    };
+    StackError::Decode { page, message }
 }
 
 /// What one slice page looks like.
