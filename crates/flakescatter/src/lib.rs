@@ -73,7 +73,9 @@ pub mod multiangle;
 mod nnls;
 pub mod pipeline;
 pub mod reproduce;
+pub mod stack;
 
+pub use flakescatter_confocal as confocal;
 pub use flakescatter_gaussian as gaussian;
 pub use flakescatter_io as io;
 pub use flakescatter_optics as optics;
