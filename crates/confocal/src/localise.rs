@@ -167,11 +167,10 @@ impl Localiser {
         if g.nx == 0 || g.ny == 0 {
             return Err(ConfocalError::TooLarge { nx: g.nx, ny: g.ny });
         }
-        let n = g
-            .nx
-            .checked_mul(g.ny)
-            .filter(|&n| n <= MAX_SLICE_PIXELS)
-            .ok_or(ConfocalError::TooLarge { nx: g.nx, ny: g.ny })?;
+        let n =
+            g.nx.checked_mul(g.ny)
+                .filter(|&n| n <= MAX_SLICE_PIXELS)
+                .ok_or(ConfocalError::TooLarge { nx: g.nx, ny: g.ny })?;
         if g.nz < 3 {
             return Err(ConfocalError::TooFewSlices { nz: g.nz });
         }

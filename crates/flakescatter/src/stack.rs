@@ -18,8 +18,8 @@ use flakescatter_confocal::{
     ConfocalError, Localiser, PeakMaps, PeakOptions, PeakReport, SliceOrder, StackGeometry,
 };
 use flakescatter_io::stack::{
-    ImageJStackWriter, PageOrder, ReadStackError, SampleType, StackError, StackInfo,
-    StackLayout, StackOptions, StackReader, WriteStackError,
+    ImageJStackWriter, PageOrder, ReadStackError, SampleType, StackError, StackInfo, StackLayout,
+    StackOptions, StackReader, WriteStackError,
 };
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_synth::{BitDepth, SynthError, SyntheticStack};
@@ -148,7 +148,10 @@ pub fn localise_reader<R: Read + Seek>(
             map.set_metadata("stack.pixel_source", p.source.to_string());
         }
         map.set_metadata("stack.first_page", info.first_page.value.name());
-        map.set_metadata("stack.first_page_source", info.first_page.source.to_string());
+        map.set_metadata(
+            "stack.first_page_source",
+            info.first_page.source.to_string(),
+        );
         map.set_metadata("stack.peak", peak.method.name());
         map.set_metadata("stack.fraction", peak.fraction.to_string());
         map.set_metadata("stack.min_signal", peak.min_signal.to_string());

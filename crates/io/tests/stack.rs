@@ -54,7 +54,10 @@ fn check_samples(slices: &[Vec<f32>], full: f64, dz: f64, amp: f64, reversed: bo
             for col in 0..16 {
                 let expect = analytic(k, col, row, dz, amp);
                 let got = f64::from(s[row * 16 + col]) * full;
-                assert!((got - expect).abs() < 1e-2, "page {p} ({col}, {row}): {got} vs {expect}");
+                assert!(
+                    (got - expect).abs() < 1e-2,
+                    "page {p} ({col}, {row}): {got} vs {expect}"
+                );
             }
         }
     }
@@ -69,12 +72,18 @@ fn imagej_stack_written_by_tifffile() {
     assert_eq!((i.nx, i.ny, i.nz, i.sample), (16, 12, 9, SampleType::U16));
     // XResolution 5/1 pixels per um -> 0.2 µm; spacing=0.25 with unit=um.
     assert_eq!(i.pixel_um.as_ref().unwrap().value, (0.2, 0.2));
-    assert!(matches!(i.pixel_um.as_ref().unwrap().source, Source::File(_)));
+    assert!(matches!(
+        i.pixel_um.as_ref().unwrap().source,
+        Source::File(_)
+    ));
     assert_eq!(i.z_step_um.as_ref().unwrap().value, 0.25);
     assert_eq!(i.first_page.value, PageOrder::BottomFirst);
     assert_eq!(i.first_page.source, Source::Default);
     assert_eq!(i.full_scale.value, 65535.0);
-    assert_eq!(i.metadata.get("imagej.spacing").map(String::as_str), Some("0.25"));
+    assert_eq!(
+        i.metadata.get("imagej.spacing").map(String::as_str),
+        Some("0.25")
+    );
     check_samples(&all_slices(&mut r), 65535.0, 0.25, 60000.0, false);
 }
 
@@ -145,10 +154,16 @@ fn write_stack(
                 }
             }
             if let Some(r) = &resolution {
-                img.encoder().write_tag(Tag::XResolution, r.clone()).unwrap();
-                img.encoder().write_tag(Tag::YResolution, r.clone()).unwrap();
+                img.encoder()
+                    .write_tag(Tag::XResolution, r.clone())
+                    .unwrap();
+                img.encoder()
+                    .write_tag(Tag::YResolution, r.clone())
+                    .unwrap();
             }
-            let data: Vec<u16> = (0..w * h).map(|i| (i * 7 + p as u32 * 100) as u16).collect();
+            let data: Vec<u16> = (0..w * h)
+                .map(|i| (i * 7 + p as u32 * 100) as u16)
+                .collect();
             img.write_data(&data).unwrap();
         }
     }
@@ -225,13 +240,28 @@ fn writer_refuses_bad_slices_and_layouts() {
     let e = w.write_u16(&[1, 2, 3]).unwrap_err().to_string();
     assert!(e.contains("3 samples given, expected nx * ny = 4"), "{e}");
     let e = w.write_u8(&[1, 2, 3, 4]).unwrap_err().to_string();
-    assert!(e.contains("uint8 samples given, the layout says uint16"), "{e}");
+    assert!(
+        e.contains("uint8 samples given, the layout says uint16"),
+        "{e}"
+    );
     w.write_u16(&[1, 2, 3, 4]).unwrap();
     let e = w.finish().unwrap_err().to_string();
     assert_eq!(e, "the layout declares 3 slices but 1 were written");
     for (bad, name) in [
-        (StackLayout { dz_um: 0.0, ..layout }, "dz_um"),
-        (StackLayout { dx_um: 1e-9, ..layout }, "dx_um"),
+        (
+            StackLayout {
+                dz_um: 0.0,
+                ..layout
+            },
+            "dz_um",
+        ),
+        (
+            StackLayout {
+                dx_um: 1e-9,
+                ..layout
+            },
+            "dx_um",
+        ),
         (StackLayout { nz: 0, ..layout }, "nz"),
     ] {
         let e = ImageJStackWriter::new(Cursor::new(Vec::new()), bad).unwrap_err();
@@ -264,11 +294,15 @@ fn ome_xml_written_here() {
     );
     let two = xml.replace(r#"SizeC="1""#, r#"SizeC="2""#);
     let bytes = write_stack(&[(6, 4); 3], Some(&two), None, None);
-    let e = open(&bytes, &StackOptions::default()).unwrap_err().to_string();
+    let e = open(&bytes, &StackOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("SizeC=2") && e.contains("single-channel"), "{e}");
     let bad = xml.replace(r#"PhysicalSizeZUnit="nm""#, r#"PhysicalSizeZUnit="parsec""#);
     let bytes = write_stack(&[(6, 4); 3], Some(&bad), None, None);
-    let e = open(&bytes, &StackOptions::default()).unwrap_err().to_string();
+    let e = open(&bytes, &StackOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("parsec"), "{e}");
     // ... unless the option replaces the unusable field.
     let r = open(
@@ -288,7 +322,14 @@ fn lsminfo(nx: i32, ny: i32, nz: i32, channels: i32, voxel_m: [f64; 3]) -> Vec<u
     let mut rec = vec![0u8; 224];
     rec[0..4].copy_from_slice(&0x0400_494Cu32.to_le_bytes());
     rec[4..8].copy_from_slice(&224i32.to_le_bytes());
-    for (o, v) in [(8, nx), (12, ny), (16, nz), (20, channels), (24, 1), (28, 2)] {
+    for (o, v) in [
+        (8, nx),
+        (12, ny),
+        (16, nz),
+        (20, channels),
+        (24, 1),
+        (28, 2),
+    ] {
         rec[o..o + 4].copy_from_slice(&v.to_le_bytes());
     }
     for (k, v) in voxel_m.iter().enumerate() {
@@ -315,15 +356,28 @@ fn lsm_record_written_here() {
     // Two channels, a wrong size, a zero voxel size.
     let rec = lsminfo(6, 4, 3, 2, [2.5e-7, 2.0e-7, 4.0e-7]);
     let bytes = write_stack(&[(6, 4); 3], None, None, Some((TAG_CZ_LSMINFO, rec)));
-    assert!(matches!(open(&bytes, &StackOptions::default()), Err(StackError::Unsupported(_))));
+    assert!(matches!(
+        open(&bytes, &StackOptions::default()),
+        Err(StackError::Unsupported(_))
+    ));
     let rec = lsminfo(7, 4, 3, 1, [2.5e-7, 2.0e-7, 4.0e-7]);
     let bytes = write_stack(&[(6, 4); 3], None, None, Some((TAG_CZ_LSMINFO, rec)));
-    let e = open(&bytes, &StackOptions::default()).unwrap_err().to_string();
-    assert_eq!(e, "CZ_LSMINFO DimensionX/DimensionY says 7 x 4 pixels but the pages are 6 x 4");
+    let e = open(&bytes, &StackOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "CZ_LSMINFO DimensionX/DimensionY says 7 x 4 pixels but the pages are 6 x 4"
+    );
     let rec = lsminfo(6, 4, 3, 1, [2.5e-7, 2.0e-7, 0.0]);
     let bytes = write_stack(&[(6, 4); 3], None, None, Some((TAG_CZ_LSMINFO, rec)));
-    let e = open(&bytes, &StackOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("VoxelSizeZ = 0 m is not a positive length"), "{e}");
+    let e = open(&bytes, &StackOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("VoxelSizeZ = 0 m is not a positive length"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -335,7 +389,10 @@ fn plain_tiff_needs_both_sizes_as_options() {
     let e = r.info().calibration().unwrap_err();
     assert!(matches!(e, StackError::MissingPixelSize { .. }));
     let msg = e.to_string();
-    assert!(msg.contains("display resolution") && msg.contains("pixel_um"), "{msg}");
+    assert!(
+        msg.contains("display resolution") && msg.contains("pixel_um"),
+        "{msg}"
+    );
     let r = open(
         &bytes,
         &StackOptions {
@@ -345,7 +402,12 @@ fn plain_tiff_needs_both_sizes_as_options() {
     )
     .unwrap();
     let e = r.info().calibration().unwrap_err();
-    assert_eq!(e, StackError::MissingZStep { format: StackFormat::PlainTiff });
+    assert_eq!(
+        e,
+        StackError::MissingZStep {
+            format: StackFormat::PlainTiff
+        }
+    );
     assert!(e.to_string().contains("z_step_um"));
     let r = open(
         &bytes,
@@ -380,7 +442,11 @@ fn bad_stacks_get_clear_errors() {
     let e = open(&write_stack(&[(4, 4); 2], None, None, None), &ok).unwrap_err();
     assert!(e.to_string().contains("2 slices"), "{e}");
     // Pages of different sizes.
-    let e = open(&write_stack(&[(4, 4), (4, 4), (5, 4)], None, None, None), &ok).unwrap_err();
+    let e = open(
+        &write_stack(&[(4, 4), (4, 4), (5, 4)], None, None, None),
+        &ok,
+    )
+    .unwrap_err();
     assert_eq!(
         e,
         StackError::PageSize {
@@ -417,20 +483,32 @@ fn bad_stacks_get_clear_errors() {
     let e = open(buf.get_ref(), &ok).unwrap_err().to_string();
     assert!(e.contains("page 0") && e.contains("one grey sample"), "{e}");
     // Not a TIFF; an empty file.
-    assert!(matches!(open(b"PK\x03\x04 not a tiff", &ok), Err(StackError::NotTiff(_))));
+    assert!(matches!(
+        open(b"PK\x03\x04 not a tiff", &ok),
+        Err(StackError::NotTiff(_))
+    ));
     assert!(matches!(open(b"", &ok), Err(StackError::NotTiff(_))));
     // ImageJ declares more images than there are pages.
     let d = "ImageJ=1.11a\nimages=5\nslices=5\nunit=micron\nspacing=0.3\n";
-    let e = open(&write_stack(&[(4, 4); 4], Some(d), Some(Rational { n: 5, d: 1 }), None), &ok)
-        .unwrap_err();
+    let e = open(
+        &write_stack(&[(4, 4); 4], Some(d), Some(Rational { n: 5, d: 1 }), None),
+        &ok,
+    )
+    .unwrap_err();
     assert_eq!(
         e.to_string(),
         "ImageJ slices= says 5 slices but the file holds 4 (truncated or inconsistent?)"
     );
     // ImageJ's over-4-GB layout: one directory for many images.
-    let e = open(&write_stack(&[(4, 4)], Some(d), Some(Rational { n: 5, d: 1 }), None), &ok)
-        .unwrap_err();
-    assert!(matches!(&e, StackError::Unsupported(m) if m.contains("single TIFF directory")), "{e}");
+    let e = open(
+        &write_stack(&[(4, 4)], Some(d), Some(Rational { n: 5, d: 1 }), None),
+        &ok,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&e, StackError::Unsupported(m) if m.contains("single TIFF directory")),
+        "{e}"
+    );
 }
 
 /// Overwrites the value of `tag` in the `ifd`-th directory of a little-endian classic
@@ -468,7 +546,9 @@ fn truncated_and_corrupt_stacks_name_the_page() {
         let e = open(&bytes[..cut], &StackOptions::default()).unwrap_err();
         assert_eq!(
             e.to_string(),
-            format!("page {page} (0-based): the file ends inside this page's directory or data (truncated?)"),
+            format!(
+                "page {page} (0-based): the file ends inside this page's directory or data (truncated?)"
+            ),
             "cut at {cut}"
         );
     }
@@ -489,14 +569,19 @@ fn truncated_and_corrupt_stacks_name_the_page() {
     // 12 bits per sample (tag 258) is not a stack sample type.
     let mut bad = bytes.clone();
     patch_tag(&mut bad, 0, 258, 12);
-    let e = open(&bad, &StackOptions::default()).unwrap_err().to_string();
+    let e = open(&bad, &StackOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.starts_with("page 0 (0-based)"), "{e}");
     // A huge declared width is refused before any allocation.
     let mut bad = bytes.clone();
     patch_tag(&mut bad, 0, 256, 1 << 30);
     let e = open(&bad, &StackOptions::default()).unwrap_err();
     assert!(
-        matches!(e, StackError::TooLarge { .. } | StackError::Decode { page: 0, .. }),
+        matches!(
+            e,
+            StackError::TooLarge { .. } | StackError::Decode { page: 0, .. }
+        ),
         "{e}"
     );
 }

@@ -213,9 +213,10 @@ pub(crate) fn ome(xml: &str) -> Result<Declared, String> {
         })
     };
     d.pixel_um = match (physical("X"), physical("Y")) {
-        (Some(Ok((x, _))), Some(Ok((y, _)))) => {
-            Some(Ok(((x, y), "OME-XML PhysicalSizeX/PhysicalSizeY".to_string())))
-        }
+        (Some(Ok((x, _))), Some(Ok((y, _)))) => Some(Ok((
+            (x, y),
+            "OME-XML PhysicalSizeX/PhysicalSizeY".to_string(),
+        ))),
         (Some(Ok((x, sx))), None) => Some(Ok(((x, x), sx))),
         (Some(Err(e)), _) | (_, Some(Err(e))) => Some(Err(e)),
         (None, Some(Ok(_))) => Some(Err("OME-XML has PhysicalSizeY but no PhysicalSizeX".into())),
@@ -309,7 +310,9 @@ pub(crate) fn lsm(bytes: &[u8]) -> Result<Declared, String> {
     }
     let voxel = |name: &str, o: usize| -> Result<f64, String> {
         let v = f64_at(o);
-        positive_f64(v).ok_or(format!("CZ_LSMINFO {name} = {v} m is not a positive length"))
+        positive_f64(v).ok_or(format!(
+            "CZ_LSMINFO {name} = {v} m is not a positive length"
+        ))
     };
     let (vx, vy, vz) = (
         voxel("VoxelSizeX", 40),
@@ -359,7 +362,11 @@ mod tests {
         let d = imagej("ImageJ=1.54f\nimages=5\n", Some(1.0 / 72.0), None);
         assert!(d.pixel_um.is_none() && d.z_step_um.is_none());
         // Bad values are reported, not guessed.
-        let d = imagej("ImageJ=\nimages=5\nunit=micron\nspacing=-1\n", Some(0.5), None);
+        let d = imagej(
+            "ImageJ=\nimages=5\nunit=micron\nspacing=-1\n",
+            Some(0.5),
+            None,
+        );
         assert!(d.z_step_um.unwrap().unwrap_err().contains("-1"));
         let d = imagej("ImageJ=\nunit=furlong\nspacing=1\n", Some(0.5), None);
         assert!(d.pixel_um.unwrap().unwrap_err().contains("furlong"));
@@ -387,7 +394,11 @@ mod tests {
         assert_eq!(d.size.unwrap().0, (4, 3));
         assert!(d.top_first.unwrap().0);
         assert!(ome("<OME></OME>").unwrap_err().contains("no <Image>"));
-        assert!(ome("<OME><Image/><Image/></OME>").unwrap_err().contains("2 images"));
+        assert!(
+            ome("<OME><Image/><Image/></OME>")
+                .unwrap_err()
+                .contains("2 images")
+        );
         assert!(ome("<OME><Image>").unwrap_err().starts_with("OME-XML"));
     }
 

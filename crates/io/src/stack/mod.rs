@@ -349,7 +349,9 @@ pub enum StackError {
         ny: usize,
     },
     /// The metadata declare another number of slices than the file holds.
-    #[error("{field} says {declared} slices but the file holds {found} (truncated or inconsistent?)")]
+    #[error(
+        "{field} says {declared} slices but the file holds {found} (truncated or inconsistent?)"
+    )]
     DeclaredCount {
         /// The field, e.g. `ImageJ images=`.
         field: &'static str,
@@ -926,8 +928,13 @@ fn read_metadata<R: Read + Seek>(
     let description = ascii(decoder.find_tag(Tag::ImageDescription).map_err(err)?);
     let xres = rational(decoder.find_tag(Tag::XResolution).map_err(err)?);
     let yres = rational(decoder.find_tag(Tag::YResolution).map_err(err)?);
-    let unit: Option<u16> = decoder.find_tag_unsigned(Tag::ResolutionUnit).map_err(err)?;
-    let per = |r: Option<(u32, u32)>| r.filter(|r| r.1 != 0).map(|(n, d)| f64::from(n) / f64::from(d));
+    let unit: Option<u16> = decoder
+        .find_tag_unsigned(Tag::ResolutionUnit)
+        .map_err(err)?;
+    let per = |r: Option<(u32, u32)>| {
+        r.filter(|r| r.1 != 0)
+            .map(|(n, d)| f64::from(n) / f64::from(d))
+    };
     if let Some(r) = per(xres) {
         fields.insert("tiff.XResolution".into(), r.to_string());
         fields.insert(
@@ -945,12 +952,10 @@ fn read_metadata<R: Read + Seek>(
         .find_tag(Tag::Unknown(TAG_CZ_LSMINFO))
         .map_err(err)?
     {
-        let bytes = lsm
-            .into_u8_vec()
-            .map_err(|e| StackError::Metadata {
-                format: StackFormat::Lsm,
-                message: format!("tag 34412 (CZ_LSMINFO) is not a byte record: {e}"),
-            })?;
+        let bytes = lsm.into_u8_vec().map_err(|e| StackError::Metadata {
+            format: StackFormat::Lsm,
+            message: format!("tag 34412 (CZ_LSMINFO) is not a byte record: {e}"),
+        })?;
         let d = meta::lsm(&bytes).map_err(|message| StackError::Metadata {
             format: StackFormat::Lsm,
             message,
@@ -976,11 +981,15 @@ fn read_metadata<R: Read + Seek>(
     if meta::is_imagej(&text) {
         // Size of a pixel in the unit: 1 / (n/d) = d/n, one rounding.
         let size = |r: Option<(u32, u32)>| {
-            r.filter(|r| r.0 != 0).map(|(n, d)| f64::from(d) / f64::from(n))
+            r.filter(|r| r.0 != 0)
+                .map(|(n, d)| f64::from(d) / f64::from(n))
         };
         let d = meta::imagej(&text, size(xres), size(yres));
         return Ok((StackFormat::ImageJ, d));
     }
-    fields.insert("tiff.ImageDescription".into(), text.chars().take(200).collect());
+    fields.insert(
+        "tiff.ImageDescription".into(),
+        text.chars().take(200).collect(),
+    );
     Ok((StackFormat::PlainTiff, meta::Declared::default()))
 }

@@ -189,7 +189,11 @@ impl<W: Write + Seek> ImageJStackWriter<W> {
         self.written
     }
 
-    fn write<C: ColorType>(&mut self, sample: SampleType, data: &[C::Inner]) -> Result<(), WriteStackError>
+    fn write<C: ColorType>(
+        &mut self,
+        sample: SampleType,
+        data: &[C::Inner],
+    ) -> Result<(), WriteStackError>
     where
         [C::Inner]: TiffValue,
     {
@@ -210,7 +214,11 @@ impl<W: Write + Seek> ImageJStackWriter<W> {
         if data.len() != l.nx * l.ny {
             return Err(WriteStackError::Slice {
                 slice,
-                message: format!("{} samples given, expected nx * ny = {}", data.len(), l.nx * l.ny),
+                message: format!(
+                    "{} samples given, expected nx * ny = {}",
+                    data.len(),
+                    l.nx * l.ny
+                ),
             });
         }
         let mut image = self
