@@ -12,7 +12,7 @@ use flakescatter_confocal::{
 };
 
 const DZ: f64 = 0.3;
-const SINC2_HALF: f64 = 1.391_557_377_819_27;
+const SINC2_HALF: f64 = 1.391_557_378_251_51;
 
 fn response(kind: &str, u: f64, w: f64) -> f64 {
     match kind {

@@ -45,7 +45,7 @@ use crate::generate::SyntheticLayer;
 use crate::params::LayerParams;
 
 /// `sinc²(x) = ½` at `x = 1.391557…` (the root of `sin x = x / √2`).
-const SINC2_HALF: f64 = 1.391_557_377_819_27;
+const SINC2_HALF: f64 = 1.391_557_378_251_51;
 
 /// Axial response of a reflecting surface, normalised to 1 in focus (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]

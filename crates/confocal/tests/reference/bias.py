@@ -14,7 +14,7 @@ def gauss(z, w):
 
 
 def sinc2(z, w):
-    x = 2 * 1.39155737781927 * z / w
+    x = 2 * 1.39155737825151 * z / w
     out = np.ones_like(x)
     nz = np.abs(x) > 1e-8
     out[nz] = (np.sin(x[nz]) / x[nz]) ** 2
