@@ -204,7 +204,7 @@ fn imagej_writer_round_trip_all_sample_types() {
     let mut buf = Cursor::new(Vec::new());
     let mut w = ImageJStackWriter::new(&mut buf, layout(SampleType::U16)).unwrap();
     for k in 0..4u16 {
-        w.write_u16(&vec![65535 - k; 15]).unwrap();
+        w.write_u16(&[65535 - k; 15]).unwrap();
     }
     w.finish().unwrap();
     let bytes = buf.into_inner();
@@ -213,7 +213,7 @@ fn imagej_writer_round_trip_all_sample_types() {
     let mut buf = Cursor::new(Vec::new());
     let mut w = ImageJStackWriter::new(&mut buf, layout(SampleType::F32)).unwrap();
     for k in 0..4 {
-        w.write_f32(&vec![k as f32 * 1.5 - 2.0; 15]).unwrap();
+        w.write_f32(&[k as f32 * 1.5 - 2.0; 15]).unwrap();
     }
     w.finish().unwrap();
     let bytes = buf.into_inner();

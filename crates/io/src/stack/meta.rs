@@ -8,13 +8,16 @@
 
 use std::collections::BTreeMap;
 
+/// A declared value with a description of its origin, or why it is unusable.
+pub(crate) type Field<T> = Option<Result<(T, String), String>>;
+
 /// What a metadata block says about the stack. `None` = not stated.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct Declared {
     /// Pixel size `(dx, dy)` in µm, with a description of where it came from.
-    pub pixel_um: Option<Result<((f64, f64), String), String>>,
+    pub pixel_um: Field<(f64, f64)>,
     /// z step in µm, with its origin.
-    pub z_step_um: Option<Result<(f64, String), String>>,
+    pub z_step_um: Field<f64>,
     /// Number of z slices declared (`slices=`, `SizeZ`, `DimensionZ`).
     pub slices: Option<(usize, &'static str)>,
     /// Declared `(nx, ny)` of each slice, with the field names.
