@@ -73,8 +73,10 @@ pub mod multiangle;
 mod nnls;
 pub mod pipeline;
 pub mod reproduce;
+pub mod stack;
 
 pub use flakescatter_colour as colour;
+pub use flakescatter_confocal as confocal;
 pub use flakescatter_gaussian as gaussian;
 pub use flakescatter_io as io;
 pub use flakescatter_optics as optics;

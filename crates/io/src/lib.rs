@@ -25,6 +25,7 @@ pub mod flakes;
 pub mod map;
 pub mod measured;
 pub mod sdf;
+pub mod stack;
 pub mod text;
 pub mod units;
 pub mod x3p;
@@ -32,5 +33,9 @@ pub mod x3p;
 pub use map::{
     MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, read_intensity,
     read_intensity_bytes, read_map, read_map_bytes, write_intensity, write_map,
+};
+pub use stack::{
+    PageOrder, ReadStackError, SampleType, StackError, StackFormat, StackInfo, StackOptions,
+    StackReader,
 };
 pub use units::ZUnit;

@@ -35,6 +35,8 @@ pub(crate) enum Stream {
     HeightNoise = 4,
     /// Intensity noise.
     IntensityNoise = 5,
+    /// Photon and read noise of rendered confocal stacks (`stack` module).
+    StackNoise = 6,
 }
 
 /// SplitMix64 finaliser: a bijective 64-bit mix (Steele, Lea & Flood 2014).

@@ -34,6 +34,7 @@ mod error;
 mod field;
 mod generate;
 mod params;
+pub mod stack;
 
 pub use disc::Disc;
 pub use error::SynthError;
@@ -46,3 +47,4 @@ pub use params::{
     Confocal, DiameterDistribution, FlakeAmount, IntensityLevels, LayerParams, LayerSpec,
     MAX_PIXELS, Roughness,
 };
+pub use stack::{AxialResponse, BitDepth, StackSpec, SyntheticStack};
