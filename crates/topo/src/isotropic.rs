@@ -77,7 +77,7 @@ use rayon::prelude::*;
 use crate::TopoError;
 use crate::index::ConeIndex;
 use crate::model::{TopoModel, TopoOptions, TopoPoint};
-use crate::normals::{Rect, Scratch, tile_slopes};
+use crate::normals::{Rect, Scratch, direct_slopes, tile_slopes};
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
 /// is `δ = α_min / DEFAULT_NODES_PER_APERTURE` (0.0117° for α = 1.5°).
@@ -213,7 +213,11 @@ impl Ring {
             Arc::None
         } else {
             let lo = q.acos();
-            if lo >= PI { Arc::None } else { Arc::Range(lo, TAU - lo) }
+            if lo >= PI {
+                Arc::None
+            } else {
+                Arc::Range(lo, TAU - lo)
+            }
         }
     }
 
@@ -225,7 +229,11 @@ impl Ring {
         let (mx, my) = (s * cp, s * sp);
         let gamma = ct * c - st * mx;
         let dgamma = st * s * sp;
-        let (k2x, k2y, k2z) = (st + 2.0 * gamma * mx, 2.0 * gamma * my, -ct + 2.0 * gamma * c);
+        let (k2x, k2y, k2z) = (
+            st + 2.0 * gamma * mx,
+            2.0 * gamma * my,
+            -ct + 2.0 * gamma * c,
+        );
         let dk2x = 2.0 * (dgamma * mx - gamma * my);
         let dk2y = 2.0 * (dgamma * my + gamma * mx);
         let (ox, oy) = (n * k2x, n * k2y);
@@ -618,7 +626,12 @@ fn root(ring: &Ring, axis: &Axis, (a, fa): (f64, f64), (b, fb): (f64, f64)) -> f
 /// The azimuth between `(a, f'(a))` and `(b, f'(b))` (slopes of opposite signs, from
 /// [`end_slope`]) where `f'` vanishes: the Illinois variant of regula falsi, bisection
 /// while an end slope is infinite, to 1e-13 rad.
-fn extremum(ring: &Ring, axis: &Axis, (mut a, mut sa): (f64, f64), (mut b, mut sb): (f64, f64)) -> f64 {
+fn extremum(
+    ring: &Ring,
+    axis: &Axis,
+    (mut a, mut sa): (f64, f64),
+    (mut b, mut sb): (f64, f64),
+) -> f64 {
     let mut side = 0i8;
     for _ in 0..100 {
         if b - a < 1e-13 {
@@ -693,7 +706,7 @@ struct IsoPartial {
     lost_down: f64,
 }
 
-/// Node index of `θ` (radians) in units of `δ`, and the largest node a map can need.
+/// The node coordinate `x = θn/δ` of slopes `(a, b)`.
 fn node_coordinate(a: f64, b: f64, inv_delta: f64) -> f64 {
     (a * a + b * b).sqrt().atan() * inv_delta
 }
@@ -1042,7 +1055,8 @@ fn deposit_tile(
     touched_odd.clear();
     touched_cells.clear();
     let mut usable = 0u64;
-    tile_slopes(map, h, rect, normals, |_, _, a, b| {
+    tile_slopes(map, h, rect, normals, |row, col, _, _| {
+        let (a, b) = direct_slopes(map, h, row, col);
         let w = if physical {
             (1.0 + a * a + b * b).sqrt()
         } else {
@@ -1295,7 +1309,10 @@ mod tests {
             }
             let d = ring.fraction_below(0.0);
             let t = ring.fraction_below(kappa) - d;
-            assert!((down as f64 / m as f64 - d).abs() < 1e-4, "down {ti} {theta}");
+            assert!(
+                (down as f64 / m as f64 - d).abs() < 1e-4,
+                "down {ti} {theta}"
+            );
             assert!((tir as f64 / m as f64 - t).abs() < 1e-4, "tir {ti} {theta}");
         }
     }

@@ -10,7 +10,7 @@ use flakescatter_optics::{UnitVec3, Vec3};
 use flakescatter_stats::HeightMap;
 use flakescatter_stats::distribution::{GaussianWidth, Orientation};
 use flakescatter_synth::{LayerParams, LayerSpec, generate};
-use flakescatter_topo::{IsotropicOptions, TopoModel, TopoOptions};
+use flakescatter_topo::{IsotropicOptions, TopoError, TopoModel, TopoOptions};
 
 const N: f64 = 1.5;
 
@@ -48,7 +48,9 @@ fn tilted_plane_at_normal_incidence_matches_the_closed_form_ring() {
         for (ux, uy) in [(1.0, 0.0), (0.0, 1.0), (0.6, -0.8)] {
             let map = plane(nx, ny, dx, dy, theta.tan() * ux, theta.tan() * uy);
             let mut cones = Vec::new();
-            for ts in [-40.0f64, -30.0, -15.0, -7.0, 0.0, 5.0, 13.5, 26.0, 44.0, 60.0] {
+            for ts in [
+                -40.0f64, -30.0, -15.0, -7.0, 0.0, 5.0, 13.5, 26.0, 44.0, 60.0,
+            ] {
                 cones.push(Cone::in_plane(ts.to_radians(), alpha).unwrap());
             }
             for (tr, pr) in [(26.0f64, 1.0f64), (13.5, 2.5), (44.0, -2.0)] {
@@ -87,7 +89,10 @@ fn tilted_plane_at_normal_incidence_matches_the_closed_form_ring() {
             }
         }
     }
-    assert!(nonzero >= 20, "the closed form must be exercised ({nonzero})");
+    assert!(
+        nonzero >= 20,
+        "the closed form must be exercised ({nonzero})"
+    );
 }
 
 /// Per-pixel brute force, written here from physics.md §2 and §5 without the library's
@@ -253,10 +258,12 @@ fn isotropic_model_matches_a_per_pixel_brute_force_integration() {
     assert!(normals.len() > 800, "{}", normals.len());
     let alpha = 1.5f64.to_radians();
     let theta_i = [30f64.to_radians(), 60f64.to_radians()];
-    let mut cones: Vec<Cone> = [-66.0f64, -58.0, -49.5, -40.0, -31.0, -26.0, -17.0, -5.0, 8.0]
-        .iter()
-        .map(|d| Cone::in_plane(d.to_radians(), alpha).unwrap())
-        .collect();
+    let mut cones: Vec<Cone> = [
+        -66.0f64, -58.0, -49.5, -40.0, -31.0, -26.0, -17.0, -5.0, 8.0,
+    ]
+    .iter()
+    .map(|d| Cone::in_plane(d.to_radians(), alpha).unwrap())
+    .collect();
     cones.push(Cone::out_of_plane(32f64.to_radians(), 0.2, alpha).unwrap());
     cones.push(Cone::out_of_plane(55f64.to_radians(), -0.15, 3f64.to_radians()).unwrap());
     let r = model.run_isotropic(&[&map], &theta_i, &cones).unwrap();
@@ -314,4 +321,369 @@ fn isotropic_model_matches_a_per_pixel_brute_force_integration() {
         assert!(fine_err <= 3e-4 * bf, "δ/16: {fine_err:e} of {bf:e}");
     }
     assert!(compared >= 14, "{compared}");
+}
+
+/// A 512² map like the fixtures (`fixtures/README.md`: 0.18 µm pixels, 0.3 µm z step,
+/// intensity cutoff 0.49), regenerated with the fixtures' parameters.
+fn fixture_like(hwhm_deg: f64, roughness_um: f64, correlation_um: f64, seed: u64) -> HeightMap {
+    fixture_variant(hwhm_deg, roughness_um, correlation_um, seed, 0.3, 0.0)
+}
+
+/// As [`fixture_like`] with another z step and height noise (µm).
+fn fixture_variant(
+    hwhm_deg: f64,
+    roughness_um: f64,
+    correlation_um: f64,
+    seed: u64,
+    z_step_um: f64,
+    noise_um: f64,
+) -> HeightMap {
+    let orientation = Orientation::gaussian(GaussianWidth::Hwhm(hwhm_deg.to_radians())).unwrap();
+    let mut spec = LayerSpec::new(512, 512, orientation, seed);
+    spec.roughness.rms_um = roughness_um;
+    spec.roughness.correlation_um = correlation_um;
+    spec.confocal.z_step_um = z_step_um;
+    spec.confocal.noise_sd_um = noise_um;
+    let layer = generate(&LayerParams::new(spec).unwrap()).unwrap();
+    assert!(
+        (55..=85).contains(&layer.visible_flakes().count()),
+        "about 70 flakes"
+    );
+    let mut map = layer.height;
+    map.apply_intensity_cutoff(&layer.intensity, 0.49).unwrap();
+    map
+}
+
+/// The instrument of `reproduce`: in-plane θs = −70°:0.5°:70°, α = 1.5°.
+fn goniometer() -> Vec<Cone> {
+    (-140..=140)
+        .map(|d| Cone::in_plane((f64::from(d) * 0.5).to_radians(), 1.5f64.to_radians()).unwrap())
+        .collect()
+}
+
+/// Points within 40° of specular (`|θs + θi| ≤ 40°`), as (θs, point) pairs.
+fn near_specular(
+    points: &[flakescatter_topo::TopoPoint],
+) -> impl Iterator<Item = &flakescatter_topo::TopoPoint> {
+    points.iter().filter(|p| {
+        let ts = flakescatter_optics::detector::in_plane_angle(p.cone.axis());
+        (ts + p.theta_i).abs() <= 40f64.to_radians() + 1e-9
+    })
+}
+
+/// Issue 17: on one 512² map of ~70 rough flakes, every in-plane detector within 40° of
+/// specular gets light with a finite standard error at θi = 30° and 60°. The map is the
+/// rough fixture's layer seen with the paper's 0.3 µm z step and a 10 nm height noise.
+#[test]
+fn rough_map_reaches_every_detector_near_specular() {
+    let map = fixture_variant(6.0, 0.05, 1.5, 6, 0.3, 0.01);
+    let theta_i = [30f64.to_radians(), 60f64.to_radians()];
+    let cones = goniometer();
+    let r = model().run_isotropic(&[&map], &theta_i, &cones).unwrap();
+    let plain = model().run(&[&map], &theta_i, &cones).unwrap();
+    let near: Vec<_> = near_specular(&r.points).collect();
+    assert_eq!(near.len(), 161 + 101, "detectors within 40° of specular");
+    let empty: Vec<String> = near
+        .iter()
+        .filter(|p| p.reflectance == 0.0)
+        .map(|p| {
+            format!(
+                "{:.0}/{:.1}",
+                p.theta_i.to_degrees(),
+                flakescatter_optics::detector::in_plane_angle(p.cone.axis()).to_degrees()
+            )
+        })
+        .collect();
+    eprintln!("empty: {empty:?}");
+    for p in &near {
+        assert!(
+            p.reflectance > 0.0 && p.reflectance_std_err.is_finite() && p.reflectance_std_err > 0.0,
+            "θi {:.0}°, axis {:?}: {} ± {}",
+            p.theta_i.to_degrees(),
+            p.cone.axis(),
+            p.reflectance,
+            p.reflectance_std_err
+        );
+    }
+    let plain_empty = near_specular(&plain.points).filter(|p| p.rays == 0).count();
+    eprintln!(
+        "plain model: {plain_empty} of {} near-specular detectors empty",
+        near.len()
+    );
+    assert!(
+        plain_empty > 20,
+        "the plain model leaves gaps here ({plain_empty})"
+    );
+}
+
+/// Issue 17: on a map like the smooth fixture (0.3 µm z steps; here with a 10 nm height
+/// noise, as a confocal has) the isotropic model leaves at least 4× fewer near-specular
+/// detectors empty than the plain model.
+#[test]
+fn smooth_quantised_map_has_at_least_four_times_fewer_empty_detectors() {
+    let map = fixture_variant(3.0, 0.0, 1.0, 3, 0.3, 0.01);
+    let theta_i = [30f64.to_radians(), 60f64.to_radians()];
+    let cones = goniometer();
+    let r = model().run_isotropic(&[&map], &theta_i, &cones).unwrap();
+    let plain = model().run(&[&map], &theta_i, &cones).unwrap();
+    for ti in theta_i {
+        let empty = |ps: &[flakescatter_topo::TopoPoint]| {
+            near_specular(ps)
+                .filter(|p| p.theta_i == ti && p.reflectance == 0.0)
+                .count()
+        };
+        let (iso_empty, plain_empty) = (empty(&r.points), empty(&plain.points));
+        eprintln!(
+            "θi {:.0}°: empty near-specular detectors: plain {plain_empty}, isotropic {iso_empty}",
+            ti.to_degrees()
+        );
+        assert!(plain_empty >= 40, "{plain_empty}");
+        assert!(4 * iso_empty <= plain_empty, "{iso_empty} vs {plain_empty}");
+    }
+}
+
+/// The normals a map holds bound what it can reach. On the noiseless smooth fixture
+/// the 5 × 5 fit sees flat quantised terraces (tilt 0) or parts of 0.3 µm steps, whose
+/// slopes are multiples of `0.3 µm / (5 · 0.18 µm · 10)` = 1/15 (a step across the
+/// whole window: 1/3 or 1/2, 18° or 27°), and windows across flake edges give steep
+/// tilts: the map holds no tilt between 0 and 3.8°, so no detector between the specular cone and the rings of the smallest
+/// non-zero tilts can be reached, rotation or not. A ring meets the plane of incidence
+/// only where it crosses it (`φ = 0, π`; it is symmetric about the plane and, away
+/// from tilt 0, much larger than the 1.5° cones), so an in-plane detector is reachable
+/// exactly when one of the map's tilts crosses the plane within the aperture of its
+/// axis; crossings traced here with the brute-force tracer above.
+#[test]
+fn isotropic_model_reaches_what_the_map_tilts_can_reach() {
+    let map = fixture_like(3.0, 0.0, 1.0, 3);
+    let theta_i = [30f64.to_radians(), 60f64.to_radians()];
+    let cones = goniometer();
+    let m = model();
+    let r = m.run_isotropic(&[&map], &theta_i, &cones).unwrap();
+    let plain = m.run(&[&map], &theta_i, &cones).unwrap();
+    let mut tilts: Vec<f64> = m
+        .normals(&map)
+        .unwrap()
+        .to_vec()
+        .into_iter()
+        .flatten()
+        .map(|n| n.z.acos())
+        .collect();
+    tilts.sort_by(f64::total_cmp);
+    tilts.dedup_by(|a, b| (*a - *b).abs() < 1e-7);
+    let smallest = tilts.iter().find(|&&t| t > 1e-6).copied().unwrap();
+    eprintln!(
+        "{} distinct tilts, the smallest non-zero {:.2}°",
+        tilts.len(),
+        smallest.to_degrees()
+    );
+    assert!(smallest > 3f64.to_radians());
+    let (mut checked, mut ambiguous) = (0, 0);
+    for ti in theta_i {
+        let brute = Brute::new(ti);
+        let crossings: Vec<f64> = tilts
+            .iter()
+            .flat_map(|&t| {
+                let m = Vec3::new(t.sin(), 0.0, t.cos());
+                [0.0, PI].map(|psi| brute.ray(&m, psi))
+            })
+            .flatten()
+            .map(|(k, _)| flakescatter_optics::detector::in_plane_angle(&k))
+            .collect();
+        for p in near_specular(&r.points).filter(|p| p.theta_i == ti) {
+            let ts = flakescatter_optics::detector::in_plane_angle(p.cone.axis());
+            let closest = crossings
+                .iter()
+                .map(|c| (c - ts).abs())
+                .fold(f64::INFINITY, f64::min);
+            let alpha = p.cone.half_angle();
+            if (closest - alpha).abs() < 0.02f64.to_radians() {
+                ambiguous += 1;
+                continue;
+            }
+            checked += 1;
+            assert_eq!(
+                p.reflectance == 0.0,
+                closest > alpha,
+                "θi {:.0}° θs {:.1}°: {} (closest crossing {:.3}° away)",
+                ti.to_degrees(),
+                ts.to_degrees(),
+                p.reflectance,
+                closest.to_degrees(),
+            );
+        }
+    }
+    let empty = |ps: &[flakescatter_topo::TopoPoint]| {
+        near_specular(ps).filter(|p| p.reflectance == 0.0).count()
+    };
+    eprintln!(
+        "noiseless smooth map: empty near-specular detectors: plain {}, isotropic {} ({checked} checked, {ambiguous} within 0.02° of the rim)",
+        empty(&plain.points),
+        empty(&r.points)
+    );
+    assert!(checked > 240 && ambiguous < 20, "{checked} {ambiguous}");
+    assert!(empty(&r.points) > 50 && empty(&r.points) < empty(&plain.points));
+}
+
+/// A map transposed, flipped or turned by 90° on its grid.
+fn transformed(map: &HeightMap, how: &str) -> HeightMap {
+    let (nx, ny) = (map.nx(), map.ny());
+    let (z, v) = (map.heights(), map.valid());
+    let (mx, my, dx, dy) = match how {
+        "transpose" | "rotate90" => (ny, nx, map.dy(), map.dx()),
+        _ => (nx, ny, map.dx(), map.dy()),
+    };
+    let source = |c: usize, r: usize| -> usize {
+        match how {
+            "transpose" => c * nx + r,
+            // Turned by 90°: new (c, r) = old (r, ny − 1 − c).
+            "rotate90" => (ny - 1 - c) * nx + r,
+            "flip_x" => r * nx + (nx - 1 - c),
+            "flip_y" => (ny - 1 - r) * nx + c,
+            _ => unreachable!(),
+        }
+    };
+    let idx: Vec<usize> = (0..mx * my).map(|i| source(i % mx, i / mx)).collect();
+    HeightMap::with_mask(
+        mx,
+        my,
+        dx,
+        dy,
+        idx.iter().map(|&i| z[i]).collect(),
+        idx.iter().map(|&i| v[i]).collect(),
+    )
+    .unwrap()
+}
+
+/// Rotating, transposing or flipping the map leaves the isotropic result unchanged (to
+/// rounding: the windowed sums run in another order) while the plain model changes.
+/// Tiles of 128 pixels divide the 512-pixel map, so every transform maps tiles onto
+/// tiles and the standard errors agree too.
+#[test]
+fn isotropic_result_does_not_depend_on_the_map_orientation() {
+    let map = fixture_like(6.0, 0.05, 1.5, 6);
+    let theta_i = [30f64.to_radians(), 60f64.to_radians()];
+    let mut cones = goniometer();
+    for (tr, pr) in [(20.0f64, 0.5f64), (40.0, 0.7), (50.0, 2.0), (30.0, -1.2)] {
+        cones.push(Cone::out_of_plane(tr.to_radians(), pr, 2f64.to_radians()).unwrap());
+    }
+    let m = model().with_block_um(128.0 * 0.18).unwrap();
+    let iso = m.run_isotropic(&[&map], &theta_i, &cones).unwrap();
+    let plain = m.run(&[&map], &theta_i, &cones).unwrap();
+    assert_eq!(iso.tiles, 16);
+    for how in ["transpose", "rotate90", "flip_x", "flip_y"] {
+        let t = transformed(&map, how);
+        let iso_t = m.run_isotropic(&[&t], &theta_i, &cones).unwrap();
+        assert_eq!(iso_t.usable_pixels, iso.usable_pixels);
+        for (a, b) in iso.points.iter().zip(&iso_t.points) {
+            let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * x.abs().max(y.abs());
+            assert!(
+                close(a.reflectance, b.reflectance)
+                    && close(a.reflectance_std_err, b.reflectance_std_err),
+                "{how}: {} ± {} vs {} ± {}",
+                a.reflectance,
+                a.reflectance_std_err,
+                b.reflectance,
+                b.reflectance_std_err
+            );
+        }
+        // The plain model changes; a flip across the plane of incidence (y → −y) is a
+        // symmetry of the in-plane detectors, so there only the out-of-plane ones change.
+        let plain_t = m.run(&[&t], &theta_i, &cones).unwrap();
+        let changed = |in_plane: bool| {
+            plain
+                .points
+                .iter()
+                .zip(&plain_t.points)
+                .filter(|(a, _)| (a.cone.axis().y == 0.0) == in_plane)
+                .filter(|(a, b)| {
+                    (a.reflectance - b.reflectance).abs() > 0.1 * a.reflectance.max(b.reflectance)
+                })
+                .count()
+        };
+        let (in_plane, out) = (changed(true), changed(false));
+        eprintln!(
+            "{how}: plain model changed by > 10 % at {in_plane} in-plane, {out} out-of-plane detectors"
+        );
+        assert!(out >= 1, "{how}: out of plane ({out})");
+        if how == "flip_y" {
+            assert!(in_plane <= 2, "{how}: in plane ({in_plane})");
+        } else {
+            assert!(in_plane > 20, "{how}: in plane ({in_plane})");
+        }
+    }
+}
+
+/// One thread and three threads give identical bits.
+#[test]
+fn isotropic_result_is_bit_identical_for_any_thread_count() {
+    let maps = [rough_map(150, 120, 3), rough_map(90, 140, 4)];
+    let refs: Vec<&HeightMap> = maps.iter().collect();
+    let cones = goniometer();
+    let ti = [0.0, 45f64.to_radians()];
+    let m = model().with_block_um(8.0).unwrap();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| m.run_isotropic(&refs, &ti, &cones).unwrap())
+    };
+    let bits = |r: &flakescatter_topo::IsotropicResult| -> Vec<u64> {
+        r.points
+            .iter()
+            .zip(&r.interpolation_error)
+            .flat_map(|(p, e)| {
+                [
+                    p.reflectance.to_bits(),
+                    p.reflectance_std_err.to_bits(),
+                    p.relative.to_bits(),
+                    e.to_bits(),
+                    p.rays,
+                ]
+            })
+            .chain([r.rings_lost_tir.to_bits(), r.rings_lost_down.to_bits()])
+            .collect()
+    };
+    let (one, three) = (run(1), run(3));
+    assert_eq!(bits(&one), bits(&three));
+    assert!(one.tiles > 20 && one.points.iter().filter(|p| p.rays > 0).count() > 50);
+}
+
+/// The isotropic run refuses what the plain run refuses, and a bad node spacing.
+#[test]
+fn isotropic_bad_input_is_an_error() {
+    let map = plane(20, 20, 0.5, 0.5, 0.01, 0.0);
+    let cones = goniometer();
+    let m = model();
+    let with = |d: f64| {
+        m.run_isotropic_with(
+            &[&map],
+            &[0.3],
+            &cones,
+            &IsotropicOptions {
+                node_spacing: Some(d),
+            },
+            &|_, _| {},
+        )
+    };
+    for d in [0.0, -1e-4, f64::NAN, f64::INFINITY, 0.02] {
+        assert!(matches!(with(d), Err(TopoError::NodeSpacing(_))), "{d}");
+    }
+    assert!(matches!(
+        m.run_isotropic(&[], &[0.3], &cones),
+        Err(TopoError::Empty(_))
+    ));
+    assert!(matches!(
+        m.run_isotropic(&[&map], &[1.6], &cones),
+        Err(TopoError::Incidence(_))
+    ));
+    assert!(matches!(
+        m.run_isotropic(&[&map], &[0.3], &[Cone::in_plane(0.0, 0.0).unwrap()]),
+        Err(TopoError::PointDetector(0))
+    ));
+    let tiny = plane(3, 3, 0.5, 0.5, 0.0, 0.0);
+    assert!(matches!(
+        m.run_isotropic(&[&tiny], &[0.3], &cones),
+        Err(TopoError::WindowTooLarge { .. })
+    ));
 }
