@@ -72,6 +72,7 @@ pub mod instrument;
 pub mod multiangle;
 mod nnls;
 pub mod pipeline;
+pub mod pixels;
 pub mod reproduce;
 
 pub use flakescatter_gaussian as gaussian;
@@ -84,8 +85,9 @@ pub use flakescatter_topo as topo;
 pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
-    p_tilde_about_specular, topographic_curves,
+    isotropic_curves, p_tilde_about_specular, topographic_curves,
 };
+pub use pixels::{PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources};
 
 /// Errors of the pipeline.
 #[derive(Debug, thiserror::Error)]

@@ -678,6 +678,150 @@ struct TileDeposit {
     nodes: Vec<(u32, f64, f64)>,
     odd: Vec<(u32, f64)>,
     cells: Vec<(u32, u32)>,
+    /// Every pixel as (fine cell, `t`, area factor), for the edge cells.
+    pixels: Vec<(u32, f64, f64)>,
+}
+
+/// A detector whose response switches on or off inside a fine cell: `h` is zero at one
+/// node and not at the other. Near such an edge `h ∝ sqrt(θ − θc)` times a smooth
+/// factor, so `h²` is smooth: it is interpolated linearly, from the two nodes on the
+/// lit side, as `q(t) = q0 + qs t` (`t ∈ [0, 1]` across the cell, root clamped into
+/// the cell), and `h ≈ sqrt(max(q, 0))` replaces the linear `lin0 (1 − t) + lin1 t`.
+///
+/// The square-root law is applied only where `h²` is nearly straight over the lit
+/// side's nodes ([`square_root_edge`]); elsewhere (a ring's arc ending at the horizon,
+/// a response narrower than a few cells, or an edge next to another change of shape)
+/// the cell stays linear. In both cases the difference between the two interpolations
+/// enters the error estimate.
+#[derive(Debug, Clone, Copy)]
+struct Edge {
+    det: u32,
+    lin0: f64,
+    lin1: f64,
+    q0: f64,
+    qs: f64,
+    apply: bool,
+}
+
+impl Edge {
+    /// Edge-aware minus linear interpolation at `t`.
+    #[inline]
+    fn correction(&self, t: f64) -> f64 {
+        (self.q0 + self.qs * t).max(0.0).sqrt() - (self.lin0 * (1.0 - t) + self.lin1 * t)
+    }
+}
+
+/// Whether `h²` at three consecutive lit nodes (nearest the edge first) is straight
+/// enough for the square-root law: second difference below a tenth of the first.
+/// Edges of another kind (a ring's arc ending at the horizon, where the exit Fresnel
+/// factor vanishes) stay linear.
+fn square_root_edge(q1: f64, q2: f64, q3: f64) -> bool {
+    (q3 - 2.0 * q2 + q1).abs() <= 0.1 * (q2 - q1)
+}
+
+/// What the contraction needs per fine cell and incidence, computed once from the rows:
+/// the detectors lit at either node (for `rays`) and the edges.
+#[derive(Debug, Clone, Default)]
+struct CellInfo {
+    lit: Vec<u32>,
+    edges: Vec<Edge>,
+}
+
+/// The cell information of fine cell `c`.
+fn cell_info(rows: &[Row], c: usize) -> CellInfo {
+    let (r0, r1) = (&rows[c].entries, &rows[c + 1].entries);
+    let mut lit: Vec<u32> = r0.iter().chain(r1).map(|e| e.0).collect();
+    lit.sort_unstable();
+    lit.dedup();
+    CellInfo {
+        lit,
+        edges: cell_edges(rows, c),
+    }
+}
+
+/// `|h_k − (h_{k−1} + h_{k+1})/2|` for every detector lit at all three nodes around the
+/// odd node `k` (coarse cells holding an edge are covered by the edge terms).
+fn odd_defect(rows: &[Row], k: usize) -> Vec<(u32, f64)> {
+    let (a, b, c) = (&rows[k - 1].entries, &rows[k].entries, &rows[k + 1].entries);
+    b.iter()
+        .filter_map(|&(det, v)| {
+            let (va, vc) = (value_in(a, det), value_in(c, det));
+            (va > 0.0 && vc > 0.0).then(|| (det, (v - 0.5 * (va + vc)).abs()))
+        })
+        .collect()
+}
+
+/// Value of detector `det` in a sorted row (0 when absent).
+fn value_in(row: &[(u32, f64)], det: u32) -> f64 {
+    row.binary_search_by_key(&det, |e| e.0)
+        .map_or(0.0, |i| row[i].1)
+}
+
+/// The edges of fine cell `c` (nodes `c − 2 … c + 3` computed): every detector lit at
+/// only one node of the cell, with its square-root model (module docs, [`Edge`]).
+fn cell_edges(rows: &[Row], c: usize) -> Vec<Edge> {
+    let (r0, r1) = (&rows[c].entries, &rows[c + 1].entries);
+    let mut out = Vec::new();
+    let (mut i0, mut i1) = (0, 0);
+    while i0 < r0.len() || i1 < r1.len() {
+        let d0 = r0.get(i0).map_or(u32::MAX, |e| e.0);
+        let d1 = r1.get(i1).map_or(u32::MAX, |e| e.0);
+        let det = d0.min(d1);
+        let v0 = if d0 == det { r0[i0].1 } else { 0.0 };
+        let v1 = if d1 == det { r1[i1].1 } else { 0.0 };
+        if d0 == det {
+            i0 += 1;
+        }
+        if d1 == det {
+            i1 += 1;
+        }
+        if v0 == 0.0 && v1 > 0.0 {
+            let h2 = value_in(&rows[c + 2].entries, det);
+            let h3 = value_in(&rows[c + 3].entries, det);
+            let slope = h2 * h2 - v1 * v1;
+            // h² through nodes c+1, c+2, its root clamped into the cell (to node c
+            // when h² does not grow away from the edge).
+            let (mut q0, mut qs) = (v1 * v1 - slope, slope);
+            if slope <= 0.0 || q0 > 0.0 {
+                (q0, qs) = (0.0, v1 * v1);
+            }
+            let apply = slope > 0.0 && square_root_edge(v1 * v1, h2 * h2, h3 * h3);
+            out.push(Edge {
+                det,
+                lin0: 0.0,
+                lin1: v1,
+                q0,
+                qs,
+                apply,
+            });
+        } else if v0 > 0.0 && v1 == 0.0 {
+            let hm = if c > 0 {
+                value_in(&rows[c - 1].entries, det)
+            } else {
+                0.0
+            };
+            let hmm = if c > 1 {
+                value_in(&rows[c - 2].entries, det)
+            } else {
+                0.0
+            };
+            let drop = hm * hm - v0 * v0;
+            let (q0, mut qs) = (v0 * v0, -drop);
+            if drop <= 0.0 || q0 + qs > 0.0 {
+                qs = -v0 * v0;
+            }
+            let apply = drop > 0.0 && c > 1 && square_root_edge(v0 * v0, hm * hm, hmm * hmm);
+            out.push(Edge {
+                det,
+                lin0: v0,
+                lin1: 0.0,
+                q0,
+                qs,
+                apply,
+            });
+        }
+    }
+    out
 }
 
 /// Scratch arrays of the deposits, indexed by node.
@@ -848,6 +992,10 @@ impl TopoModel {
         let kmax = (std::f64::consts::FRAC_PI_2 * setup.inv_delta).ceil() as usize + 4;
         let mut rows: Vec<Vec<Row>> = (0..ninc).map(|_| Vec::new()).collect();
         let mut computed: Vec<bool> = Vec::new();
+        let mut cells: Vec<Vec<CellInfo>> = (0..ninc).map(|_| Vec::new()).collect();
+        let mut cells_done: Vec<bool> = Vec::new();
+        let mut defects: Vec<Vec<Vec<(u32, f64)>>> = (0..ninc).map(|_| Vec::new()).collect();
+        let mut defects_done: Vec<bool> = Vec::new();
         let mut nodes = 0usize;
 
         let jobs: Vec<(usize, Rect)> = maps
@@ -899,8 +1047,10 @@ impl TopoModel {
                     need(k + 1, &mut computed);
                 }
                 for &(c, _) in &d.cells {
-                    need(c as usize, &mut computed);
-                    need(c as usize + 1, &mut computed);
+                    let c = c as usize;
+                    for k in c.saturating_sub(2)..=c + 3 {
+                        need(k, &mut computed);
+                    }
                 }
             }
             if !missing.is_empty() {
@@ -924,10 +1074,43 @@ impl TopoModel {
                     rows[ii][k] = resp;
                 }
             }
-            // 3. Contraction with the table, then the ordered reduction.
+            // 3. What the contraction needs per cell and odd node, once each.
+            for d in &deposits {
+                for &(c, _) in &d.cells {
+                    let c = c as usize;
+                    if c >= cells_done.len() {
+                        cells_done.resize(c + 1, false);
+                        for e in &mut cells {
+                            e.resize_with(c + 1, CellInfo::default);
+                        }
+                    }
+                    if !cells_done[c] {
+                        cells_done[c] = true;
+                        for (ii, e) in cells.iter_mut().enumerate() {
+                            e[c] = cell_info(&rows[ii], c);
+                        }
+                    }
+                }
+                for &(k, _) in &d.odd {
+                    let k = k as usize;
+                    if k >= defects_done.len() {
+                        defects_done.resize(k + 1, false);
+                        for e in &mut defects {
+                            e.resize_with(k + 1, Vec::new);
+                        }
+                    }
+                    if !defects_done[k] {
+                        defects_done[k] = true;
+                        for (ii, e) in defects.iter_mut().enumerate() {
+                            e[k] = odd_defect(&rows[ii], k);
+                        }
+                    }
+                }
+            }
+            // 4. Contraction with the table, then the ordered reduction.
             let partials: Vec<IsoPartial> = deposits
                 .par_iter()
-                .map(|d| contract_tile(d, &rows, ndet))
+                .map(|d| contract_tile(d, &rows, &cells, &defects, ndet))
                 .collect();
             for p in partials {
                 seen += 1;
@@ -1055,6 +1238,7 @@ fn deposit_tile(
     touched_odd.clear();
     touched_cells.clear();
     let mut usable = 0u64;
+    let mut pixels = Vec::new();
     tile_slopes(map, h, rect, normals, |row, col, _, _| {
         let (a, b) = direct_slopes(map, h, row, col);
         let w = if physical {
@@ -1077,6 +1261,7 @@ fn deposit_tile(
             touched_cells.push(c as u32);
         }
         cells[c] += 1;
+        pixels.push((c as u32, t, w));
         let x2 = 0.5 * x;
         let cc = x2 as usize;
         let t2 = x2 - cc as f64;
@@ -1093,6 +1278,7 @@ fn deposit_tile(
         nodes: Vec::with_capacity(touched.len()),
         odd: Vec::with_capacity(touched_odd.len()),
         cells: Vec::with_capacity(touched_cells.len()),
+        pixels,
     };
     for &k in touched.iter() {
         let i = k as usize;
@@ -1107,6 +1293,9 @@ fn deposit_tile(
         hat[i] = 0.0;
         mark_odd[i] = false;
     }
+    // Pixels grouped by cell (stable: raster order within a cell), cells ascending.
+    d.pixels.sort_by_key(|p| p.0);
+    touched_cells.sort_unstable();
     for &c in touched_cells.iter() {
         d.cells.push((c, cells[c as usize]));
         cells[c as usize] = 0;
@@ -1115,7 +1304,13 @@ fn deposit_tile(
 }
 
 /// Contracts one tile's deposits with the table rows (`rows[ii][k]`).
-fn contract_tile(d: &TileDeposit, rows: &[Vec<Row>], ndet: usize) -> IsoPartial {
+fn contract_tile(
+    d: &TileDeposit,
+    rows: &[Vec<Row>],
+    cells: &[Vec<CellInfo>],
+    defects: &[Vec<Vec<(u32, f64)>>],
+    ndet: usize,
+) -> IsoPartial {
     let ninc = rows.len();
     let mut p = IsoPartial {
         sums: vec![0.0; ninc * ndet],
@@ -1136,47 +1331,32 @@ fn contract_tile(d: &TileDeposit, rows: &[Vec<Row>], ndet: usize) -> IsoPartial 
             p.lost_tir += gn * row.tir;
             p.lost_down += gn * row.down;
         }
-        // |h_k − (h_{k−1} + h_{k+1})/2| per detector: rows k−1, k, k+1 merged.
         let defect = &mut p.defect[base..base + ndet];
         for &(k, hat) in &d.odd {
-            let k = k as usize;
-            let r = [
-                &table[k - 1].entries,
-                &table[k].entries,
-                &table[k + 1].entries,
-            ];
-            let mut idx = [0usize; 3];
-            loop {
-                let heads = [0, 1, 2].map(|m| r[m].get(idx[m]).map_or(u32::MAX, |e| e.0));
-                let det = heads[0].min(heads[1]).min(heads[2]);
-                if det == u32::MAX {
-                    break;
-                }
-                let mut v = [0.0; 3];
-                for m in 0..3 {
-                    if heads[m] == det {
-                        v[m] = r[m][idx[m]].1;
-                        idx[m] += 1;
-                    }
-                }
-                defect[det as usize] += hat * (v[1] - 0.5 * (v[0] + v[2])).abs();
+            for &(det, v) in &defects[ii][k as usize] {
+                defect[det as usize] += hat * v;
             }
         }
-        // Pixels whose interpolated response is non-zero: rows c and c+1 merged.
+        // Per fine cell (pixels sorted by cell): pixels whose interpolated response is
+        // non-zero, and the edge cells, where the edge-aware interpolation replaces the
+        // linear one and the size of that correction is the error estimate.
         let counts = &mut p.counts[base..base + ndet];
+        let mut start = 0;
         for &(c, nc) in &d.cells {
-            let (r0, r1) = (&table[c as usize].entries, &table[c as usize + 1].entries);
-            let (mut i0, mut i1) = (0, 0);
-            while i0 < r0.len() || i1 < r1.len() {
-                let d0 = r0.get(i0).map_or(u32::MAX, |e| e.0);
-                let d1 = r1.get(i1).map_or(u32::MAX, |e| e.0);
-                let det = d0.min(d1);
+            let info = &cells[ii][c as usize];
+            let px = &d.pixels[start..start + nc as usize];
+            start += nc as usize;
+            for &det in &info.lit {
                 counts[det as usize] += nc;
-                if d0 == det {
-                    i0 += 1;
-                }
-                if d1 == det {
-                    i1 += 1;
+            }
+            for e in &info.edges {
+                let det = e.det as usize;
+                for &(_, t, w) in px {
+                    let dh = w * e.correction(t);
+                    if e.apply {
+                        sums[det] += dh;
+                    }
+                    defect[det] += dh.abs();
                 }
             }
         }

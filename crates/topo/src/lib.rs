@@ -49,10 +49,12 @@ mod index;
 pub mod isotropic;
 pub mod model;
 pub mod normals;
+pub mod pixels;
 
 pub use isotropic::{DEFAULT_NODES_PER_APERTURE, IsotropicOptions, IsotropicResult};
 pub use model::{DEFAULT_BLOCK_UM, TopoModel, TopoOptions, TopoPoint, TopoResult};
 pub use normals::{Normals, normal_from_slopes};
+pub use pixels::{PixelTilts, TileTilts};
 
 /// Errors of the topographic model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -117,6 +119,9 @@ pub enum TopoError {
     /// The statistics tile size is not finite and positive.
     #[error("tile size {0} um is not valid: expected a finite number > 0")]
     BlockSize(f64),
+    /// The histogram bin width is not finite, not positive or above π/4.
+    #[error("bin width {0} rad is not valid: expected a finite number in (0, pi/4]")]
+    BinWidth(f64),
     /// The isotropic model's node spacing is not finite, not positive or too coarse.
     #[error("node spacing {0} rad is not valid: expected a finite number in (0, 0.01] rad")]
     NodeSpacing(f64),
