@@ -16,9 +16,14 @@
 //! * [`width_sources`]: for a set of maps, the flake-level width (segmented flakes, one
 //!   plane per flake, area-weighted) beside the pixel-level width of all usable pixels
 //!   and of the pixels whose window lies inside one segmented flake. For small tilts the
-//!   tilt vectors add, so the variances do: `s_pixel² ≈ s_flake² + s_rough²`, and
+//!   tilt vectors add, so the variances do: `s_inside² ≈ s_flake² + s_rough²`, and
 //!   `s_rough = sqrt(s_inside² − s_flake²)` is the within-flake roughness (per tilt
 //!   component, radians) that the paper's topographic model adds to the distribution.
+//!   For that difference the flakes are weighted like the pixels (each flake by the true
+//!   area of its inside pixels): with the flakes' own areas, a few per cent of weighting
+//!   difference between the two widths would pass for roughness (the square root of a
+//!   small difference of squares is sensitive to it); with matched weights smooth
+//!   flakes give exactly zero.
 //!
 //! Uncertainty. Neighbouring pixels share windows and flakes, so pixel counts say
 //! nothing about precision. The width's 95 % interval comes from the spread of the
@@ -113,8 +118,11 @@ pub struct WidthSources {
     /// Pixel-level width of the pixels whose whole window lies inside one segmented
     /// flake (pixels on a flake's rim masked).
     pub inside: PixelWidth,
-    /// `sqrt(s_inside² − s_flake²)`, radians: the within-flake roughness as a tilt
-    /// spread per component; `None` when the inside width is not above the flake width.
+    /// Flake-level `s` with each flake weighted by the true area of its inside pixels
+    /// (the weights of `inside`), radians.
+    pub flake_sigma_pixel_weighted: f64,
+    /// `sqrt(s_inside² − s_flake,pixel-weighted²)`, radians: the within-flake roughness
+    /// as a tilt spread per component; `None` when the inside width is not above it.
     pub within_flake_sigma: Option<f64>,
 }
 
@@ -242,14 +250,33 @@ pub fn width_sources(
     let bin = 1f64.to_radians();
     let pixel = width_of(&model.pixel_tilts(maps, bin)?).ok();
     let mut samples = Vec::new();
+    let mut matched = Vec::new();
     let mut inside_maps = Vec::with_capacity(maps.len());
     for map in maps {
         let seg = segment(map, params).map_err(|e| PipelineError::Orientation(e.to_string()))?;
-        samples.extend(seg.flakes.iter().map(|f| {
-            let f = f.to_flake();
-            (f.theta_n(), f.area_um2)
-        }));
-        inside_maps.push(inside_flakes(map, &seg.labels)?);
+        let inside = inside_flakes(map, &seg.labels)?;
+        // True area of each flake's usable inside pixels: the flake's weight among the
+        // inside pixels.
+        let mut weight = vec![0.0; seg.flakes.len()];
+        if let Ok(normals) = model.normals(&inside) {
+            let pixel_area = map.dx() * map.dy();
+            for r in 0..map.ny() {
+                for c in 0..map.nx() {
+                    if let Some((a, b)) = normals.slope(c, r) {
+                        let l = seg.labels[r * map.nx() + c] as usize;
+                        weight[l - 1] += pixel_area * (1.0 + a * a + b * b).sqrt();
+                    }
+                }
+            }
+        }
+        for (f, &w) in seg.flakes.iter().zip(&weight) {
+            let flake = f.to_flake();
+            samples.push((flake.theta_n(), flake.area_um2));
+            if w > 0.0 {
+                matched.push((flake.theta_n(), w));
+            }
+        }
+        inside_maps.push(inside);
     }
     if samples.is_empty() {
         return Err(PipelineError::Fit(
@@ -260,12 +287,16 @@ pub fn width_sources(
         .map_err(|e| PipelineError::Fit(format!("flake-level width: {e}")))?;
     let refs: Vec<&HeightMap> = inside_maps.iter().collect();
     let inside = width_of(&model.pixel_tilts(&refs, bin)?)?;
-    let d = inside.sigma * inside.sigma - flake.sigma * flake.sigma;
+    let flake_matched = fit_gaussian_ml(&matched)
+        .map_err(|e| PipelineError::Fit(format!("flake-level width (pixel weights): {e}")))?
+        .sigma;
+    let d = inside.sigma * inside.sigma - flake_matched * flake_matched;
     Ok(WidthSources {
         flake,
         flakes: samples.len(),
         pixel,
         inside,
+        flake_sigma_pixel_weighted: flake_matched,
         within_flake_sigma: (d > 0.0).then(|| d.sqrt()),
     })
 }

@@ -53,12 +53,15 @@ fn isotropic_model_is_coverage_times_the_distribution_model_of_the_pixel_normals
         Settings::default(),
         TopoSettings::default(),
     );
+    // Nodes 4× finer than the default, so that the table's interpolation error (its
+    // estimate is checked below) stays well under the bins' effect being measured.
+    let spacing = 1.5f64.to_radians() / flakescatter::topo::DEFAULT_NODES_PER_APERTURE / 4.0;
     let (iso, result) = isotropic_curves(
         &coating,
         &instrument,
         &settings,
         &topo,
-        None,
+        Some(spacing),
         &[&map],
         &|_, _| {},
     )
@@ -85,8 +88,11 @@ fn isotropic_model_is_coverage_times_the_distribution_model_of_the_pixel_normals
             let (ri, rd) = (a.reflectance.unwrap(), coverage * b.reflectance.unwrap());
             let rel = (rd - ri) / ri;
             est = est.max(result.interpolation_error[k] / ri);
-            // The table's interpolation error stays below the 1 % asked of the identity.
-            assert!(result.interpolation_error[k] < 8e-3 * ri);
+            assert!(
+                result.interpolation_error[k] < 2e-3 * ri,
+                "{} of {ri}",
+                result.interpolation_error[k]
+            );
             worst = worst.max(rel.abs());
             sq += rel * rel;
             n += 1;
