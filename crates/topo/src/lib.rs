@@ -9,6 +9,11 @@
 //! ([`model`]). Several maps accumulate into one result, with per-detector ray counts
 //! and a standard error from the spread between map tiles.
 //!
+//! [`isotropic`] averages the model exactly over the sample's rotation about its normal
+//! (each pixel's ray becomes a ring of exit directions; [`TopoModel::run_isotropic`]),
+//! and [`pixels`] gives the area-weighted distribution of the pixel normals that the
+//! distribution model must be fed to reproduce it ([`TopoModel::pixel_tilts`]).
+//!
 //! # Conventions
 //! * Frame of physics.md §1: `z` is the coating normal pointing into the air, `x` lies in
 //!   the plane of incidence, the source is on the `−x` side; in-plane detectors use the
