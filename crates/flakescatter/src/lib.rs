@@ -8,7 +8,9 @@
 //! formats), [`synth`] (synthetic flake layers) — and adds the composition they cannot
 //! own: a [`Coating`], an [`Instrument`] and an [`OrientationSource`] (a distribution
 //! or a flake table) turned into [`Curves`] by [`distribution_curves`], or height maps
-//! turned into curves by [`topographic_curves`] ([`topo`] is the topographic layer);
+//! turned into curves by [`topographic_curves`] or, averaged over the sample's rotation,
+//! [`isotropic_curves`] ([`topo`] is the topographic layer); the pixel-level
+//! distribution of normals and the flake- against pixel-level width in [`pixels`];
 //! measurement against model in [`compare`], fitting of the orientation distribution in
 //! [`fit`], multi-angle readouts in [`multiangle`].
 //!
