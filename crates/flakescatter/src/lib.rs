@@ -8,7 +8,9 @@
 //! formats), [`synth`] (synthetic flake layers), [`colour`] (colorimetry) — and adds the composition they cannot
 //! own: a [`Coating`], an [`Instrument`] and an [`OrientationSource`] (a distribution
 //! or a flake table) turned into [`Curves`] by [`distribution_curves`], or height maps
-//! turned into curves by [`topographic_curves`] ([`topo`] is the topographic layer);
+//! turned into curves by [`topographic_curves`] or, averaged over the sample's rotation,
+//! [`isotropic_curves`] ([`topo`] is the topographic layer); the pixel-level
+//! distribution of normals and the flake- against pixel-level width in [`pixels`];
 //! measurement against model in [`compare`], fitting of the orientation distribution in
 //! [`fit`], multi-angle readouts in [`multiangle`].
 //!
@@ -72,6 +74,7 @@ pub mod instrument;
 pub mod multiangle;
 mod nnls;
 pub mod pipeline;
+pub mod pixels;
 pub mod reproduce;
 pub mod stack;
 
@@ -87,8 +90,9 @@ pub use flakescatter_topo as topo;
 pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
-    p_tilde_about_specular, topographic_curves,
+    isotropic_curves, p_tilde_about_specular, topographic_curves,
 };
+pub use pixels::{PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources};
 
 /// Errors of the pipeline.
 #[derive(Debug, thiserror::Error)]

@@ -11,7 +11,7 @@ use flakescatter_optics::polarization::{Transmission, Weighting};
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_stats::histogram::AreaHistogram;
 use flakescatter_stats::{Flake, Orientation};
-use flakescatter_topo::{TopoModel, TopoOptions, TopoResult};
+use flakescatter_topo::{IsotropicOptions, IsotropicResult, TopoModel, TopoOptions, TopoResult};
 
 use crate::PipelineError;
 use crate::instrument::Instrument;
@@ -276,6 +276,92 @@ pub fn topographic_curves(
         ),
     };
     Ok((curves, result))
+}
+
+/// The topographic model averaged over the sample's rotation about its normal
+/// (physics.md §5.1) over `maps`, accumulated into one result: every pixel's ring of
+/// exit directions, exactly, instead of one ray. `node_spacing` is the spacing of the
+/// tilt nodes of its table (radians; `None` for the smallest aperture / 128).
+/// `progress(done, total)` is called from the calling thread as tiles finish. Returns
+/// the curves (`rays` = pixels whose ring meets the cone, `std_err` from tiles as in
+/// [`topographic_curves`]) and the model's result, which also holds each row's
+/// interpolation error estimate (`interpolation_error`, reflectance units), the ring
+/// losses and the table size.
+///
+/// # Errors
+/// As [`topographic_curves`], and [`PipelineError::Topo`] for an invalid node spacing.
+pub fn isotropic_curves(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    topo: &TopoSettings,
+    node_spacing: Option<f64>,
+    maps: &[&HeightMap],
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(Curves, IsotropicResult), PipelineError> {
+    if instrument.aperture() <= 0.0 {
+        return Err(PipelineError::Instrument(
+            "the topographic model counts rays into detector cones: the aperture must be > 0"
+                .into(),
+        ));
+    }
+    let model = topo_model(coating, settings, topo)?;
+    let result = model.run_isotropic_with(
+        maps,
+        instrument.theta_i(),
+        instrument.cones(),
+        &IsotropicOptions { node_spacing },
+        progress,
+    )?;
+    let nd = instrument.cones().len();
+    let rows = result
+        .points
+        .iter()
+        .enumerate()
+        .map(|(k, p)| CurveRow {
+            theta_i: p.theta_i,
+            detector: k % nd,
+            brdf: p.brdf,
+            reflectance: Some(p.reflectance),
+            relative: p.relative,
+            rays: Some(p.rays),
+            std_err: Some(p.brdf_std_err),
+        })
+        .collect();
+    let curves = Curves {
+        model: "topographic-isotropic",
+        instrument: instrument.clone(),
+        coating: *coating,
+        settings: *settings,
+        rows,
+        source: format!(
+            "{} height map(s), {} usable of {} pixels, averaged over the sample's rotation",
+            maps.len(),
+            result.usable_pixels,
+            result.pixels
+        ),
+    };
+    Ok((curves, result))
+}
+
+/// The topographic model for a coating, settings and topographic options.
+///
+/// # Errors
+/// [`PipelineError::Topo`] for invalid options.
+pub fn topo_model(
+    coating: &Coating,
+    settings: &Settings,
+    topo: &TopoSettings,
+) -> Result<TopoModel, PipelineError> {
+    Ok(TopoModel::new(TopoOptions {
+        n: coating.n,
+        transmission: settings.transmission,
+        weighting: settings.weighting,
+        flake: coating.flake,
+        clearcoat: settings.clearcoat,
+        window: topo.window,
+    })?
+    .with_block_um(topo.tile_um)?)
 }
 
 /// The orientation distribution drawn about the specular direction, as in the paper's

@@ -3,10 +3,15 @@
 //! (θs = −70°:70°:0.5°, α = 1.5°). Throughput is reported in rays (usable pixels ×
 //! incidences) per second. Target: 4096² in under 1.5 s on 2 cores.
 //!
+//! `topo/isotropic_5inc_281det/<size>` is the isotropic average (rings, rays' worth per
+//! second) on the same map and detectors; its target (issue 17) is within 3× of
+//! `topo/run_5inc_281det/2048`, the plain model on the same 2048² map.
+//!
 //! On the same maps: `topo/normals/<size>` times the windowed normals alone (pixels per
 //! second), and `topo/floor_<size>` is the floor `cargo xtask bench` compares both with:
 //! one streaming single-threaded pass that reads every height once (a sum). With the
 //! environment variable `FLAKESCATTER_BENCH_QUICK` set, only the 1024² map is used.
+//! The isotropic rows use the 1024² and 2048² maps.
 
 use std::hint::black_box;
 
@@ -75,11 +80,8 @@ fn bench(c: &mut Criterion) {
     let model = TopoModel::new(TopoOptions::default()).expect("model");
     let mut group = c.benchmark_group("topo");
     group.sample_size(10);
-    let sizes: &[usize] = if std::env::var_os("FLAKESCATTER_BENCH_QUICK").is_some() {
-        &[1024]
-    } else {
-        &[1024, 4096]
-    };
+    let quick = std::env::var_os("FLAKESCATTER_BENCH_QUICK").is_some();
+    let sizes: &[usize] = if quick { &[1024] } else { &[1024, 2048, 4096] };
     for &size in sizes {
         let map = surface(size, 42);
         group.throughput(Throughput::Elements((size * size) as u64));
@@ -94,6 +96,19 @@ fn bench(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("run_5inc_281det", size), &map, |b, map| {
             b.iter(|| model.run(&[black_box(map)], &theta_i, &cones).expect("run"));
         });
+        if size <= 2048 {
+            group.bench_with_input(
+                BenchmarkId::new("isotropic_5inc_281det", size),
+                &map,
+                |b, map| {
+                    b.iter(|| {
+                        model
+                            .run_isotropic(&[black_box(map)], &theta_i, &cones)
+                            .expect("isotropic")
+                    });
+                },
+            );
+        }
     }
     group.finish();
 }

@@ -18,6 +18,9 @@ pub(crate) struct Entry {
     pub ay: f64,
     pub az: f64,
     pub cos_alpha: f64,
+    /// `cos(α + margin)`: directions with `k·r` above it are within `margin` of the
+    /// cone (equal to `cos_alpha` for an index built without margin).
+    pub cos_reach: f64,
     pub index: u32,
 }
 
@@ -33,7 +36,14 @@ pub(crate) struct ConeIndex {
 impl ConeIndex {
     /// Builds the index for `cones` (all with `α > 0`).
     pub fn new(cones: &[Cone]) -> Self {
-        let chord = |c: &Cone| 2.0 * (0.5 * c.half_angle()).sin();
+        Self::with_margin(cones, 0.0)
+    }
+
+    /// Builds the index for `cones` widened by `margin` radians: a cell lists every cone
+    /// whose axis is within `α + margin` of some direction projecting into the cell
+    /// (`α + margin < π`).
+    pub fn with_margin(cones: &[Cone], margin: f64) -> Self {
+        let chord = |c: &Cone| 2.0 * (0.5 * (c.half_angle() + margin)).sin();
         let min_chord = cones.iter().map(chord).fold(f64::INFINITY, f64::min);
         // Cells about the size of the smallest cone's projection, at most 1024 per axis
         // and at least 8.
@@ -53,6 +63,11 @@ impl ConeIndex {
                 ay: a.y,
                 az: a.z,
                 cos_alpha: c.cos_half_angle(),
+                cos_reach: if margin > 0.0 {
+                    (c.half_angle() + margin).cos()
+                } else {
+                    c.cos_half_angle()
+                },
                 index: j as u32,
             };
             for iy in y0..=y1 {

@@ -9,6 +9,11 @@
 //! ([`model`]). Several maps accumulate into one result, with per-detector ray counts
 //! and a standard error from the spread between map tiles.
 //!
+//! [`isotropic`] averages the model exactly over the sample's rotation about its normal
+//! (each pixel's ray becomes a ring of exit directions; [`TopoModel::run_isotropic`]),
+//! and [`pixels`] gives the area-weighted distribution of the pixel normals that the
+//! distribution model must be fed to reproduce it ([`TopoModel::pixel_tilts`]).
+//!
 //! # Conventions
 //! * Frame of physics.md §1: `z` is the coating normal pointing into the air, `x` lies in
 //!   the plane of incidence, the source is on the `−x` side; in-plane detectors use the
@@ -46,11 +51,15 @@
 //! ```
 
 mod index;
+pub mod isotropic;
 pub mod model;
 pub mod normals;
+pub mod pixels;
 
+pub use isotropic::{DEFAULT_NODES_PER_APERTURE, IsotropicOptions, IsotropicResult};
 pub use model::{DEFAULT_BLOCK_UM, TopoModel, TopoOptions, TopoPoint, TopoResult};
 pub use normals::{Normals, normal_from_slopes};
+pub use pixels::{PixelTilts, TileTilts};
 
 /// Errors of the topographic model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -115,4 +124,10 @@ pub enum TopoError {
     /// The statistics tile size is not finite and positive.
     #[error("tile size {0} um is not valid: expected a finite number > 0")]
     BlockSize(f64),
+    /// The histogram bin width is not finite, not positive or above π/4.
+    #[error("bin width {0} rad is not valid: expected a finite number in (0, pi/4]")]
+    BinWidth(f64),
+    /// The isotropic model's node spacing is not finite, not positive or too coarse.
+    #[error("node spacing {0} rad is not valid: expected a finite number in (0, 0.01] rad")]
+    NodeSpacing(f64),
 }

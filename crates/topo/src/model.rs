@@ -240,7 +240,7 @@ impl TopoModel {
         self.block_um
     }
 
-    fn check_map(&self, i: usize, map: &HeightMap) -> Result<(), TopoError> {
+    pub(crate) fn check_map(&self, i: usize, map: &HeightMap) -> Result<(), TopoError> {
         let k = self.options.window;
         if k > map.nx() || k > map.ny() {
             return Err(TopoError::WindowTooLarge {
@@ -260,7 +260,7 @@ impl TopoModel {
     }
 
     /// The statistics tiles of a map, row-major.
-    fn tiles(&self, map: &HeightMap) -> Vec<Rect> {
+    pub(crate) fn tiles(&self, map: &HeightMap) -> Vec<Rect> {
         let tc = ((self.block_um / map.dx()).round() as usize).max(1);
         let tr = ((self.block_um / map.dy()).round() as usize).max(1);
         let mut out = Vec::new();

@@ -130,6 +130,39 @@ pub(crate) struct Scratch {
     z: Vec<f64>,
 }
 
+/// The slopes `(a, b)` of the `k × k` window (`k = 2h + 1`) centred on `(row, col)`,
+/// summed directly (no running sums) from the differences of symmetric pairs:
+/// `a = Σ_j Σ_{i=1}^{h} i (z(j, col + i) − z(j, col − i)) / (k dx S)`, and `b` alike. Rounding is then of the order of the height differences inside the window
+/// times 1e-16, whatever the map's size or orientation (the running sums of
+/// [`tile_slopes`] drift by up to about 1e-11 rad over a tile of a deep film). The
+/// caller guarantees that the whole window is valid and inside the map.
+pub(crate) fn direct_slopes(map: &HeightMap, h: usize, row: usize, col: usize) -> (f64, f64) {
+    let nx = map.nx();
+    let z = map.heights();
+    let k = 2 * h + 1;
+    let window_row = |r: usize| &z[r * nx + col - h..r * nx + col - h + k];
+    let (mut sa, mut sb) = (0.0, 0.0);
+    // a: within each window row, i (z(col + i) − z(col − i)).
+    for r in row - h..=row + h {
+        let w = window_row(r);
+        for i in 1..=h {
+            sa += i as f64 * (w[h + i] - w[h - i]);
+        }
+    }
+    // b: rows row ± i, differenced column by column.
+    for i in 1..=h {
+        let (up, down) = (window_row(row + i), window_row(row - i));
+        let d: f64 = up.iter().zip(down).map(|(u, v)| u - v).sum();
+        sb += i as f64 * d;
+    }
+    let hf = h as f64;
+    let s = (hf * (hf + 1.0) * (2.0 * hf + 1.0)) / 3.0;
+    (
+        sa / (k as f64 * map.dx() * s),
+        sb / (k as f64 * map.dy() * s),
+    )
+}
+
 /// Calls `emit(row, col, a, b)` for every usable pixel of `rect`, in row-major order.
 /// `k = 2h + 1` is the window side.
 pub(crate) fn tile_slopes(
