@@ -523,3 +523,4 @@ fn cylinders_intersect(a: &Flake, b: &Flake, b_centre: &Vec3) -> Result<bool, Vo
         .map(|r| r.intersecting)
         .map_err(|e| VolumeError::Geometry(format!("cylinder overlap test: {e:?}")))
 }
+
