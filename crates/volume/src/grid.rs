@@ -152,30 +152,33 @@ impl FlakeGrid {
         rims_transparent: bool,
         max_cells: u64,
     ) -> Next {
-        let g = self.side as i64;
-        let mut i = ((o.x * self.inv_cell).floor() as i64).clamp(0, g - 1);
-        let mut j = ((o.y * self.inv_cell).floor() as i64).clamp(0, g - 1);
-        let (step_i, delta_x, mut next_x) = axis_setup(o.x, k.x, i, self.cell);
-        let (step_j, delta_y, mut next_y) = axis_setup(o.y, k.y, j, self.cell);
+        let side = self.side;
+        // Column indices wrapped into the tile, and the shift of the current column's
+        // tile copy (the ray is followed without wrapping along one segment).
+        let mut wi = ((o.x * self.inv_cell) as usize).min(side - 1);
+        let mut wj = ((o.y * self.inv_cell) as usize).min(side - 1);
+        let (mut bx, mut by) = (0.0, 0.0);
+        let (step_i, delta_x, mut next_x) = axis_setup(o.x, k.x, wi, self.cell);
+        let (step_j, delta_y, mut next_y) = axis_setup(o.y, k.y, wj, self.cell);
+        let l = self.tile;
+        let images: [(f64, f64); 9] = std::array::from_fn(|c| {
+            (((c % 3) as f64 - 1.0) * l, ((c / 3) as f64 - 1.0) * l)
+        });
         let mut best = tau_max;
         let mut hit: Option<Hit> = None;
         let mut visited = 0u64;
         loop {
-            let wi = i.rem_euclid(g) as usize;
-            let wj = j.rem_euclid(g) as usize;
-            let bx = i.div_euclid(g) as f64 * self.tile;
-            let by = j.div_euclid(g) as f64 * self.tile;
-            let c = wj * self.side + wi;
+            let c = wj * side + wi;
             let cell = &self.entries[self.offsets[c] as usize..self.offsets[c + 1] as usize];
+            // The origin relative to this column's copy of the tile.
+            let (ox, oy) = (o.x - bx, o.y - by);
             for &e in cell {
                 let f = e >> 4;
-                let image = (e & 15) as i64;
-                let sx = (image % 3 - 1) as f64;
-                let sy = (image / 3 - 1) as f64;
+                let (sx, sy) = images[(e & 15) as usize];
                 let flake = &flakes[f as usize];
                 let d = Vec3::new(
-                    o.x - (flake.centre.x + sx * self.tile + bx),
-                    o.y - (flake.centre.y + sy * self.tile + by),
+                    ox - (flake.centre.x + sx),
+                    oy - (flake.centre.y + sy),
                     o.z - flake.centre.z,
                 );
                 let min_tau = if last == Some(f) { SELF_EPS } else { 0.0 };
@@ -199,11 +202,33 @@ impl FlakeGrid {
                 break;
             }
             if next_x < next_y {
-                i += step_i;
                 next_x += delta_x;
+                if step_i > 0 {
+                    wi += 1;
+                    if wi == side {
+                        wi = 0;
+                        bx += l;
+                    }
+                } else if wi == 0 {
+                    wi = side - 1;
+                    bx -= l;
+                } else {
+                    wi -= 1;
+                }
             } else {
-                j += step_j;
                 next_y += delta_y;
+                if step_j > 0 {
+                    wj += 1;
+                    if wj == side {
+                        wj = 0;
+                        by += l;
+                    }
+                } else if wj == 0 {
+                    wj = side - 1;
+                    by -= l;
+                } else {
+                    wj -= 1;
+                }
             }
             visited += 1;
             if visited > max_cells {
@@ -218,7 +243,7 @@ impl FlakeGrid {
 }
 
 /// `(step, distance between column walls, distance to the first wall)` along one axis.
-fn axis_setup(o: f64, k: f64, i: i64, cell: f64) -> (i64, f64, f64) {
+fn axis_setup(o: f64, k: f64, i: usize, cell: f64) -> (i64, f64, f64) {
     if k > 0.0 {
         (1, cell / k, ((i + 1) as f64 * cell - o) / k)
     } else if k < 0.0 {
