@@ -10,7 +10,8 @@
 //! or a flake table) turned into [`Curves`] by [`distribution_curves`], or height maps
 //! turned into curves by [`topographic_curves`] ([`topo`] is the topographic layer);
 //! measurement against model in [`compare`], fitting of the orientation distribution in
-//! [`fit`], multi-angle readouts in [`multiangle`].
+//! [`fit`], multi-angle readouts in [`multiangle`], and the three-dimensional layer with
+//! multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is its crate).
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
@@ -73,6 +74,7 @@ pub mod multiangle;
 mod nnls;
 pub mod pipeline;
 pub mod reproduce;
+pub mod volume;
 
 pub use flakescatter_gaussian as gaussian;
 pub use flakescatter_io as io;
@@ -80,12 +82,14 @@ pub use flakescatter_optics as optics;
 pub use flakescatter_stats as stats;
 pub use flakescatter_synth as synth;
 pub use flakescatter_topo as topo;
+pub use flakescatter_volume as volume_layer;
 
 pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
     p_tilde_about_specular, topographic_curves,
 };
+pub use volume::{VolumeCurves, VolumeRow, VolumeSettings, volume_curves};
 
 /// Errors of the pipeline.
 #[derive(Debug, thiserror::Error)]
@@ -108,4 +112,7 @@ pub enum PipelineError {
     /// The topographic model rejected its input.
     #[error("topographic model: {0}")]
     Topo(#[from] flakescatter_topo::TopoError),
+    /// The volume model rejected its input.
+    #[error("volume model: {0}")]
+    Volume(#[from] flakescatter_volume::VolumeError),
 }
