@@ -23,7 +23,8 @@ fn facade_returns_split_curves_energy_and_layer_statistics() {
     let ts: Vec<f64> = (-14..=14).map(|k| f64::from(k * 5).to_radians()).collect();
     let alpha = 1.5f64.to_radians();
     let theta_i = vec![30f64.to_radians(), 60f64.to_radians()];
-    let instrument = Instrument::new(theta_i.clone(), DetectorSet::InPlane(ts.clone()), alpha).unwrap();
+    let instrument =
+        Instrument::new(theta_i.clone(), DetectorSet::InPlane(ts.clone()), alpha).unwrap();
     let source = OrientationSource::Distribution(
         Orientation::gaussian(GaussianWidth::Hwhm(8f64.to_radians())).unwrap(),
     );
@@ -74,19 +75,34 @@ fn facade_returns_split_curves_energy_and_layer_statistics() {
 fn facade_refuses_point_detectors_and_bad_layers() {
     let instrument = Instrument::new(vec![0.5], DetectorSet::InPlane(vec![-0.5]), 0.0).unwrap();
     let source = OrientationSource::Distribution(Orientation::flat());
-    let err = volume_curves(&Coating::default(), &instrument, &settings(), &source, &|_, _| {}).unwrap_err();
+    let err = volume_curves(
+        &Coating::default(),
+        &instrument,
+        &settings(),
+        &source,
+        &|_, _| {},
+    )
+    .unwrap_err();
     assert!(matches!(err, PipelineError::Instrument(_)), "{err}");
     let instrument = Instrument::new(vec![0.5], DetectorSet::InPlane(vec![-0.5]), 0.02).unwrap();
     let bad = VolumeSettings {
         diameter: Diameter::Fixed(400.0),
         ..settings()
     };
-    let err = volume_curves(&Coating::default(), &instrument, &bad, &source, &|_, _| {}).unwrap_err();
+    let err =
+        volume_curves(&Coating::default(), &instrument, &bad, &source, &|_, _| {}).unwrap_err();
     assert!(err.to_string().contains("tile_um"), "{err}");
     let heavy = VolumeSettings {
         amount: Amount::VolumeFraction(0.9),
         ..settings()
     };
-    let err = volume_curves(&Coating::default(), &instrument, &heavy, &source, &|_, _| {}).unwrap_err();
+    let err = volume_curves(
+        &Coating::default(),
+        &instrument,
+        &heavy,
+        &source,
+        &|_, _| {},
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("loading too high"), "{err}");
 }

@@ -47,7 +47,13 @@ fn bench(c: &mut Criterion) {
         );
     }
     let cones: Vec<Cone> = (0..=280)
-        .map(|k| Cone::in_plane((-70.0 + 0.5 * f64::from(k)).to_radians(), 1.5f64.to_radians()).unwrap())
+        .map(|k| {
+            Cone::in_plane(
+                (-70.0 + 0.5 * f64::from(k)).to_radians(),
+                1.5f64.to_radians(),
+            )
+            .unwrap()
+        })
         .collect();
     let theta = [45f64.to_radians()];
     let options = TraceOptions {

@@ -141,6 +141,8 @@ impl FlakeGrid {
     /// the tile. `last` is the flake the ray just left (ignored below [`SELF_EPS`]);
     /// with `rims_transparent` a flake entered through its rim is passed through.
     /// Walks at most `max_cells` columns.
+    // One query with the ray, its limits and the two per-path flags: a struct would only
+    // rename them.
     #[allow(clippy::too_many_arguments)]
     pub fn nearest(
         &self,
@@ -161,9 +163,8 @@ impl FlakeGrid {
         let (step_i, delta_x, mut next_x) = axis_setup(o.x, k.x, wi, self.cell);
         let (step_j, delta_y, mut next_y) = axis_setup(o.y, k.y, wj, self.cell);
         let l = self.tile;
-        let images: [(f64, f64); 9] = std::array::from_fn(|c| {
-            (((c % 3) as f64 - 1.0) * l, ((c / 3) as f64 - 1.0) * l)
-        });
+        let images: [(f64, f64); 9] =
+            std::array::from_fn(|c| (((c % 3) as f64 - 1.0) * l, ((c / 3) as f64 - 1.0) * l));
         let mut best = tau_max;
         let mut hit: Option<Hit> = None;
         let mut visited = 0u64;
@@ -182,19 +183,18 @@ impl FlakeGrid {
                     o.z - flake.centre.z,
                 );
                 let min_tau = if last == Some(f) { SELF_EPS } else { 0.0 };
-                if let Some((tau, surface, normal)) = intersect(flake, &d, k, best) {
-                    if tau > min_tau && tau < best {
-                        if rims_transparent && surface == Surface::Rim {
-                            continue;
-                        }
-                        best = tau;
-                        hit = Some(Hit {
-                            tau,
-                            flake: f,
-                            surface,
-                            normal,
-                        });
-                    }
+                if let Some((tau, surface, normal)) = intersect(flake, &d, k, best)
+                    && tau > min_tau
+                    && tau < best
+                    && !(rims_transparent && surface == Surface::Rim)
+                {
+                    best = tau;
+                    hit = Some(Hit {
+                        tau,
+                        flake: f,
+                        surface,
+                        normal,
+                    });
                 }
             }
             let exit = next_x.min(next_y);
@@ -258,7 +258,12 @@ fn axis_setup(o: f64, k: f64, i: usize, cell: f64) -> (i64, f64, f64) {
 /// `τ < limit`, or `None`. Exact: the slab `|s| ≤ t/2` along the axis intersected with
 /// the infinite cylinder of radius `r`; the later of the two entries is where the ray
 /// enters the solid, through a face when the slab entry is the later one.
-pub(crate) fn intersect(flake: &Flake, d: &Vec3, k: &Vec3, limit: f64) -> Option<(f64, Surface, Vec3)> {
+pub(crate) fn intersect(
+    flake: &Flake,
+    d: &Vec3,
+    k: &Vec3,
+    limit: f64,
+) -> Option<(f64, Surface, Vec3)> {
     let r = flake.radius_um;
     let ht = 0.5 * flake.thickness_um;
     // Bounding sphere: reject rays that pass it or start beyond it going away.

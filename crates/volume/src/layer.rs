@@ -145,11 +145,11 @@ impl Layer {
         let mut volume = 0.0;
         let mut attempts = 0u64;
         let lognormal = match spec.diameter {
-            Diameter::LogNormal { mean_um, rel_sd } if rel_sd > 0.0 => Some(
-                LogNormal::from_mean_cv(mean_um, rel_sd).map_err(|e| {
+            Diameter::LogNormal { mean_um, rel_sd } if rel_sd > 0.0 => {
+                Some(LogNormal::from_mean_cv(mean_um, rel_sd).map_err(|e| {
                     VolumeError::Geometry(format!("log-normal diameter distribution: {e}"))
-                })?,
-            ),
+                })?)
+            }
             _ => None,
         };
         loop {
@@ -167,14 +167,13 @@ impl Layer {
             let hz = r * (1.0 - normal.z * normal.z).max(0.0).sqrt() + 0.5 * t * normal.z;
             let (lo, hi) = (hz, f - hz);
             let index = flakes.len();
-            let depth = DepthSampler::new(params.depth_bins(), lo, hi).ok_or(
-                VolumeError::DepthRange {
+            let depth =
+                DepthSampler::new(params.depth_bins(), lo, hi).ok_or(VolumeError::DepthRange {
                     flake: index,
                     tilt: normal.z.clamp(-1.0, 1.0).acos(),
                     min_depth_um: lo,
                     max_depth_um: hi,
-                },
-            )?;
+                })?;
             let mut placed = false;
             for _ in 0..spec.max_attempts {
                 attempts += 1;
@@ -239,7 +238,11 @@ impl Layer {
     /// [`VolumeError::Parameter`] for an invalid film or tile, [`VolumeError::BadFlake`]
     /// naming the first invalid flake, [`VolumeError::Overlap`] for the first overlapping
     /// pair, [`VolumeError::TileTooSmall`] for a flake that does not fit in the tile.
-    pub fn from_flakes(film_um: f64, tile_um: f64, flakes: Vec<Flake>) -> Result<Self, VolumeError> {
+    pub fn from_flakes(
+        film_um: f64,
+        tile_um: f64,
+        flakes: Vec<Flake>,
+    ) -> Result<Self, VolumeError> {
         if !(film_um.is_finite() && film_um > 0.0) {
             return Err(VolumeError::Parameter {
                 name: "film_um",
@@ -290,7 +293,10 @@ impl Layer {
         let mut placer = Placer::new(tile_um, max_extent);
         for (i, k) in flakes.iter().enumerate() {
             if let Some(j) = placer.first_overlap(k, &flakes[..i])? {
-                return Err(VolumeError::Overlap { first: j, second: i });
+                return Err(VolumeError::Overlap {
+                    first: j,
+                    second: i,
+                });
             }
             placer.insert(k, i);
         }
@@ -489,7 +495,11 @@ impl Placer {
                     if dx * dx + dy * dy + d.z * d.z > reach * reach {
                         continue;
                     }
-                    let shifted = Vec3::new(other.centre.x + sx * self.tile, other.centre.y + sy * self.tile, other.centre.z);
+                    let shifted = Vec3::new(
+                        other.centre.x + sx * self.tile,
+                        other.centre.y + sy * self.tile,
+                        other.centre.z,
+                    );
                     if cylinders_intersect(k, other, &shifted)? {
                         return Ok(true);
                     }
@@ -539,8 +549,12 @@ fn pose(centre: &Vec3, normal: &UnitVec3) -> Pose {
 fn cylinders_intersect(a: &Flake, b: &Flake, b_centre: &Vec3) -> Result<bool, VolumeError> {
     let ca = Cylinder::new(0.5 * a.thickness_um, a.radius_um);
     let cb = Cylinder::new(0.5 * b.thickness_um, b.radius_um);
-    intersection_test(&pose(&a.centre, &a.normal), &ca, &pose(b_centre, &b.normal), &cb)
-        .map(|r| r.intersecting)
-        .map_err(|e| VolumeError::Geometry(format!("cylinder overlap test: {e:?}")))
+    intersection_test(
+        &pose(&a.centre, &a.normal),
+        &ca,
+        &pose(b_centre, &b.normal),
+        &cb,
+    )
+    .map(|r| r.intersecting)
+    .map_err(|e| VolumeError::Geometry(format!("cylinder overlap test: {e:?}")))
 }
-

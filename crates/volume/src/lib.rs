@@ -164,7 +164,9 @@ pub enum VolumeError {
         max_depth_um: f64,
     },
     /// The amount asks for too many flakes.
-    #[error("the loading asks for about {requested:.3e} flakes, more than the {max} allowed; use a smaller tile")]
+    #[error(
+        "the loading asks for about {requested:.3e} flakes, more than the {max} allowed; use a smaller tile"
+    )]
     TooManyFlakes {
         /// Flakes the amount implies (estimate).
         requested: f64,

@@ -238,7 +238,11 @@ impl LayerParams {
             }
             Diameter::LogNormal { mean_um, rel_sd } => {
                 if !(mean_um.is_finite() && mean_um > 0.0) {
-                    return Err(param("diameter_um", mean_um, "a finite mean diameter > 0 µm"));
+                    return Err(param(
+                        "diameter_um",
+                        mean_um,
+                        "a finite mean diameter > 0 µm",
+                    ));
                 }
                 if !(rel_sd.is_finite() && (0.0..=1.0).contains(&rel_sd)) {
                     return Err(param("diameter_rel_sd", rel_sd, "a relative sd in [0, 1]"));

@@ -336,14 +336,14 @@ impl<'a> Tracer<'a> {
         if let FlakeReflectance::Complex { n, k } = options.flake {
             FlakeReflectance::complex(n, k).map_err(VolumeError::FlakeIndex)?;
         }
-        if let Substrate::Specular(r) | Substrate::Lambertian(r) = options.substrate {
-            if !(r.is_finite() && (0.0..=1.0).contains(&r)) {
-                return Err(VolumeError::Parameter {
-                    name: "substrate_reflectance",
-                    value: r,
-                    expected: "a reflectance in [0, 1]",
-                });
-            }
+        if let Substrate::Specular(r) | Substrate::Lambertian(r) = options.substrate
+            && !(r.is_finite() && (0.0..=1.0).contains(&r))
+        {
+            return Err(VolumeError::Parameter {
+                name: "substrate_reflectance",
+                value: r,
+                expected: "a reflectance in [0, 1]",
+            });
         }
         if options.rays == 0 || options.rays > MAX_RAYS {
             return Err(VolumeError::Parameter {
@@ -505,7 +505,11 @@ impl<'a> Tracer<'a> {
             let coat = entry.r_av();
             let specular = detector::specular_direction(ti);
             let value = |d: usize| {
-                let coat_seen = if all[d].contains(&specular) { coat } else { 0.0 };
+                let coat_seen = if all[d].contains(&specular) {
+                    coat
+                } else {
+                    0.0
+                };
                 coat_seen + (a.sum[d][0] + a.sum[d][1]) / nf
             };
             for (j, cone) in cones.iter().enumerate() {
@@ -624,7 +628,12 @@ impl Acc {
         }
         for k in 0..E_SLOTS {
             self.energy[k] += p.energy[k];
-            welford(&mut self.energy_mean[k], &mut self.energy_m2[k], p.energy[k], inv);
+            welford(
+                &mut self.energy_mean[k],
+                &mut self.energy_m2[k],
+                p.energy[k],
+                inv,
+            );
         }
         welford(
             &mut self.other_mean,

@@ -42,9 +42,16 @@ fn cones() -> Vec<Cone> {
 fn energy_balance_sums_to_one_in_every_configuration() {
     let layer = layer(2);
     let angles = [0.0f64, 35.0, 70.0].map(f64::to_radians);
-    let substrates = [Substrate::Black, Substrate::Specular(0.7), Substrate::Lambertian(0.5)];
+    let substrates = [
+        Substrate::Black,
+        Substrate::Specular(0.7),
+        Substrate::Lambertian(0.5),
+    ];
     let rims = [RimRule::Absorb, RimRule::Ignore, RimRule::Diffuse];
-    let flakes = [FlakeReflectance::PerfectConductor, FlakeReflectance::aluminium_550nm()];
+    let flakes = [
+        FlakeReflectance::PerfectConductor,
+        FlakeReflectance::aluminium_550nm(),
+    ];
     let mut checked = 0;
     for (k, &substrate) in substrates.iter().enumerate() {
         for (m, &rim) in rims.iter().enumerate() {
@@ -60,7 +67,10 @@ fn energy_balance_sums_to_one_in_every_configuration() {
                 max_events: if k == 2 && m == 2 { 3 } else { 1000 },
                 ..TraceOptions::default()
             };
-            let res = Tracer::new(&layer, options).unwrap().run(&angles, &cones()).unwrap();
+            let res = Tracer::new(&layer, options)
+                .unwrap()
+                .run(&angles, &cones())
+                .unwrap();
             for e in &res.energy {
                 let total = e.total();
                 assert!(
@@ -69,7 +79,14 @@ fn energy_balance_sums_to_one_in_every_configuration() {
                 );
                 assert!((e.absorbed_other - e.absorbed_rims - e.cut_off).abs() < 1e-15);
                 assert!(e.escaped_via_substrate <= e.escaped_multiple + 1e-15);
-                for v in [e.escaped_single, e.escaped_multiple, e.absorbed_substrate, e.absorbed_flakes, e.absorbed_rims, e.cut_off] {
+                for v in [
+                    e.escaped_single,
+                    e.escaped_multiple,
+                    e.absorbed_substrate,
+                    e.absorbed_flakes,
+                    e.absorbed_rims,
+                    e.cut_off,
+                ] {
                     assert!(v >= 0.0);
                 }
                 if rim == RimRule::Ignore {
@@ -82,7 +99,11 @@ fn energy_balance_sums_to_one_in_every_configuration() {
                     assert_eq!(e.absorbed_flakes, 0.0);
                 }
                 if k == 2 && m == 2 {
-                    assert!(e.cut_off > 1e-3, "the event limit leaves weight: {}", e.cut_off);
+                    assert!(
+                        e.cut_off > 1e-3,
+                        "the event limit leaves weight: {}",
+                        e.cut_off
+                    );
                 }
                 checked += 1;
             }
@@ -115,10 +136,16 @@ fn results_are_bit_identical_for_any_thread_count() {
     assert_eq!(one, run(2));
     assert_eq!(one, run(3));
     // A different seed gives different numbers (the seed is used).
-    let other = Tracer::new(&layer, TraceOptions { seed: 10, ..options })
-        .unwrap()
-        .run(&angles, &cones())
-        .unwrap();
+    let other = Tracer::new(
+        &layer,
+        TraceOptions {
+            seed: 10,
+            ..options
+        },
+    )
+    .unwrap()
+    .run(&angles, &cones())
+    .unwrap();
     assert_ne!(one.energy, other.energy);
     // Requested rays are rounded up to whole batches.
     assert_eq!(one.rays_per_incidence, 20_032);
@@ -127,7 +154,14 @@ fn results_are_bit_identical_for_any_thread_count() {
 #[test]
 fn progress_is_reported_to_completion() {
     let layer = layer(5);
-    let tracer = Tracer::new(&layer, TraceOptions { rays: 640, ..TraceOptions::default() }).unwrap();
+    let tracer = Tracer::new(
+        &layer,
+        TraceOptions {
+            rays: 640,
+            ..TraceOptions::default()
+        },
+    )
+    .unwrap();
     let last = std::sync::Mutex::new((0u64, 0u64));
     tracer
         .run_with_progress(&[0.3, 0.6], &cones(), &|done, total| {
@@ -146,6 +180,9 @@ fn spec() -> LayerSpec {
     s
 }
 
+/// A change to a valid spec that makes one parameter invalid.
+type Change = Box<dyn Fn(&mut LayerSpec)>;
+
 fn param_name(r: Result<LayerParams, VolumeError>) -> &'static str {
     match r {
         Err(VolumeError::Parameter { name, .. }) => name,
@@ -155,12 +192,15 @@ fn param_name(r: Result<LayerParams, VolumeError>) -> &'static str {
 
 #[test]
 fn bad_layer_parameters_are_named() {
-    let cases: Vec<(&str, Box<dyn Fn(&mut LayerSpec)>)> = vec![
+    let cases: Vec<(&str, Change)> = vec![
         ("film_um", Box::new(|s| s.film_um = -1.0)),
         ("film_um", Box::new(|s| s.film_um = f64::NAN)),
         ("thickness_um", Box::new(|s| s.thickness_um = -0.5)),
         ("thickness_um", Box::new(|s| s.thickness_um = 0.0)),
-        ("diameter_um", Box::new(|s| s.diameter = Diameter::Fixed(0.0))),
+        (
+            "diameter_um",
+            Box::new(|s| s.diameter = Diameter::Fixed(0.0)),
+        ),
         (
             "diameter_um",
             Box::new(|s| {
@@ -179,7 +219,10 @@ fn bad_layer_parameters_are_named() {
                 }
             }),
         ),
-        ("volume_fraction", Box::new(|s| s.amount = Amount::VolumeFraction(1.2))),
+        (
+            "volume_fraction",
+            Box::new(|s| s.amount = Amount::VolumeFraction(1.2)),
+        ),
         (
             "mass_loading",
             Box::new(|s| {
@@ -255,11 +298,17 @@ fn bad_layer_parameters_are_named() {
     // A film thinner than a flake.
     let mut s = spec();
     s.film_um = 0.8;
-    assert!(matches!(LayerParams::new(s), Err(VolumeError::FilmTooThin { .. })));
+    assert!(matches!(
+        LayerParams::new(s),
+        Err(VolumeError::FilmTooThin { .. })
+    ));
     // Too many flakes for the memory guard.
     let mut s = spec();
     s.tile_um = 1e6;
-    assert!(matches!(LayerParams::new(s), Err(VolumeError::TooManyFlakes { .. })));
+    assert!(matches!(
+        LayerParams::new(s),
+        Err(VolumeError::TooManyFlakes { .. })
+    ));
     // Centres at depth 0 cannot hold a flake inside the film.
     let mut s = spec();
     s.depth = Depth::Uniform {
@@ -267,7 +316,10 @@ fn bad_layer_parameters_are_named() {
         bottom_um: 0.0,
     };
     let err = Layer::generate(&LayerParams::new(s).unwrap()).unwrap_err();
-    assert!(matches!(err, VolumeError::DepthRange { flake: 0, .. }), "{err:?}");
+    assert!(
+        matches!(err, VolumeError::DepthRange { flake: 0, .. }),
+        "{err:?}"
+    );
     assert!(err.to_string().starts_with("depth_um"));
 }
 
@@ -282,25 +334,60 @@ fn bad_trace_options_and_geometry_are_refused() {
     let d = TraceOptions::default();
     assert_eq!(bad(TraceOptions { n: 0.9, ..d }), "n");
     assert_eq!(bad(TraceOptions { n: f64::NAN, ..d }), "n");
-    assert_eq!(bad(TraceOptions { substrate: Substrate::Specular(1.5), ..d }), "substrate_reflectance");
-    assert_eq!(bad(TraceOptions { substrate: Substrate::Lambertian(-0.1), ..d }), "substrate_reflectance");
+    assert_eq!(
+        bad(TraceOptions {
+            substrate: Substrate::Specular(1.5),
+            ..d
+        }),
+        "substrate_reflectance"
+    );
+    assert_eq!(
+        bad(TraceOptions {
+            substrate: Substrate::Lambertian(-0.1),
+            ..d
+        }),
+        "substrate_reflectance"
+    );
     assert_eq!(bad(TraceOptions { rays: 0, ..d }), "rays");
     assert_eq!(bad(TraceOptions { max_events: 0, ..d }), "max_events");
-    assert_eq!(bad(TraceOptions { min_weight: 1.0, ..d }), "min_weight");
+    assert_eq!(
+        bad(TraceOptions {
+            min_weight: 1.0,
+            ..d
+        }),
+        "min_weight"
+    );
     assert!(matches!(
-        Tracer::new(&layer, TraceOptions { flake: FlakeReflectance::Complex { n: -1.0, k: 2.0 }, ..d }),
+        Tracer::new(
+            &layer,
+            TraceOptions {
+                flake: FlakeReflectance::Complex { n: -1.0, k: 2.0 },
+                ..d
+            }
+        ),
         Err(VolumeError::FlakeIndex(_))
     ));
     let tracer = Tracer::new(&layer, TraceOptions { rays: 64, ..d }).unwrap();
     let cone = Cone::in_plane(-0.5, 0.02).unwrap();
-    assert_eq!(tracer.run(&[], &[cone]).unwrap_err(), VolumeError::Empty("incidence angle"));
-    assert_eq!(tracer.run(&[0.5], &[]).unwrap_err(), VolumeError::Empty("detector"));
     assert_eq!(
-        tracer.run(&[std::f64::consts::FRAC_PI_2], &[cone]).unwrap_err(),
+        tracer.run(&[], &[cone]).unwrap_err(),
+        VolumeError::Empty("incidence angle")
+    );
+    assert_eq!(
+        tracer.run(&[0.5], &[]).unwrap_err(),
+        VolumeError::Empty("detector")
+    );
+    assert_eq!(
+        tracer
+            .run(&[std::f64::consts::FRAC_PI_2], &[cone])
+            .unwrap_err(),
         VolumeError::Incidence(std::f64::consts::FRAC_PI_2)
     );
     let point = Cone::in_plane(-0.5, 0.0).unwrap();
-    assert_eq!(tracer.run(&[0.5], &[cone, point]).unwrap_err(), VolumeError::PointDetector(1));
+    assert_eq!(
+        tracer.run(&[0.5], &[cone, point]).unwrap_err(),
+        VolumeError::PointDetector(1)
+    );
     // Given flakes: outside the film, or bad sizes, are named.
     let flat = flakescatter_optics::UnitVec3::new_normalize(flakescatter_optics::Vec3::z());
     let k = Flake {
@@ -313,8 +400,21 @@ fn bad_trace_options_and_geometry_are_refused() {
         Layer::from_flakes(10.0, 20.0, vec![k]),
         Err(VolumeError::BadFlake { index: 0, reason }) if reason.contains("inside the film")
     ));
-    let k2 = Flake { radius_um: -1.0, centre: flakescatter_optics::Vec3::new(5.0, 5.0, -5.0), ..k };
-    assert!(matches!(Layer::from_flakes(10.0, 20.0, vec![k2]), Err(VolumeError::BadFlake { index: 0, .. })));
-    let k3 = Flake { centre: flakescatter_optics::Vec3::new(2.0, 2.0, -5.0), ..k };
-    assert!(matches!(Layer::from_flakes(10.0, 4.5, vec![k3]), Err(VolumeError::TileTooSmall { .. })));
+    let k2 = Flake {
+        radius_um: -1.0,
+        centre: flakescatter_optics::Vec3::new(5.0, 5.0, -5.0),
+        ..k
+    };
+    assert!(matches!(
+        Layer::from_flakes(10.0, 20.0, vec![k2]),
+        Err(VolumeError::BadFlake { index: 0, .. })
+    ));
+    let k3 = Flake {
+        centre: flakescatter_optics::Vec3::new(2.0, 2.0, -5.0),
+        ..k
+    };
+    assert!(matches!(
+        Layer::from_flakes(10.0, 4.5, vec![k3]),
+        Err(VolumeError::TileTooSmall { .. })
+    ));
 }

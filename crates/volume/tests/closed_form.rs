@@ -28,9 +28,7 @@ use flakescatter_optics::detector::{self, Cone};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel;
 use flakescatter_optics::{UnitVec3, Vec3, refraction};
-use flakescatter_volume::{
-    Flake, Layer, RimRule, Substrate, TraceOptions, Tracer,
-};
+use flakescatter_volume::{Flake, Layer, RimRule, Substrate, TraceOptions, Tracer};
 
 /// Per channel `(T, R_m)` → `(single, multiple, absorbed by the mirror)` of the series.
 fn series(t: f64, r_m: f64) -> (f64, f64, f64) {
@@ -71,7 +69,11 @@ fn specular_substrate_gives_the_geometric_series_exactly() {
         // The substrate absorbs (1 − R) of what reaches it: `A` with R_m = R.
         let absorbed = as_ + ap;
         let e = &res.energy[i];
-        eprintln!("θi {:.0}: escaped {:.15} expected {escaped:.15}", ti.to_degrees(), e.escaped_multiple);
+        eprintln!(
+            "θi {:.0}: escaped {:.15} expected {escaped:.15}",
+            ti.to_degrees(),
+            e.escaped_multiple
+        );
         assert!((e.coat_reflected - f.r_av()).abs() < 1e-15);
         assert_eq!(e.escaped_single, 0.0);
         assert!((e.escaped_multiple - escaped).abs() < 1e-12);
@@ -83,8 +85,14 @@ fn specular_substrate_gives_the_geometric_series_exactly() {
         let proj = p.cone.projected_solid_angle();
         assert!((p.reflectance - (f.r_av() + escaped)).abs() < 1e-12);
         assert!((p.multiple_brdf * proj - escaped).abs() < 1e-12);
-        assert_eq!(p.multiple_std_err, 0.0, "deterministic rays have no scatter");
-        for (j, q) in res.points[i * cones.len()..(i + 1) * cones.len()].iter().enumerate() {
+        assert_eq!(
+            p.multiple_std_err, 0.0,
+            "deterministic rays have no scatter"
+        );
+        for (j, q) in res.points[i * cones.len()..(i + 1) * cones.len()]
+            .iter()
+            .enumerate()
+        {
             if j != i {
                 assert_eq!(q.reflectance, 0.0);
             }
@@ -96,7 +104,11 @@ fn specular_substrate_gives_the_geometric_series_exactly() {
 fn returning_flake(theta_i: f64, n: f64, tile: f64, radius: f64, thickness: f64) -> Flake {
     let k1 = refraction::into_coating(&detector::incident_direction(theta_i), n);
     let tan_t = k1.x / -k1.z;
-    let h_top = if tan_t > 0.0 { tile / (2.0 * tan_t) } else { 5.0 };
+    let h_top = if tan_t > 0.0 {
+        tile / (2.0 * tan_t)
+    } else {
+        5.0
+    };
     Flake {
         centre: Vec3::new(0.5 * tile, 0.5 * tile, -(h_top + 0.5 * thickness)),
         normal: UnitVec3::new_normalize(Vec3::z()),
@@ -148,7 +160,10 @@ fn check_returning_flake(theta_i: f64, flake_r: FlakeReflectance, rims: RimRule)
     let hit = e.escaped_single / (ss + sp);
     let sd = (p * (1.0 - p) / res.rays_per_incidence as f64).sqrt();
     eprintln!("hit fraction {hit:.5} expected {p:.5} ± {sd:.5}");
-    assert!((hit - p).abs() < 4.0 * sd, "hit fraction {hit} vs {p} ± {sd}");
+    assert!(
+        (hit - p).abs() < 4.0 * sd,
+        "hit fraction {hit} vs {p} ± {sd}"
+    );
     // The batch standard error of the single-bounce part estimates that binomial error.
     let point = &res.points[0];
     let proj = cone.projected_solid_angle();

@@ -21,9 +21,11 @@
 
 use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
 use flakescatter_optics::detector::{self, Cone};
-use flakescatter_optics::{fresnel, reflection, refraction, UnitVec3};
+use flakescatter_optics::{UnitVec3, fresnel, reflection, refraction};
 use flakescatter_stats::{GaussianWidth, Orientation};
-use flakescatter_volume::{Amount, Depth, Diameter, Layer, LayerParams, LayerSpec, TraceOptions, Tracer};
+use flakescatter_volume::{
+    Amount, Depth, Diameter, Layer, LayerParams, LayerSpec, TraceOptions, Tracer,
+};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 #[test]
@@ -44,7 +46,10 @@ fn dilute_single_bounce_is_coverage_times_the_distribution_model() {
     };
     let layer = Layer::generate(&LayerParams::new(spec).unwrap()).unwrap();
     let coverage = layer.stats().area_coverage * orientation.mean_cos();
-    eprintln!("projected coverage {coverage:.4} (realised {:.4})", layer.stats().projected_coverage);
+    eprintln!(
+        "projected coverage {coverage:.4} (realised {:.4})",
+        layer.stats().projected_coverage
+    );
 
     let alpha = 3f64.to_radians();
     let mut cones: Vec<Cone> = (-12..=12)
@@ -94,7 +99,10 @@ fn dilute_single_bounce_is_coverage_times_the_distribution_model() {
                 let out = refraction::out_of_coating(&k2, n)?;
                 let exit = fresnel::power_from_cosines(out.z, k2.z, n);
                 let f = 0.5 * (entry.ts * exit.ts + entry.tp * exit.tp);
-                Some((out, k.face_area_um2() * gamma * f / (tile * tile * inc.cos_t)))
+                Some((
+                    out,
+                    k.face_area_um2() * gamma * f / (tile * tile * inc.cos_t),
+                ))
             })
             .collect();
         let nflakes = layer.flakes().len() as f64;
@@ -111,9 +119,16 @@ fn dilute_single_bounce_is_coverage_times_the_distribution_model() {
                 }
             }
             let flake_var = (s2 - s * s / nflakes).max(0.0);
-            let expected = coverage * model.collect(&inc, cone, ConeMethod::Exact).reflectance.unwrap();
+            let expected = coverage
+                * model
+                    .collect(&inc, cone, ConeMethod::Exact)
+                    .reflectance
+                    .unwrap();
             if p.rays < 250 {
-                for (a, v) in pooled.iter_mut().zip([traced, s, expected, ray_var, flake_var]) {
+                for (a, v) in pooled
+                    .iter_mut()
+                    .zip([traced, s, expected, ray_var, flake_var])
+                {
                     *a += v;
                 }
                 continue;
@@ -153,7 +168,16 @@ fn dilute_single_bounce_is_coverage_times_the_distribution_model() {
         "chi2 layer {chi_layer:.1}, model {chi_model:.1} (10 % off: {chi_off:.1}) over {cells} cells, limit {limit:.1}"
     );
     assert!(cells >= 20, "enough well-populated cells ({cells})");
-    assert!(chi_layer < limit, "traced vs this layer's flakes: chi2 {chi_layer}");
-    assert!(chi_model < limit, "traced vs coverage × distribution model: chi2 {chi_model}");
-    assert!(chi_off > limit, "a 10 % error would go unnoticed ({chi_off})");
+    assert!(
+        chi_layer < limit,
+        "traced vs this layer's flakes: chi2 {chi_layer}"
+    );
+    assert!(
+        chi_model < limit,
+        "traced vs coverage × distribution model: chi2 {chi_model}"
+    );
+    assert!(
+        chi_off > limit,
+        "a 10 % error would go unnoticed ({chi_off})"
+    );
 }

@@ -79,7 +79,11 @@ fn certify_no_overlap(layer: &Layer) -> usize {
         for j in i + 1..f.len() {
             for sx in [-1.0, 0.0, 1.0] {
                 for sy in [-1.0, 0.0, 1.0] {
-                    let c = Vec3::new(f[j].centre.x + sx * l, f[j].centre.y + sy * l, f[j].centre.z);
+                    let c = Vec3::new(
+                        f[j].centre.x + sx * l,
+                        f[j].centre.y + sy * l,
+                        f[j].centre.z,
+                    );
                     let reach = f[i].bounding_radius() + f[j].bounding_radius();
                     if (c - f[i].centre).norm() > reach {
                         continue;
@@ -124,7 +128,11 @@ fn dense_layers_have_no_intersecting_flakes() {
         );
         // The loading is high enough that flakes crowd: many pairs need a certificate,
         // and placement had to reject positions.
-        assert!(close > s.flakes, "{close} close pairs for {} flakes", s.flakes);
+        assert!(
+            close > s.flakes,
+            "{close} close pairs for {} flakes",
+            s.flakes
+        );
         assert!(s.attempts > s.flakes as u64);
         // Tolerance of the stopping rule: at least the request, less than one more
         // flake's volume (the largest possible flake: diameter 3 × 10 µm).

@@ -77,8 +77,14 @@ fn total_brdf_is_reciprocal() {
                 ba.brdf,
                 ba.brdf_std_err
             );
-            assert!(share > 0.15, "multiple scattering must be part of the check ({share})");
-            assert!(ab.brdf_std_err < 0.06 * ab.brdf, "precise enough to mean something");
+            assert!(
+                share > 0.15,
+                "multiple scattering must be part of the check ({share})"
+            );
+            assert!(
+                ab.brdf_std_err < 0.06 * ab.brdf,
+                "precise enough to mean something"
+            );
             worst = worst.max(z.abs());
         }
     }
@@ -90,8 +96,7 @@ fn total_brdf_is_reciprocal() {
     let se = ab.brdf_std_err.hypot(ba.brdf_std_err);
     assert!(((ab.brdf * ratio - ba.brdf) / se).abs() > 5.0);
     {
-        {
-        }
+        {}
     }
     assert!(worst < 4.0, "largest |z| {worst}");
 }
