@@ -8,7 +8,11 @@
 //! segments (one nearest-surface query each), which is deterministic for the seed.
 //! `grid/cell_um` compares column widths of ½, 1 and 2 mean diameters (the tracer's
 //! default is 1). The setup also places a 10⁶-flake layer and prints the memory it and
-//! its grid hold, and the time placement took.
+//! its grid hold, and the time placement took (on a shared, loaded 2-core machine:
+//! 10⁵ flakes in 0.7 s, 10⁶ in 28 s; 87 bytes per flake, 87 MB for 10⁶ flakes).
+//! A bounding volume hierarchy was not measured: the periodic tile would need image
+//! copies of edge flakes and a wrap per tile crossing, and the profile shows the grid's
+//! time going to cache misses on flake loads, which a hierarchy shares.
 
 use std::hint::black_box;
 use std::time::Instant;
