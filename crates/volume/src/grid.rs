@@ -83,9 +83,10 @@ impl FlakeGrid {
             let i1 = ((k.centre.x + ex) * inv_cell).floor() as i64;
             let j0 = ((k.centre.y - ey) * inv_cell).floor() as i64;
             let j1 = ((k.centre.y + ey) * inv_cell).floor() as i64;
-            // A box wider than the tile cannot occur (the tile exceeds every flake's
-            // extent); clamp anyway so that each column appears once per flake.
-            (i0, i1.min(i0 + g - 1), j0, j1.min(j0 + g - 1))
+            // The box is narrower than the tile (the tile exceeds every flake's extent),
+            // so it spans at most G + 1 unwrapped columns; two of them may wrap onto the
+            // same column, with different images, and both are listed.
+            (i0, i1, j0, j1)
         };
         let mut counts = vec![0u32; side * side + 1];
         for k in flakes {

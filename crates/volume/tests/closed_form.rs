@@ -100,8 +100,17 @@ fn specular_substrate_gives_the_geometric_series_exactly() {
     }
 }
 
-/// One flat flake whose round trip shifts the ray by one tile width at `theta_i`.
-fn returning_flake(theta_i: f64, n: f64, tile: f64, radius: f64, thickness: f64) -> Flake {
+/// One flat flake whose round trip shifts the ray by one tile width at `theta_i`,
+/// centred at `(x, y)`.
+fn returning_flake(
+    theta_i: f64,
+    n: f64,
+    tile: f64,
+    radius: f64,
+    thickness: f64,
+    x: f64,
+    y: f64,
+) -> Flake {
     let k1 = refraction::into_coating(&detector::incident_direction(theta_i), n);
     let tan_t = k1.x / -k1.z;
     let h_top = if tan_t > 0.0 {
@@ -110,17 +119,17 @@ fn returning_flake(theta_i: f64, n: f64, tile: f64, radius: f64, thickness: f64)
         5.0
     };
     Flake {
-        centre: Vec3::new(0.5 * tile, 0.5 * tile, -(h_top + 0.5 * thickness)),
+        centre: Vec3::new(x, y, -(h_top + 0.5 * thickness)),
         normal: UnitVec3::new_normalize(Vec3::z()),
         radius_um: radius,
         thickness_um: thickness,
     }
 }
 
-fn check_returning_flake(theta_i: f64, flake_r: FlakeReflectance, rims: RimRule) {
+fn check_returning_flake(theta_i: f64, flake_r: FlakeReflectance, rims: RimRule, x: f64, y: f64) {
     let n = 1.5;
     let (tile, radius, thickness) = (20.0, 8.0, 0.5);
-    let flake = returning_flake(theta_i, n, tile, radius, thickness);
+    let flake = returning_flake(theta_i, n, tile, radius, thickness, x, y);
     let layer = Layer::from_flakes(40.0, tile, vec![flake]).unwrap();
     let rays = 64 * 4000;
     let options = TraceOptions {
@@ -182,7 +191,34 @@ fn check_returning_flake(theta_i: f64, flake_r: FlakeReflectance, rims: RimRule)
 
 #[test]
 fn one_flat_flake_gives_the_series_at_normal_incidence() {
-    check_returning_flake(0.0, FlakeReflectance::PerfectConductor, RimRule::Absorb);
+    check_returning_flake(
+        0.0,
+        FlakeReflectance::PerfectConductor,
+        RimRule::Absorb,
+        10.0,
+        10.0,
+    );
+}
+
+#[test]
+fn one_flat_flake_across_the_tile_corner_gives_the_same_series() {
+    // The tile is periodic: a flake centred near a corner, cut by two sides, is the same
+    // layer shifted. (The column grid here is one column wide, so each column holds
+    // several images of the flake.)
+    check_returning_flake(
+        45f64.to_radians(),
+        FlakeReflectance::aluminium_550nm(),
+        RimRule::Absorb,
+        1.0,
+        19.5,
+    );
+    check_returning_flake(
+        0.0,
+        FlakeReflectance::PerfectConductor,
+        RimRule::Diffuse,
+        19.0,
+        0.5,
+    );
 }
 
 #[test]
@@ -193,10 +229,14 @@ fn one_flat_flake_gives_the_series_at_oblique_incidence_per_polarisation() {
         45f64.to_radians(),
         FlakeReflectance::aluminium_550nm(),
         RimRule::Absorb,
+        10.0,
+        10.0,
     );
     check_returning_flake(
         60f64.to_radians(),
         FlakeReflectance::PerfectConductor,
         RimRule::Ignore,
+        10.0,
+        10.0,
     );
 }
