@@ -287,3 +287,30 @@ fn too_high_a_loading_is_an_error_not_a_hang() {
         other => panic!("expected LoadingTooHigh, got {other:?}"),
     }
 }
+
+#[test]
+fn depth_profile_is_sampled_as_given() {
+    // Two bins, [2, 6] µm with weight 1 and [6, 10] µm with weight 3 (equal widths):
+    // a centre falls in the deeper bin with probability 3/4, uniformly within each bin.
+    // Flat thin flakes fit anywhere in [0.1, 11.9], so the profile is not restricted.
+    let mut spec = LayerSpec::new(Orientation::flat(), 400.0, 8);
+    spec.film_um = 12.0;
+    spec.diameter = Diameter::Fixed(4.0);
+    spec.thickness_um = 0.2;
+    spec.amount = Amount::Count(4000);
+    spec.depth = Depth::Profile {
+        edges_um: vec![2.0, 6.0, 10.0],
+        weights: vec![1.0, 3.0],
+    };
+    let layer = Layer::generate(&LayerParams::new(spec).unwrap()).unwrap();
+    let depths: Vec<f64> = layer.flakes().iter().map(|k| -k.centre.z).collect();
+    assert!(depths.iter().all(|d| (2.0..=10.0).contains(d)));
+    let n = depths.len() as f64;
+    let deep = depths.iter().filter(|&&d| d > 6.0).count() as f64 / n;
+    let sd = (0.75 * 0.25 / n).sqrt();
+    assert!((deep - 0.75).abs() < 4.0 * sd, "deep share {deep}");
+    // Within the deep bin the mean is 8 (uniform), sd 4/√12.
+    let in_deep: Vec<f64> = depths.iter().copied().filter(|&d| d > 6.0).collect();
+    let m = in_deep.iter().sum::<f64>() / in_deep.len() as f64;
+    assert!((m - 8.0).abs() < 4.0 * (4.0 / 12f64.sqrt()) / (in_deep.len() as f64).sqrt());
+}
