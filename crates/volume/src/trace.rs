@@ -328,6 +328,41 @@ impl<'a> Tracer<'a> {
     /// `substrate_reflectance`, `rays`, `max_events`, `min_weight`);
     /// [`VolumeError::FlakeIndex`] for an invalid complex flake index.
     pub fn new(layer: &'a Layer, options: TraceOptions) -> Result<Self, VolumeError> {
+        let cell = if layer.mean_diameter_um() > 0.0 {
+            layer.mean_diameter_um()
+        } else {
+            layer.tile_um()
+        };
+        Self::with_cell(layer, options, cell)
+    }
+
+    /// As [`Tracer::new`] with columns about `cell_um` wide (clamped to between
+    /// `L/2048` and `L`), for measuring the grid.
+    ///
+    /// # Errors
+    /// As [`Tracer::new`], and [`VolumeError::Parameter`] (`cell_um`) unless `cell_um`
+    /// is finite and positive.
+    pub fn with_cell(
+        layer: &'a Layer,
+        options: TraceOptions,
+        cell_um: f64,
+    ) -> Result<Self, VolumeError> {
+        if !(cell_um.is_finite() && cell_um > 0.0) {
+            return Err(VolumeError::Parameter {
+                name: "cell_um",
+                value: cell_um,
+                expected: "a finite column width > 0 µm",
+            });
+        }
+        Self::check(&options)?;
+        Ok(Self {
+            layer,
+            grid: FlakeGrid::new(layer.flakes(), layer.tile_um(), cell_um),
+            options,
+        })
+    }
+
+    fn check(options: &TraceOptions) -> Result<(), VolumeError> {
         flakescatter_optics::check_index(options.n).map_err(|_| VolumeError::Parameter {
             name: "n",
             value: options.n,
@@ -366,24 +401,7 @@ impl<'a> Tracer<'a> {
                 expected: "a weight in [0, 1)",
             });
         }
-        let cell = if layer.mean_diameter_um() > 0.0 {
-            layer.mean_diameter_um()
-        } else {
-            layer.tile_um()
-        };
-        Ok(Self::with_cell(layer, options, cell))
-    }
-
-    /// As [`Tracer::new`] without validation, with columns of side about `cell_um` (for
-    /// measuring the grid).
-    #[doc(hidden)]
-    #[must_use]
-    pub fn with_cell(layer: &'a Layer, options: TraceOptions, cell_um: f64) -> Self {
-        Self {
-            layer,
-            grid: FlakeGrid::new(layer.flakes(), layer.tile_um(), cell_um),
-            options,
-        }
+        Ok(())
     }
 
     /// Bytes held by the layer's flakes and the column grid. For the paper's coating

@@ -367,6 +367,22 @@ fn bad_trace_options_and_geometry_are_refused() {
         ),
         Err(VolumeError::FlakeIndex(_))
     ));
+    for cell in [0.0, -1.0, f64::NAN] {
+        assert!(matches!(
+            Tracer::with_cell(&layer, d, cell),
+            Err(VolumeError::Parameter {
+                name: "cell_um",
+                ..
+            })
+        ));
+    }
+    assert_eq!(
+        match Tracer::with_cell(&layer, TraceOptions { n: 0.5, ..d }, 5.0) {
+            Err(VolumeError::Parameter { name, .. }) => name,
+            _ => "accepted",
+        },
+        "n"
+    );
     let tracer = Tracer::new(&layer, TraceOptions { rays: 64, ..d }).unwrap();
     let cone = Cone::in_plane(-0.5, 0.02).unwrap();
     assert_eq!(
