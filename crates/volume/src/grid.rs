@@ -286,6 +286,10 @@ pub(crate) fn intersect(
     } else {
         return None;
     };
+    // The slab alone already misses: behind the ray or beyond the limit.
+    if ts_out <= 0.0 || ts_in >= limit {
+        return None;
+    }
     let w0 = d - s0 * m;
     let wk = k - sk * m;
     let qa = wk.norm_squared();
