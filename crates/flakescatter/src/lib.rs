@@ -12,7 +12,8 @@
 //! [`isotropic_curves`] ([`topo`] is the topographic layer); the pixel-level
 //! distribution of normals and the flake- against pixel-level width in [`pixels`];
 //! measurement against model in [`compare`], fitting of the orientation distribution in
-//! [`fit`], multi-angle readouts in [`multiangle`].
+//! [`fit`], multi-angle readouts in [`multiangle`], and the three-dimensional layer with
+//! multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is its crate).
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
@@ -77,6 +78,7 @@ pub mod pipeline;
 pub mod pixels;
 pub mod reproduce;
 pub mod stack;
+pub mod volume;
 
 pub use flakescatter_colour as colour;
 pub use flakescatter_confocal as confocal;
@@ -86,6 +88,7 @@ pub use flakescatter_optics as optics;
 pub use flakescatter_stats as stats;
 pub use flakescatter_synth as synth;
 pub use flakescatter_topo as topo;
+pub use flakescatter_volume as volume_layer;
 
 pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{
@@ -93,6 +96,7 @@ pub use pipeline::{
     isotropic_curves, p_tilde_about_specular, topographic_curves,
 };
 pub use pixels::{PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources};
+pub use volume::{VolumeCurves, VolumeRow, VolumeSettings, volume_curves};
 
 /// Errors of the pipeline.
 #[derive(Debug, thiserror::Error)]
@@ -115,4 +119,7 @@ pub enum PipelineError {
     /// The topographic model rejected its input.
     #[error("topographic model: {0}")]
     Topo(#[from] flakescatter_topo::TopoError),
+    /// The volume model rejected its input.
+    #[error("volume model: {0}")]
+    Volume(#[from] flakescatter_volume::VolumeError),
 }

@@ -1,0 +1,222 @@
+//! The volume model composed (physics.md, "Volume model"): a coating, an instrument, an
+//! orientation source and the layer's settings turned into curves split by scattering
+//! history, with the energy balance and what the layer realised.
+//!
+//! Conventions: radians and micrometres; reflectances are fractions of the incident
+//! beam power, BRDFs per steradian averaged over each detector cone; `relative` is the
+//! collected power over that of the same aperture at the specular direction (coat
+//! reflection included, as a measurement sees it). One seed draws both the layer and the
+//! rays (separate ChaCha8 streams), so a run is reproducible from it alone.
+
+use flakescatter_volume::{Layer, LayerParams, LayerSpec, TraceOptions, Tracer};
+
+pub use flakescatter_volume::{
+    Amount, Depth, Diameter, EnergyBalance, LayerStats, RimRule, Substrate, VolumeError,
+};
+
+use crate::PipelineError;
+use crate::instrument::Instrument;
+use crate::pipeline::{Coating, OrientationSource};
+
+/// The layer and tracing settings of [`volume_curves`] (the coating's index and flake
+/// reflectance come from [`Coating`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct VolumeSettings {
+    /// Film thickness, µm (default 38, the paper's film).
+    pub film_um: f64,
+    /// Flake diameters (default log-normal, mean 16 µm, relative sd 0.25).
+    pub diameter: Diameter,
+    /// Flake thickness, µm (default 1).
+    pub thickness_um: f64,
+    /// Pigment amount (default 5 % aluminium by mass, binder 1.2 g/cm³).
+    pub amount: Amount,
+    /// Centre depths (default the whole film).
+    pub depth: Depth,
+    /// Side of the periodic tile, µm (default 1000: about 4 300 flakes at the default
+    /// loading).
+    pub tile_um: f64,
+    /// Substrate (default black).
+    pub substrate: Substrate,
+    /// Rim rule (default absorb).
+    pub rims: RimRule,
+    /// Rays per incidence, rounded up to whole batches (default 10⁶).
+    pub rays: u64,
+    /// Seed of the layer and the rays (default 1).
+    pub seed: u64,
+    /// Largest number of interactions per path (default 1000).
+    pub max_events: u32,
+    /// Weight below which a path ends, its rest tallied as cut-off (default 1e-6).
+    pub min_weight: f64,
+}
+
+impl Default for VolumeSettings {
+    fn default() -> Self {
+        let spec = LayerSpec::new(flakescatter_stats::Orientation::flat(), 1000.0, 1);
+        let trace = TraceOptions::default();
+        Self {
+            film_um: spec.film_um,
+            diameter: spec.diameter,
+            thickness_um: spec.thickness_um,
+            amount: spec.amount,
+            depth: spec.depth,
+            tile_um: spec.tile_um,
+            substrate: trace.substrate,
+            rims: trace.rims,
+            rays: trace.rays,
+            seed: 1,
+            max_events: trace.max_events,
+            min_weight: trace.min_weight,
+        }
+    }
+}
+
+/// One row: one incidence × one detector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VolumeRow {
+    /// Incidence angle, radians.
+    pub theta_i: f64,
+    /// Index of the detector in the instrument's list.
+    pub detector: usize,
+    /// Total cone-averaged BRDF (coat + single + multiple), sr⁻¹.
+    pub brdf: f64,
+    /// Its standard error, sr⁻¹.
+    pub std_err: f64,
+    /// First-surface (clear coat) part, sr⁻¹ (exact).
+    pub coat_brdf: f64,
+    /// Exactly one flake-face reflection, sr⁻¹.
+    pub single_bounce_brdf: f64,
+    /// Its standard error, sr⁻¹.
+    pub single_bounce_std_err: f64,
+    /// Every other escaping history, sr⁻¹.
+    pub multiple_bounce_brdf: f64,
+    /// Its standard error, sr⁻¹.
+    pub multiple_bounce_std_err: f64,
+    /// Total fraction of the incident power collected.
+    pub reflectance: f64,
+    /// Collected power relative to the same aperture at the specular direction.
+    pub relative: f64,
+    /// Escapes counted in the cone.
+    pub rays: u64,
+}
+
+/// Curves of the volume model with everything a report needs.
+#[derive(Debug, Clone)]
+pub struct VolumeCurves {
+    /// The instrument.
+    pub instrument: Instrument,
+    /// The coating (index, flake reflectance).
+    pub coating: Coating,
+    /// The settings.
+    pub settings: VolumeSettings,
+    /// Rows, ordered by incidence then detector.
+    pub rows: Vec<VolumeRow>,
+    /// `(θi, energy balance)` per incidence, fractions of the incident power.
+    pub energy: Vec<(f64, EnergyBalance)>,
+    /// Standard errors of the energy balance, same order.
+    pub energy_std_err: Vec<EnergyBalance>,
+    /// What placement realised (flake count, volume fraction, coverage).
+    pub layer: LayerStats,
+    /// Rays traced per incidence.
+    pub rays_per_incidence: u64,
+    /// Straight segments traced over all incidences.
+    pub segments: u64,
+    /// The seed.
+    pub seed: u64,
+    /// Free-form description of the orientation source, for metadata.
+    pub source: String,
+}
+
+/// Places the layer and traces it (crate `flakescatter-volume`) for every incidence and
+/// detector of `instrument`. `progress(done, total)` is called from the calling thread as
+/// ray batches finish.
+///
+/// # Errors
+/// [`PipelineError::Instrument`] for point detectors (aperture 0);
+/// [`PipelineError::Orientation`] for a source that gives no distribution;
+/// [`PipelineError::Volume`] for invalid layer or tracing parameters, or a loading too
+/// high to place.
+pub fn volume_curves(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &VolumeSettings,
+    source: &OrientationSource,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<VolumeCurves, PipelineError> {
+    if instrument.aperture() <= 0.0 {
+        return Err(PipelineError::Instrument(
+            "the volume model counts rays into detector cones: the aperture must be > 0".into(),
+        ));
+    }
+    let orientation = source.orientation()?;
+    let description = if orientation.is_delta() {
+        "flat (all flake normals along z)".to_owned()
+    } else if let Some(w) = orientation.gaussian_width() {
+        format!("gaussian, hwhm {:.6e} rad", w.hwhm())
+    } else {
+        format!("tabulated on [0, {:.6e}] rad", orientation.max_theta())
+    };
+    let spec = LayerSpec {
+        film_um: settings.film_um,
+        diameter: settings.diameter,
+        thickness_um: settings.thickness_um,
+        orientation,
+        amount: settings.amount,
+        depth: settings.depth.clone(),
+        tile_um: settings.tile_um,
+        max_attempts: flakescatter_volume::params::DEFAULT_MAX_ATTEMPTS,
+        seed: settings.seed,
+    };
+    let layer = Layer::generate(&LayerParams::new(spec)?)?;
+    let tracer = Tracer::new(
+        &layer,
+        TraceOptions {
+            n: coating.n,
+            flake: coating.flake,
+            substrate: settings.substrate,
+            rims: settings.rims,
+            rays: settings.rays,
+            seed: settings.seed,
+            max_events: settings.max_events,
+            min_weight: settings.min_weight,
+        },
+    )?;
+    let result = tracer.run_with_progress(instrument.theta_i(), instrument.cones(), progress)?;
+    let nd = instrument.cones().len();
+    let rows = result
+        .points
+        .iter()
+        .enumerate()
+        .map(|(k, p)| VolumeRow {
+            theta_i: p.theta_i,
+            detector: k % nd,
+            brdf: p.brdf,
+            std_err: p.brdf_std_err,
+            coat_brdf: p.coat_brdf,
+            single_bounce_brdf: p.single_brdf,
+            single_bounce_std_err: p.single_std_err,
+            multiple_bounce_brdf: p.multiple_brdf,
+            multiple_bounce_std_err: p.multiple_std_err,
+            reflectance: p.reflectance,
+            relative: p.relative,
+            rays: p.rays,
+        })
+        .collect();
+    Ok(VolumeCurves {
+        instrument: instrument.clone(),
+        coating: *coating,
+        settings: settings.clone(),
+        rows,
+        energy: instrument
+            .theta_i()
+            .iter()
+            .copied()
+            .zip(result.energy.iter().copied())
+            .collect(),
+        energy_std_err: result.energy_std_err,
+        layer: *layer.stats(),
+        rays_per_incidence: result.rays_per_incidence,
+        segments: result.segments,
+        seed: settings.seed,
+        source: description,
+    })
+}

@@ -1,0 +1,324 @@
+//! A periodic uniform grid of columns over the tile, and exact ray–cylinder hits.
+//!
+//! Conventions: lengths in µm, the tile `[0, L)²` periodic, `z` up. The grid has
+//! `G × G` square columns of side `h = L/G` spanning the film's whole depth. Every flake
+//! is listed in each column its axis-aligned lateral bounding box (half-widths from the
+//! cylinder's support function, [`Flake::half_extent`]) overlaps, together with which
+//! periodic image (`±L` in `x` and `y`) lies there. A ray walks the columns in order of
+//! distance (Amanatides–Woo); a hit found in the current column at a distance no larger
+//! than where the ray leaves that column is the nearest, because any surface point the
+//! ray reaches inside a column belongs to a flake listed in that column.
+//!
+//! A uniform grid is chosen over a bounding volume hierarchy because the layer is a thin slab
+//! (tens of µm) of flakes a few columns wide: a straight segment between two events
+//! crosses only a few columns, and the periodic wrap is free (column indices modulo
+//! `G`); the benchmark `volume` measures segments per second.
+
+use flakescatter_optics::Vec3;
+
+use crate::layer::Flake;
+
+/// Which part of a flake a ray meets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Surface {
+    /// The face with outward normal `m`.
+    Top,
+    /// The face with outward normal `−m`.
+    Bottom,
+    /// The side wall.
+    Rim,
+}
+
+/// The nearest flake surface along a ray.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Hit {
+    /// Distance along the (unit) ray direction, µm.
+    pub tau: f64,
+    /// Index of the flake.
+    pub flake: u32,
+    /// Which surface.
+    pub surface: Surface,
+    /// Outward unit normal of that surface at the hit point.
+    pub normal: Vec3,
+}
+
+/// What a ray meets first.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Next {
+    /// A flake surface.
+    Flake(Hit),
+    /// Nothing before `tau_max` (the film's top or bottom).
+    Boundary,
+    /// The ray crossed more columns than allowed.
+    TooLong,
+}
+
+/// Distance below which a ray leaving a flake ignores that same flake (µm): a ray that
+/// leaves a convex body outward cannot meet it again, and this absorbs rounding.
+const SELF_EPS: f64 = 1e-9;
+
+/// The column grid (CSR layout). Entries are `flake << 4 | image`, `image = (sx + 1) +
+/// 3 (sy + 1)` for the periodic shift `(sx L, sy L)`, `sx, sy ∈ {−1, 0, 1}`.
+#[derive(Debug, Clone)]
+pub(crate) struct FlakeGrid {
+    tile: f64,
+    side: usize,
+    cell: f64,
+    inv_cell: f64,
+    offsets: Vec<u32>,
+    entries: Vec<u32>,
+}
+
+impl FlakeGrid {
+    /// A grid of columns of side about `cell_um` (at least `L/2048`, at most `L`).
+    pub fn new(flakes: &[Flake], tile: f64, cell_um: f64) -> Self {
+        let side = ((tile / cell_um).floor() as usize).clamp(1, 2048);
+        let cell = tile / side as f64;
+        let inv_cell = side as f64 / tile;
+        let g = side as i64;
+        let span = |k: &Flake| {
+            let ex = k.half_extent(&Vec3::x());
+            let ey = k.half_extent(&Vec3::y());
+            let i0 = ((k.centre.x - ex) * inv_cell).floor() as i64;
+            let i1 = ((k.centre.x + ex) * inv_cell).floor() as i64;
+            let j0 = ((k.centre.y - ey) * inv_cell).floor() as i64;
+            let j1 = ((k.centre.y + ey) * inv_cell).floor() as i64;
+            // The box is narrower than the tile (the tile exceeds every flake's extent),
+            // so it spans at most G + 1 unwrapped columns; two of them may wrap onto the
+            // same column, with different images, and both are listed.
+            (i0, i1, j0, j1)
+        };
+        let mut counts = vec![0u32; side * side + 1];
+        for k in flakes {
+            let (i0, i1, j0, j1) = span(k);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let c = j.rem_euclid(g) as usize * side + i.rem_euclid(g) as usize;
+                    counts[c + 1] += 1;
+                }
+            }
+        }
+        for c in 0..side * side {
+            counts[c + 1] += counts[c];
+        }
+        let offsets = counts;
+        let mut fill = offsets.clone();
+        let mut entries = vec![0u32; offsets[side * side] as usize];
+        for (f, k) in flakes.iter().enumerate() {
+            let (i0, i1, j0, j1) = span(k);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let c = j.rem_euclid(g) as usize * side + i.rem_euclid(g) as usize;
+                    // Column i (unwrapped) holds the image shifted by −floor(i / G) tiles.
+                    let sx = -i.div_euclid(g);
+                    let sy = -j.div_euclid(g);
+                    let image = (sx + 1) + 3 * (sy + 1);
+                    entries[fill[c] as usize] = ((f as u32) << 4) | image as u32;
+                    fill[c] += 1;
+                }
+            }
+        }
+        Self {
+            tile,
+            side,
+            cell,
+            inv_cell,
+            offsets,
+            entries,
+        }
+    }
+
+    /// Columns per side.
+    pub fn side(&self) -> usize {
+        self.side
+    }
+
+    /// Bytes held by the grid.
+    pub fn memory_bytes(&self) -> usize {
+        (self.offsets.capacity() + self.entries.capacity()) * std::mem::size_of::<u32>()
+    }
+
+    /// The nearest flake surface along `o + τ k`, `0 < τ < tau_max`, with `o.x, o.y` in
+    /// the tile. `last` is the flake the ray just left (ignored below [`SELF_EPS`]);
+    /// with `rims_transparent` a flake entered through its rim is passed through.
+    /// Walks at most `max_cells` columns.
+    // One query with the ray, its limits and the two per-path flags: a struct would only
+    // rename them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn nearest(
+        &self,
+        flakes: &[Flake],
+        o: &Vec3,
+        k: &Vec3,
+        tau_max: f64,
+        last: Option<u32>,
+        rims_transparent: bool,
+        max_cells: u64,
+    ) -> Next {
+        let side = self.side;
+        // Column indices wrapped into the tile, and the shift of the current column's
+        // tile copy (the ray is followed without wrapping along one segment).
+        let mut wi = ((o.x * self.inv_cell) as usize).min(side - 1);
+        let mut wj = ((o.y * self.inv_cell) as usize).min(side - 1);
+        let (mut bx, mut by) = (0.0, 0.0);
+        let (step_i, delta_x, mut next_x) = axis_setup(o.x, k.x, wi, self.cell);
+        let (step_j, delta_y, mut next_y) = axis_setup(o.y, k.y, wj, self.cell);
+        let l = self.tile;
+        let images: [(f64, f64); 9] =
+            std::array::from_fn(|c| (((c % 3) as f64 - 1.0) * l, ((c / 3) as f64 - 1.0) * l));
+        let mut best = tau_max;
+        let mut hit: Option<Hit> = None;
+        let mut visited = 0u64;
+        loop {
+            let c = wj * side + wi;
+            let cell = &self.entries[self.offsets[c] as usize..self.offsets[c + 1] as usize];
+            // The origin relative to this column's copy of the tile.
+            let (ox, oy) = (o.x - bx, o.y - by);
+            for &e in cell {
+                let f = e >> 4;
+                let (sx, sy) = images[(e & 15) as usize];
+                let flake = &flakes[f as usize];
+                let d = Vec3::new(
+                    ox - (flake.centre.x + sx),
+                    oy - (flake.centre.y + sy),
+                    o.z - flake.centre.z,
+                );
+                let min_tau = if last == Some(f) { SELF_EPS } else { 0.0 };
+                if let Some((tau, surface, normal)) = intersect(flake, &d, k, best)
+                    && tau > min_tau
+                    && tau < best
+                    && !(rims_transparent && surface == Surface::Rim)
+                {
+                    best = tau;
+                    hit = Some(Hit {
+                        tau,
+                        flake: f,
+                        surface,
+                        normal,
+                    });
+                }
+            }
+            let exit = next_x.min(next_y);
+            if best <= exit || exit >= tau_max {
+                break;
+            }
+            if next_x < next_y {
+                next_x += delta_x;
+                if step_i > 0 {
+                    wi += 1;
+                    if wi == side {
+                        wi = 0;
+                        bx += l;
+                    }
+                } else if wi == 0 {
+                    wi = side - 1;
+                    bx -= l;
+                } else {
+                    wi -= 1;
+                }
+            } else {
+                next_y += delta_y;
+                if step_j > 0 {
+                    wj += 1;
+                    if wj == side {
+                        wj = 0;
+                        by += l;
+                    }
+                } else if wj == 0 {
+                    wj = side - 1;
+                    by -= l;
+                } else {
+                    wj -= 1;
+                }
+            }
+            visited += 1;
+            if visited > max_cells {
+                return Next::TooLong;
+            }
+        }
+        match hit {
+            Some(h) => Next::Flake(h),
+            None => Next::Boundary,
+        }
+    }
+}
+
+/// `(step, distance between column walls, distance to the first wall)` along one axis.
+fn axis_setup(o: f64, k: f64, i: usize, cell: f64) -> (i64, f64, f64) {
+    if k > 0.0 {
+        (1, cell / k, ((i + 1) as f64 * cell - o) / k)
+    } else if k < 0.0 {
+        (-1, -cell / k, (i as f64 * cell - o) / k)
+    } else {
+        (0, f64::INFINITY, f64::INFINITY)
+    }
+}
+
+/// Entry of the ray `d + τ k` (`d` = origin − flake centre, `k` unit) into the solid
+/// cylinder: `(τ, surface, outward normal)` for the entry point with `τ > 0` and
+/// `τ < limit`, or `None`. Exact: the slab `|s| ≤ t/2` along the axis intersected with
+/// the infinite cylinder of radius `r`; the later of the two entries is where the ray
+/// enters the solid, through a face when the slab entry is the later one.
+pub(crate) fn intersect(
+    flake: &Flake,
+    d: &Vec3,
+    k: &Vec3,
+    limit: f64,
+) -> Option<(f64, Surface, Vec3)> {
+    let r = flake.radius_um;
+    let ht = 0.5 * flake.thickness_um;
+    // Bounding sphere: reject rays that pass it or start beyond it going away.
+    let rb2 = r * r + ht * ht;
+    let b = d.dot(k);
+    let dd = d.norm_squared();
+    if dd - b * b > rb2 || (b > 0.0 && dd > rb2) || -b - rb2.sqrt() >= limit {
+        return None;
+    }
+    let m = flake.normal.into_inner();
+    let s0 = d.dot(&m);
+    let sk = k.dot(&m);
+    let (ts_in, ts_out) = if sk != 0.0 {
+        let a = (ht - s0) / sk;
+        let c = (-ht - s0) / sk;
+        if a < c { (a, c) } else { (c, a) }
+    } else if s0.abs() <= ht {
+        (f64::NEG_INFINITY, f64::INFINITY)
+    } else {
+        return None;
+    };
+    // The slab alone already misses: behind the ray or beyond the limit.
+    if ts_out <= 0.0 || ts_in >= limit {
+        return None;
+    }
+    let w0 = d - s0 * m;
+    let wk = k - sk * m;
+    let qa = wk.norm_squared();
+    let qb = w0.dot(&wk);
+    let qc = w0.norm_squared() - r * r;
+    let (tc_in, tc_out) = if qa > 1e-300 {
+        let disc = qb * qb - qa * qc;
+        if disc < 0.0 {
+            return None;
+        }
+        let sq = disc.sqrt();
+        ((-qb - sq) / qa, (-qb + sq) / qa)
+    } else if qc <= 0.0 {
+        (f64::NEG_INFINITY, f64::INFINITY)
+    } else {
+        return None;
+    };
+    let t_in = ts_in.max(tc_in);
+    let t_out = ts_out.min(tc_out);
+    if t_in > t_out || t_in <= 0.0 || t_in >= limit {
+        return None;
+    }
+    if ts_in >= tc_in {
+        if sk < 0.0 {
+            Some((t_in, Surface::Top, m))
+        } else {
+            Some((t_in, Surface::Bottom, -m))
+        }
+    } else {
+        Some((t_in, Surface::Rim, (w0 + t_in * wk) / r))
+    }
+}

@@ -1,0 +1,852 @@
+//! Rays through the flake layer, tallied into detector cones and an energy balance.
+//!
+//! Conventions: radians, µm, the frame and detector conventions of
+//! `flakescatter_optics` (source on the `−x` side, signed in-plane `θs`, cones of
+//! half-angle `α`). See the crate docs for the ray rules; this module implements them.
+//!
+//! # Estimators
+//! For each incidence, `N` rays enter at points drawn uniformly over the tile; ray `r`
+//! of incidence `i` draws its random numbers from the ChaCha8 stream `i·N + r` of the
+//! run's seed, so every ray is reproducible by itself. A ray carries one weight per
+//! polarisation channel, starting at `½ Ts(θi)` and `½ Tp(θi)` (fractions of the
+//! incident power `1/N` per ray). The clear coat's first-surface reflection
+//! `R_av(θi) = ½(Rs + Rp)` is added exactly to each cone that contains the specular
+//! direction. A detector's reflectance is `ρ = Σ w / N` over the escapes into its cone
+//! and its cone-averaged BRDF `ρ / (cos θj π sin²α)` (sr⁻¹). The rays are cut into
+//! [`BATCHES`] batches of equal size (ray `r` in batch `r / (N / BATCHES)`): with `s_b`
+//! a batch's sum, `se(ρ) = sqrt(B/(B−1) Σ_b (s_b − s̄)²) / N`. Batches are traced in
+//! parallel, each sequentially, and reduced in batch order, so results are
+//! bit-identical for any number of threads. The standard errors are those of the ray
+//! sampling **for this layer**: the scatter between layers drawn with other seeds is
+//! not included (run several seeds to see it).
+
+use flakescatter_optics::detector::{self, Cone, orthonormal_frame};
+use flakescatter_optics::flake::FlakeReflectance;
+use flakescatter_optics::fresnel::{self, FresnelPower};
+use flakescatter_optics::{UnitVec3, Vec3, refraction};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::VolumeError;
+use crate::grid::{FlakeGrid, Next, Surface};
+use crate::layer::{Flake, Layer};
+
+/// Number of batches the rays of one incidence are cut into for the standard errors.
+pub const BATCHES: u64 = 64;
+
+/// Default largest number of interactions (flake, rim, substrate, top interface) of one
+/// path; the weight left when a path reaches it is tallied as `cut_off`.
+pub const DEFAULT_MAX_EVENTS: u32 = 1000;
+
+/// Default weight (fraction of the ray's incident power) below which a path ends; the
+/// weight left is tallied as `cut_off`.
+pub const DEFAULT_MIN_WEIGHT: f64 = 1e-6;
+
+/// Largest number of rays per incidence.
+pub const MAX_RAYS: u64 = 1 << 40;
+
+/// Batches traced between two progress reports.
+const PROGRESS_CHUNK: usize = 16;
+
+/// What the substrate under the film does.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Substrate {
+    /// Absorbs everything (the default).
+    #[default]
+    Black,
+    /// A mirror of reflectance `R ∈ [0, 1]` for both polarisations.
+    Specular(f64),
+    /// A Lambertian (cosine-law) reflector of albedo `R ∈ [0, 1]`; it depolarises (both
+    /// channels leave with the mean of the two incoming weights times `R`).
+    Lambertian(f64),
+}
+
+/// What a flake's rim (side wall) does to a ray that meets it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RimRule {
+    /// Absorbs the ray (the default): broken flake edges are not mirrors, and the
+    /// absorbed share is reported (`absorbed_rims`) so its size is known.
+    #[default]
+    Absorb,
+    /// Transparent: a ray that meets the rim passes through the flake unaffected.
+    Ignore,
+    /// Reflects diffusely (cosine law about the rim's outward normal) with the flake's
+    /// unpolarised reflectance at normal incidence as albedo; depolarises.
+    Diffuse,
+}
+
+impl RimRule {
+    /// The command-line name (`absorb`, `ignore`, `diffuse`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Absorb => "absorb",
+            Self::Ignore => "ignore",
+            Self::Diffuse => "diffuse",
+        }
+    }
+}
+
+/// Options of the tracer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceOptions {
+    /// Film (binder) refractive index, real, ≥ 1 (default 1.5).
+    pub n: f64,
+    /// Flake reflectance (default perfect conductor).
+    pub flake: FlakeReflectance,
+    /// Substrate (default black).
+    pub substrate: Substrate,
+    /// Rim rule (default absorb).
+    pub rims: RimRule,
+    /// Rays per incidence, rounded up to a multiple of [`BATCHES`] (default 10⁶).
+    pub rays: u64,
+    /// Seed of the rays' random numbers (default 1).
+    pub seed: u64,
+    /// Largest number of interactions per path (default [`DEFAULT_MAX_EVENTS`]).
+    pub max_events: u32,
+    /// Weight below which a path ends (default [`DEFAULT_MIN_WEIGHT`]); 0 keeps paths
+    /// until `max_events` or absorption.
+    pub min_weight: f64,
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        Self {
+            n: 1.5,
+            flake: FlakeReflectance::PerfectConductor,
+            substrate: Substrate::Black,
+            rims: RimRule::Absorb,
+            rays: 1_000_000,
+            seed: 1,
+            max_events: DEFAULT_MAX_EVENTS,
+            min_weight: DEFAULT_MIN_WEIGHT,
+        }
+    }
+}
+
+/// Fractions of the incident power at one incidence (estimates from the traced rays,
+/// except `coat_reflected`, which is exact). The six named in the sum
+/// `coat_reflected + escaped_single + escaped_multiple + absorbed_substrate +
+/// absorbed_flakes + absorbed_other` add up to 1 (to rounding, about 1e-15).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct EnergyBalance {
+    /// First-surface (clear coat) reflection `R_av(θi)`.
+    pub coat_reflected: f64,
+    /// Escaped after exactly one flake-face reflection and nothing else.
+    pub escaped_single: f64,
+    /// Escaped after any other history (two or more interactions, or an internal
+    /// reflection at the top interface).
+    pub escaped_multiple: f64,
+    /// Absorbed by the substrate.
+    pub absorbed_substrate: f64,
+    /// Absorbed by flake faces (complex index; 0 for perfect conductors).
+    pub absorbed_flakes: f64,
+    /// `absorbed_rims + cut_off`.
+    pub absorbed_other: f64,
+    /// Absorbed at flake rims (the rim rule, including the `1 − albedo` of diffuse rims).
+    pub absorbed_rims: f64,
+    /// Weight left when paths were cut (events or weight limit, or a ray running
+    /// parallel to the film over more than a few tile widths).
+    pub cut_off: f64,
+    /// Part of `escaped_multiple` whose path met the substrate (not in the sum).
+    pub escaped_via_substrate: f64,
+}
+
+impl EnergyBalance {
+    /// The sum of the six disjoint fractions (should be 1).
+    #[must_use]
+    pub fn total(&self) -> f64 {
+        self.coat_reflected
+            + self.escaped_single
+            + self.escaped_multiple
+            + self.absorbed_substrate
+            + self.absorbed_flakes
+            + self.absorbed_other
+    }
+}
+
+/// One incidence × one detector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VolumePoint {
+    /// Incidence angle, radians.
+    pub theta_i: f64,
+    /// The detector.
+    pub cone: Cone,
+    /// Total cone-averaged BRDF (coat + single + multiple), sr⁻¹.
+    pub brdf: f64,
+    /// Its standard error, sr⁻¹.
+    pub brdf_std_err: f64,
+    /// First-surface part, sr⁻¹ (exact).
+    pub coat_brdf: f64,
+    /// Single-bounce part, sr⁻¹.
+    pub single_brdf: f64,
+    /// Its standard error, sr⁻¹.
+    pub single_std_err: f64,
+    /// Multiple-bounce part, sr⁻¹.
+    pub multiple_brdf: f64,
+    /// Its standard error, sr⁻¹.
+    pub multiple_std_err: f64,
+    /// Total fraction of the incident power collected.
+    pub reflectance: f64,
+    /// Its standard error.
+    pub reflectance_std_err: f64,
+    /// `reflectance` over that of a cone of the same aperture at the specular direction
+    /// (NaN when that is 0).
+    pub relative: f64,
+    /// Escapes counted in the cone (rays, not weight).
+    pub rays: u64,
+}
+
+/// A run's result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VolumeResult {
+    /// Rows, incidence-major then detector.
+    pub points: Vec<VolumePoint>,
+    /// Energy balance per incidence (same order as the incidences).
+    pub energy: Vec<EnergyBalance>,
+    /// Standard errors of the energy balance (0 for `coat_reflected`).
+    pub energy_std_err: Vec<EnergyBalance>,
+    /// Rays traced per incidence (the request rounded up to a multiple of [`BATCHES`]).
+    pub rays_per_incidence: u64,
+    /// Straight segments traced (one per nearest-surface query), all incidences.
+    pub segments: u64,
+    /// The seed of the rays.
+    pub seed: u64,
+}
+
+/// A layer ready to be traced: its flakes and column grid.
+#[derive(Debug, Clone)]
+pub struct Tracer<'a> {
+    layer: &'a Layer,
+    grid: FlakeGrid,
+    options: TraceOptions,
+}
+
+// Energy slots of a batch.
+const E_SINGLE: usize = 0;
+const E_MULTI: usize = 1;
+const E_VIA_SUB: usize = 2;
+const E_SUB: usize = 3;
+const E_FLAKES: usize = 4;
+const E_RIMS: usize = 5;
+const E_CUT: usize = 6;
+const E_SLOTS: usize = 7;
+
+/// Sums of one batch.
+struct Partial {
+    /// `[single, multiple]` per internal detector.
+    cones: Vec<[f64; 2]>,
+    counts: Vec<u32>,
+    energy: [f64; E_SLOTS],
+    segments: u64,
+}
+
+/// One cone as the escape test needs it.
+#[derive(Debug, Clone, Copy)]
+struct ConeEntry {
+    axis: [f64; 3],
+    cos_alpha: f64,
+    index: u32,
+}
+
+/// Cones listed by cells of `(k.x, k.y) ∈ [−1, 1]²`: a direction inside a cone of
+/// half-angle `α` about `r` is within the chord `2 sin(α/2)` of `r`, so its `(x, y)`
+/// lies within that distance of `(r.x, r.y)` in each component.
+struct ConeCells {
+    side: usize,
+    inv_cell: f64,
+    offsets: Vec<u32>,
+    entries: Vec<ConeEntry>,
+}
+
+impl ConeCells {
+    fn new(cones: &[Cone]) -> Self {
+        let chord = |c: &Cone| 2.0 * (0.5 * c.half_angle()).sin();
+        let min_chord = cones.iter().map(chord).fold(f64::INFINITY, f64::min);
+        let side = ((2.0 / min_chord.max(2.0 / 512.0)).ceil() as usize).clamp(4, 512);
+        let inv_cell = side as f64 / 2.0;
+        let to_cell = |v: f64| (((v + 1.0) * inv_cell).floor().max(0.0) as usize).min(side - 1);
+        let mut lists: Vec<Vec<ConeEntry>> = vec![Vec::new(); side * side];
+        for (j, c) in cones.iter().enumerate() {
+            let a = c.axis();
+            let half = chord(c) * (1.0 + 1e-9) + 1e-12;
+            let e = ConeEntry {
+                axis: [a.x, a.y, a.z],
+                cos_alpha: c.cos_half_angle(),
+                index: j as u32,
+            };
+            for iy in to_cell(a.y - half)..=to_cell(a.y + half) {
+                for ix in to_cell(a.x - half)..=to_cell(a.x + half) {
+                    lists[iy * side + ix].push(e);
+                }
+            }
+        }
+        let mut offsets = vec![0u32];
+        let mut entries = Vec::new();
+        for l in lists {
+            entries.extend(l);
+            offsets.push(entries.len() as u32);
+        }
+        Self {
+            side,
+            inv_cell,
+            offsets,
+            entries,
+        }
+    }
+
+    fn candidates(&self, x: f64, y: f64) -> &[ConeEntry] {
+        let ix = (((x + 1.0) * self.inv_cell) as usize).min(self.side - 1);
+        let iy = (((y + 1.0) * self.inv_cell) as usize).min(self.side - 1);
+        let c = iy * self.side + ix;
+        &self.entries[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    }
+}
+
+/// Everything fixed during a run.
+struct Run<'r> {
+    flakes: &'r [Flake],
+    grid: &'r FlakeGrid,
+    options: &'r TraceOptions,
+    cones: ConeCells,
+    ndet: usize,
+    film: f64,
+    tile: f64,
+    rays: u64,
+    batch_rays: u64,
+    max_cells: u64,
+    base_rng: ChaCha8Rng,
+}
+
+impl<'a> Tracer<'a> {
+    /// A tracer for `layer` with `options`; builds the column grid (columns about one mean
+    /// flake diameter wide, the fastest of those measured with the benchmark).
+    ///
+    /// # Errors
+    /// [`VolumeError::Parameter`] naming the invalid option (`n`,
+    /// `substrate_reflectance`, `rays`, `max_events`, `min_weight`);
+    /// [`VolumeError::FlakeIndex`] for an invalid complex flake index.
+    pub fn new(layer: &'a Layer, options: TraceOptions) -> Result<Self, VolumeError> {
+        let cell = if layer.mean_diameter_um() > 0.0 {
+            layer.mean_diameter_um()
+        } else {
+            layer.tile_um()
+        };
+        Self::with_cell(layer, options, cell)
+    }
+
+    /// As [`Tracer::new`] with columns about `cell_um` wide (clamped to between
+    /// `L/2048` and `L`), for measuring the grid.
+    ///
+    /// # Errors
+    /// As [`Tracer::new`], and [`VolumeError::Parameter`] (`cell_um`) unless `cell_um`
+    /// is finite and positive.
+    pub fn with_cell(
+        layer: &'a Layer,
+        options: TraceOptions,
+        cell_um: f64,
+    ) -> Result<Self, VolumeError> {
+        if !(cell_um.is_finite() && cell_um > 0.0) {
+            return Err(VolumeError::Parameter {
+                name: "cell_um",
+                value: cell_um,
+                expected: "a finite column width > 0 µm",
+            });
+        }
+        Self::check(&options)?;
+        Ok(Self {
+            layer,
+            grid: FlakeGrid::new(layer.flakes(), layer.tile_um(), cell_um),
+            options,
+        })
+    }
+
+    fn check(options: &TraceOptions) -> Result<(), VolumeError> {
+        flakescatter_optics::check_index(options.n).map_err(|_| VolumeError::Parameter {
+            name: "n",
+            value: options.n,
+            expected: "a finite real index >= 1",
+        })?;
+        if let FlakeReflectance::Complex { n, k } = options.flake {
+            FlakeReflectance::complex(n, k).map_err(VolumeError::FlakeIndex)?;
+        }
+        if let Substrate::Specular(r) | Substrate::Lambertian(r) = options.substrate
+            && !(r.is_finite() && (0.0..=1.0).contains(&r))
+        {
+            return Err(VolumeError::Parameter {
+                name: "substrate_reflectance",
+                value: r,
+                expected: "a reflectance in [0, 1]",
+            });
+        }
+        if options.rays == 0 || options.rays > MAX_RAYS {
+            return Err(VolumeError::Parameter {
+                name: "rays",
+                value: options.rays as f64,
+                expected: "between 1 and 2^40 rays per incidence",
+            });
+        }
+        if options.max_events == 0 {
+            return Err(VolumeError::Parameter {
+                name: "max_events",
+                value: 0.0,
+                expected: "at least 1",
+            });
+        }
+        if !(options.min_weight.is_finite() && (0.0..1.0).contains(&options.min_weight)) {
+            return Err(VolumeError::Parameter {
+                name: "min_weight",
+                value: options.min_weight,
+                expected: "a weight in [0, 1)",
+            });
+        }
+        Ok(())
+    }
+
+    /// Bytes held by the layer's flakes and the column grid. For the paper's coating
+    /// (16 µm flakes, columns one diameter wide) about 87 bytes per flake: 64 for the
+    /// flake, the rest the grid's entries and offsets, so 87 MB for 10⁶ flakes (measured
+    /// by the `volume` benchmark's setup).
+    #[must_use]
+    pub fn memory_bytes(&self) -> usize {
+        self.layer.memory_bytes() + self.grid.memory_bytes()
+    }
+
+    /// Columns per side of the grid.
+    #[must_use]
+    pub fn grid_side(&self) -> usize {
+        self.grid.side()
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &TraceOptions {
+        &self.options
+    }
+
+    /// Traces every incidence `theta_i` (radians, `[0, π/2)`) into every cone.
+    ///
+    /// # Errors
+    /// As [`Tracer::run_with_progress`].
+    pub fn run(&self, theta_i: &[f64], cones: &[Cone]) -> Result<VolumeResult, VolumeError> {
+        self.run_with_progress(theta_i, cones, &|_, _| {})
+    }
+
+    /// As [`Tracer::run`], calling `progress(done, total)` (in batches, over all
+    /// incidences) from the calling thread as batches finish.
+    ///
+    /// # Errors
+    /// [`VolumeError::Empty`] for an empty list, [`VolumeError::Incidence`] for an angle
+    /// outside `[0, π/2)`, [`VolumeError::PointDetector`] for a cone of aperture 0.
+    pub fn run_with_progress(
+        &self,
+        theta_i: &[f64],
+        cones: &[Cone],
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<VolumeResult, VolumeError> {
+        if theta_i.is_empty() {
+            return Err(VolumeError::Empty("incidence angle"));
+        }
+        if cones.is_empty() {
+            return Err(VolumeError::Empty("detector"));
+        }
+        for &t in theta_i {
+            if !(t.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&t)) {
+                return Err(VolumeError::Incidence(t));
+            }
+        }
+        if let Some(j) = cones.iter().position(|c| c.half_angle() <= 0.0) {
+            return Err(VolumeError::PointDetector(j));
+        }
+        let n = self.options.n;
+        // Internal detectors: the user's cones, then one specular cone per incidence and
+        // distinct aperture (for `relative`).
+        let mut apertures: Vec<f64> = Vec::new();
+        for c in cones {
+            if !apertures.contains(&c.half_angle()) {
+                apertures.push(c.half_angle());
+            }
+        }
+        let mut all = cones.to_vec();
+        for &t in theta_i {
+            for &a in &apertures {
+                all.push(Cone::in_plane(-t, a).map_err(VolumeError::Detector)?);
+            }
+        }
+        let batch_rays = self.options.rays.div_ceil(BATCHES);
+        let rays = batch_rays * BATCHES;
+        let g = self.grid.side() as u64;
+        let run = Run {
+            flakes: self.layer.flakes(),
+            grid: &self.grid,
+            options: &self.options,
+            cones: ConeCells::new(&all),
+            ndet: all.len(),
+            film: self.layer.film_um(),
+            tile: self.layer.tile_um(),
+            rays,
+            batch_rays,
+            // A segment may wrap around the tile a few times; longer ones are cut.
+            max_cells: 8 * g + 64,
+            base_rng: ChaCha8Rng::seed_from_u64(self.options.seed),
+        };
+        let jobs: Vec<(usize, u64)> = (0..theta_i.len())
+            .flat_map(|i| (0..BATCHES).map(move |b| (i, b)))
+            .collect();
+        let total_jobs = jobs.len() as u64;
+        let ni = theta_i.len();
+        let nd = run.ndet;
+        // Ordered reduction (Welford over batches) per incidence and slot.
+        let mut acc: Vec<Acc> = (0..ni).map(|_| Acc::new(nd)).collect();
+        let mut segments = 0u64;
+        let mut done = 0u64;
+        for chunk in jobs.chunks(PROGRESS_CHUNK) {
+            let partials: Vec<Partial> = chunk
+                .par_iter()
+                .map(|&(ii, b)| run.batch(theta_i[ii], ii as u64, b))
+                .collect();
+            for (p, &(ii, _)) in partials.iter().zip(chunk) {
+                acc[ii].add(p);
+                segments += p.segments;
+            }
+            done += chunk.len() as u64;
+            progress(done, total_jobs);
+        }
+
+        let nf = rays as f64;
+        let b = BATCHES as f64;
+        let se = |m2: f64| (b / (b - 1.0) * m2).max(0.0).sqrt() / nf;
+        let mut points = Vec::with_capacity(ni * cones.len());
+        let mut energy = Vec::with_capacity(ni);
+        let mut energy_se = Vec::with_capacity(ni);
+        for (ii, &ti) in theta_i.iter().enumerate() {
+            let a = &acc[ii];
+            let entry = fresnel::air_to_coating(ti, n);
+            let coat = entry.r_av();
+            let specular = detector::specular_direction(ti);
+            let value = |d: usize| {
+                let coat_seen = if all[d].contains(&specular) {
+                    coat
+                } else {
+                    0.0
+                };
+                coat_seen + (a.sum[d][0] + a.sum[d][1]) / nf
+            };
+            for (j, cone) in cones.iter().enumerate() {
+                let proj = cone.projected_solid_angle();
+                let coat_seen = if cone.contains(&specular) { coat } else { 0.0 };
+                let single = a.sum[j][0] / nf;
+                let multiple = a.sum[j][1] / nf;
+                let total = coat_seen + single + multiple;
+                let ap = apertures
+                    .iter()
+                    .position(|&x| x == cone.half_angle())
+                    .unwrap_or(0);
+                let spec = value(cones.len() + ii * apertures.len() + ap);
+                let total_se = se(a.m2[j][2]);
+                points.push(VolumePoint {
+                    theta_i: ti,
+                    cone: *cone,
+                    brdf: total / proj,
+                    brdf_std_err: total_se / proj,
+                    coat_brdf: coat_seen / proj,
+                    single_brdf: single / proj,
+                    single_std_err: se(a.m2[j][0]) / proj,
+                    multiple_brdf: multiple / proj,
+                    multiple_std_err: se(a.m2[j][1]) / proj,
+                    reflectance: total,
+                    reflectance_std_err: total_se,
+                    relative: if spec > 0.0 { total / spec } else { f64::NAN },
+                    rays: a.counts[j],
+                });
+            }
+            let e = |k: usize| a.energy[k] / nf;
+            let es = |k: usize| se(a.energy_m2[k]);
+            energy.push(EnergyBalance {
+                coat_reflected: coat,
+                escaped_single: e(E_SINGLE),
+                escaped_multiple: e(E_MULTI),
+                absorbed_substrate: e(E_SUB),
+                absorbed_flakes: e(E_FLAKES),
+                absorbed_other: e(E_RIMS) + e(E_CUT),
+                absorbed_rims: e(E_RIMS),
+                cut_off: e(E_CUT),
+                escaped_via_substrate: e(E_VIA_SUB),
+            });
+            energy_se.push(EnergyBalance {
+                coat_reflected: 0.0,
+                escaped_single: es(E_SINGLE),
+                escaped_multiple: es(E_MULTI),
+                absorbed_substrate: es(E_SUB),
+                absorbed_flakes: es(E_FLAKES),
+                absorbed_other: se(a.other_m2),
+                absorbed_rims: es(E_RIMS),
+                cut_off: es(E_CUT),
+                escaped_via_substrate: es(E_VIA_SUB),
+            });
+        }
+        Ok(VolumeResult {
+            points,
+            energy,
+            energy_std_err: energy_se,
+            rays_per_incidence: rays,
+            segments,
+            seed: self.options.seed,
+        })
+    }
+}
+
+/// Ordered accumulation over batches: sums and Welford `M2` of the batch sums.
+struct Acc {
+    seen: f64,
+    sum: Vec<[f64; 2]>,
+    /// `[single, multiple, total]`.
+    mean: Vec<[f64; 3]>,
+    m2: Vec<[f64; 3]>,
+    counts: Vec<u64>,
+    energy: [f64; E_SLOTS],
+    energy_mean: [f64; E_SLOTS],
+    energy_m2: [f64; E_SLOTS],
+    other_mean: f64,
+    other_m2: f64,
+}
+
+fn welford(mean: &mut f64, m2: &mut f64, v: f64, inv_seen: f64) {
+    let delta = v - *mean;
+    *mean += delta * inv_seen;
+    *m2 += delta * (v - *mean);
+}
+
+impl Acc {
+    fn new(nd: usize) -> Self {
+        Self {
+            seen: 0.0,
+            sum: vec![[0.0; 2]; nd],
+            mean: vec![[0.0; 3]; nd],
+            m2: vec![[0.0; 3]; nd],
+            counts: vec![0; nd],
+            energy: [0.0; E_SLOTS],
+            energy_mean: [0.0; E_SLOTS],
+            energy_m2: [0.0; E_SLOTS],
+            other_mean: 0.0,
+            other_m2: 0.0,
+        }
+    }
+
+    fn add(&mut self, p: &Partial) {
+        self.seen += 1.0;
+        let inv = 1.0 / self.seen;
+        for d in 0..self.sum.len() {
+            let [s, m] = p.cones[d];
+            self.sum[d][0] += s;
+            self.sum[d][1] += m;
+            let (mean, m2) = (&mut self.mean[d], &mut self.m2[d]);
+            for (k, v) in [s, m, s + m].into_iter().enumerate() {
+                welford(&mut mean[k], &mut m2[k], v, inv);
+            }
+            self.counts[d] += u64::from(p.counts[d]);
+        }
+        for k in 0..E_SLOTS {
+            self.energy[k] += p.energy[k];
+            welford(
+                &mut self.energy_mean[k],
+                &mut self.energy_m2[k],
+                p.energy[k],
+                inv,
+            );
+        }
+        welford(
+            &mut self.other_mean,
+            &mut self.other_m2,
+            p.energy[E_RIMS] + p.energy[E_CUT],
+            inv,
+        );
+    }
+}
+
+/// `x` moved into `[0, l)` by whole tiles.
+#[inline]
+fn wrap(x: f64, l: f64) -> f64 {
+    if (0.0..l).contains(&x) {
+        return x;
+    }
+    let w = x - l * (x / l).floor();
+    if (0.0..l).contains(&w) { w } else { 0.0 }
+}
+
+/// A cosine-law direction about the unit normal `nrm`.
+fn cosine_direction(nrm: &Vec3, rng: &mut ChaCha8Rng) -> Vec3 {
+    let u1: f64 = rng.random();
+    let u2: f64 = rng.random();
+    let (s, c) = (std::f64::consts::TAU * u2).sin_cos();
+    let rho = u1.sqrt();
+    let z = (1.0 - u1).max(0.0).sqrt();
+    let axis = UnitVec3::new_unchecked(*nrm);
+    let (u, v) = orthonormal_frame(&axis);
+    u.into_inner() * (rho * c) + v.into_inner() * (rho * s) + nrm * z
+}
+
+impl Run<'_> {
+    /// Traces batch `b` of incidence number `ii` at angle `theta_i`.
+    fn batch(&self, theta_i: f64, ii: u64, b: u64) -> Partial {
+        let n = self.options.n;
+        let k_in = detector::incident_direction(theta_i);
+        let k1 = refraction::into_coating(&k_in, n).into_inner();
+        let entry = fresnel::air_to_coating(theta_i, n);
+        let mut p = Partial {
+            cones: vec![[0.0; 2]; self.ndet],
+            counts: vec![0; self.ndet],
+            energy: [0.0; E_SLOTS],
+            segments: 0,
+        };
+        let first = b * self.batch_rays;
+        for r in first..first + self.batch_rays {
+            let mut rng = self.base_rng.clone();
+            rng.set_stream(ii * self.rays + r);
+            self.ray(&k1, &entry, &mut rng, &mut p);
+        }
+        p
+    }
+
+    /// One path from the top interface until it has no weight left.
+    fn ray(&self, k1: &Vec3, entry: &FresnelPower, rng: &mut ChaCha8Rng, p: &mut Partial) {
+        let opts = self.options;
+        let n = opts.n;
+        let l = self.tile;
+        let mut pos = Vec3::new(l * rng.random::<f64>(), l * rng.random::<f64>(), 0.0);
+        let mut k = *k1;
+        let (mut ws, mut wp) = (0.5 * entry.ts, 0.5 * entry.tp);
+        let mut flake_hits = 0u32;
+        let mut other_events = 0u32;
+        let mut internal = false;
+        let mut via_substrate = false;
+        let mut events = 0u32;
+        let mut last: Option<u32> = None;
+        loop {
+            let w = ws + wp;
+            if w <= 0.0 {
+                return;
+            }
+            if events >= opts.max_events || w < opts.min_weight || k.z.abs() < 1e-12 {
+                p.energy[E_CUT] += w;
+                return;
+            }
+            events += 1;
+            p.segments += 1;
+            let tau_max = if k.z > 0.0 {
+                -pos.z / k.z
+            } else {
+                (-self.film - pos.z) / k.z
+            };
+            let next = self.grid.nearest(
+                self.flakes,
+                &pos,
+                &k,
+                tau_max,
+                last,
+                opts.rims == RimRule::Ignore,
+                self.max_cells,
+            );
+            match next {
+                Next::TooLong => {
+                    p.energy[E_CUT] += w;
+                    return;
+                }
+                Next::Boundary if k.z > 0.0 => {
+                    // The top interface from inside: escape by Fresnel, the rest reflects.
+                    pos += tau_max * k;
+                    pos.z = 0.0;
+                    let s2 = n * n * (k.x * k.x + k.y * k.y);
+                    if s2 < 1.0 {
+                        let out = Vec3::new(n * k.x, n * k.y, (1.0 - s2).sqrt());
+                        let f = fresnel::power_from_cosines(out.z, k.z, n);
+                        let esc = ws * f.ts + wp * f.tp;
+                        let single = flake_hits == 1 && other_events == 0 && !internal;
+                        self.tally(&out, esc, single, via_substrate, p);
+                        ws *= f.rs;
+                        wp *= f.rp;
+                    }
+                    internal = true;
+                    k.z = -k.z;
+                    last = None;
+                }
+                Next::Boundary => {
+                    pos += tau_max * k;
+                    pos.z = -self.film;
+                    match opts.substrate {
+                        Substrate::Black => {
+                            p.energy[E_SUB] += w;
+                            return;
+                        }
+                        Substrate::Specular(r) => {
+                            p.energy[E_SUB] += w * (1.0 - r);
+                            ws *= r;
+                            wp *= r;
+                            k.z = -k.z;
+                        }
+                        Substrate::Lambertian(r) => {
+                            p.energy[E_SUB] += w * (1.0 - r);
+                            ws = 0.5 * w * r;
+                            wp = ws;
+                            k = cosine_direction(&Vec3::z(), rng);
+                        }
+                    }
+                    other_events += 1;
+                    via_substrate = true;
+                    last = None;
+                }
+                Next::Flake(h) => {
+                    pos += h.tau * k;
+                    last = Some(h.flake);
+                    match h.surface {
+                        Surface::Top | Surface::Bottom => {
+                            let cos_iota = -k.dot(&h.normal);
+                            let (rs, rp) = opts.flake.power(cos_iota, n);
+                            p.energy[E_FLAKES] += ws * (1.0 - rs) + wp * (1.0 - rp);
+                            ws *= rs;
+                            wp *= rp;
+                            k += 2.0 * cos_iota * h.normal;
+                            // Keep the direction a unit vector against rounding drift.
+                            k /= k.norm();
+                            flake_hits += 1;
+                        }
+                        Surface::Rim => match opts.rims {
+                            RimRule::Diffuse => {
+                                let albedo = opts.flake.average(1.0, n);
+                                p.energy[E_RIMS] += w * (1.0 - albedo);
+                                ws = 0.5 * w * albedo;
+                                wp = ws;
+                                k = cosine_direction(&h.normal, rng);
+                                other_events += 1;
+                            }
+                            RimRule::Absorb | RimRule::Ignore => {
+                                p.energy[E_RIMS] += w;
+                                return;
+                            }
+                        },
+                    }
+                }
+            }
+            // Back into the tile.
+            pos.x = wrap(pos.x, l);
+            pos.y = wrap(pos.y, l);
+        }
+    }
+
+    /// Adds an escape with weight `w` along `out` to every cone that contains it.
+    fn tally(&self, out: &Vec3, w: f64, single: bool, via_substrate: bool, p: &mut Partial) {
+        let cat = usize::from(!single);
+        p.energy[if single { E_SINGLE } else { E_MULTI }] += w;
+        if via_substrate {
+            p.energy[E_VIA_SUB] += w;
+        }
+        for e in self.cones.candidates(out.x, out.y) {
+            if e.axis[0] * out.x + e.axis[1] * out.y + e.axis[2] * out.z > e.cos_alpha {
+                let d = e.index as usize;
+                p.cones[d][cat] += w;
+                p.counts[d] += 1;
+            }
+        }
+    }
+}
