@@ -241,6 +241,65 @@ pub struct IncidenceComparison {
     pub points: Vec<ComparedPoint>,
 }
 
+/// Two angles (radians) that stand for the same typed degrees: within 1e-9 rad.
+fn same_angle(a: f64, b: f64) -> bool {
+    (a - b).abs() < 1e-9
+}
+
+/// The points of `measured` at the incidences `theta_i` and detector angles `theta_s`
+/// (radians; `None` keeps all). Every listed incidence must be in the file; the
+/// detector list may be wider than the file (a range), but must match some point.
+///
+/// # Errors
+/// [`PipelineError::Measurement`] naming the incidence that is not measured (with the
+/// ones that are), or saying that the selection leaves no point.
+pub fn select(
+    measured: &MeasuredCurve,
+    theta_i: Option<&[f64]>,
+    theta_s: Option<&[f64]>,
+) -> Result<MeasuredCurve, PipelineError> {
+    let have = measured.incidences();
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|t| {
+                format!("{:.6}", t.to_degrees())
+                    .trim_end_matches('0')
+                    .trim_end_matches('.')
+                    .to_string()
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Some(missing) = theta_i.and_then(|ti| {
+        ti.iter()
+            .find(|&&t| !have.iter().any(|&h| same_angle(h, t)))
+    }) {
+        return Err(PipelineError::Measurement(format!(
+            "{}: no measured point at θi = {}° (the file has θi = {}°)",
+            measured.file,
+            list(&[*missing]),
+            list(&have)
+        )));
+    }
+    let points: Vec<_> = measured
+        .points
+        .iter()
+        .filter(|p| theta_i.is_none_or(|v| v.iter().any(|&t| same_angle(t, p.theta_i))))
+        .filter(|p| theta_s.is_none_or(|v| v.iter().any(|&t| same_angle(t, p.theta_s))))
+        .copied()
+        .collect();
+    if points.is_empty() {
+        return Err(PipelineError::Measurement(format!(
+            "{}: the selected angles match no measured point",
+            measured.file
+        )));
+    }
+    Ok(MeasuredCurve {
+        file: measured.file.clone(),
+        points,
+    })
+}
+
 /// Points of `measured` at incidence `theta_i` as `(θs, value, line)`, checked for the
 /// log scale.
 ///

@@ -10,7 +10,8 @@
 //! or a flake table) turned into [`Curves`] by [`distribution_curves`], or height maps
 //! turned into curves by [`topographic_curves`] ([`topo`] is the topographic layer);
 //! measurement against model in [`compare`], fitting of the orientation distribution in
-//! [`fit`], multi-angle readouts in [`multiangle`].
+//! [`fit`], multi-angle readouts in [`multiangle`], what a plot shows in [`chart`], and
+//! the paper's figures in kind in [`figures`].
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
@@ -66,7 +67,9 @@
 //! A longer version of the same workflow is the example `map_to_curves`
 //! (`cargo run --release -p flakescatter --example map_to_curves`).
 
+pub mod chart;
 pub mod compare;
+pub mod figures;
 pub mod fit;
 pub mod instrument;
 pub mod multiangle;
