@@ -10,7 +10,7 @@ use serde_json::{Value, json};
 use super::paper::rows_at;
 use super::{
     APERTURE_DEG, CUTOFF, Ctx, FIXTURES, FiguresError, INCIDENCES, Index, SYNTHETIC_NOTE, deg,
-    gaussian, sig,
+    gaussian, micro, sig,
 };
 use crate::PipelineError;
 use crate::chart::{Chart, Series, Style, THETA_S_LABEL};
@@ -33,7 +33,8 @@ pub(super) fn measured_csv(curve: &MeasuredCurve) -> String {
     s
 }
 
-/// JSON of one comparison row (numbers to `JSON_DIGITS` significant digits).
+/// JSON of one comparison row (scale to `JSON_DIGITS` significant digits, log10
+/// residuals to 1e-6).
 fn comparison_json(model: &str, c: &IncidenceComparison, dropped: usize) -> Value {
     json!({
         "model": model,
@@ -44,8 +45,8 @@ fn comparison_json(model: &str, c: &IncidenceComparison, dropped: usize) -> Valu
         "regions": c.regions.iter().map(|r| json!({
             "region": r.region.name(),
             "points": r.points,
-            "rms_log10": r.rms_log10.map(sig),
-            "mean_log10": r.mean_log10.map(sig),
+            "rms_log10": r.rms_log10.map(micro),
+            "mean_log10": r.mean_log10.map(micro),
         })).collect::<Vec<_>>(),
     })
 }

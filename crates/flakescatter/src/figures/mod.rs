@@ -341,7 +341,7 @@ pub fn reproduce(
         },
         "fig7_fitted_hwhm_deg": fig7_fits,
         "comparisons": Value::Object(comparisons),
-        "significant_digits": JSON_DIGITS,
+        "rounding": format!("scale and fitted widths to {JSON_DIGITS} significant digits, rms_log10 and mean_log10 to 1e-6"),
         "units": {
             "theta_i_deg": "degree, incidence angle",
             "scale": "fitted vertical scale of the model (measured ≈ scale × model 5°–40° from specular)",
@@ -366,6 +366,11 @@ pub(crate) fn sig(x: f64) -> f64 {
     }
     let d = JSON_DIGITS - 1;
     format!("{x:.d$e}").parse().unwrap_or(x)
+}
+
+/// `x` rounded to 6 decimals (log10 residuals: 1e-6 is a factor 1.0000023), `-0` as 0.
+pub(crate) fn micro(x: f64) -> f64 {
+    (x * 1e6).round() / 1e6 + 0.0
 }
 
 /// Degrees without float noise (`-69.5`).
@@ -403,7 +408,9 @@ fn index_md(index: &Index, spec: &FiguresSpec, summary: &Value) -> String {
          (fixed seeds; results do not depend on the number of threads). Another platform's \
          maths library (`sin`, `exp`, `ln`, ...) may round a last bit differently, so the \
          numbers are written rounded: CSV values to 10 significant digits, \
-         `comparison.json` to {JSON_DIGITS}, the table below to 3–5. Such a difference \
+         `comparison.json` to {JSON_DIGITS} significant digits for scales and widths and to \
+         1e-6 for log10 residuals (whose mean is zero up to rounding where the scale is \
+         fitted), the table below to 3–5. Such a difference \
          then changes at most a last digit of a CSV or JSON number (and rarely a pixel of \
          a plot); `cargo xtask figures --check` compares a fresh run with the committed \
          files number by number to a relative tolerance of 1e-6 and checks that every \
