@@ -237,7 +237,13 @@ impl Plan {
         match dest {
             Dest::Stdout => {
                 let mut out = stdout();
-                body(&mut out)?;
+                body(&mut out).map_err(|e| {
+                    if stdout_failed() || stdout_closed() {
+                        anyhow::Error::from(Failure(format!("writing stdout: {e:#}")))
+                    } else {
+                        e
+                    }
+                })?;
                 out.flush().map_err(|e| stdout_error(&e))
             }
             Dest::File(path) => {
