@@ -547,3 +547,41 @@ fn angles_print_as_typed() {
     assert_eq!(j["rows"][0]["theta_i_deg"], 29.999);
     assert_eq!(j["rows"][0]["theta_s_deg"], -29.999);
 }
+
+#[test]
+fn standard_errors_that_cannot_be_estimated_are_empty_cells_with_one_warning() {
+    // One tile of 1e9 µm covers the whole 92 µm map: no spread between tiles.
+    let map = fixtures().join("synth-hwhm6-rough.height.x3p");
+    let o = run(&[
+        "topo",
+        s(&map),
+        "--theta-i",
+        "30",
+        "--theta-s",
+        "-30,0",
+        "--tile-um",
+        "1e9",
+    ]);
+    expect(&o, 0, &["no standard error"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.matches("warning:").count(), 1, "{err}");
+    let text = String::from_utf8(o.stdout).unwrap();
+    for row in text.lines().skip(1) {
+        assert!(row.ends_with(','), "empty std_err cell: {row}");
+        assert!(!row.contains("NaN"), "{row}");
+    }
+    let o = run(&[
+        "topo",
+        s(&map),
+        "--theta-i",
+        "30",
+        "--theta-s",
+        "-30",
+        "--tile-um",
+        "1e9",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(j["rows"][0]["std_err"].is_null());
+    assert_eq!(j["warnings"].as_array().unwrap().len(), 1);
+}
