@@ -112,7 +112,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
     args.measured.inputs(&mut plan);
     let out = plan.output("--out", args.out.as_deref(), Kind::Table);
-    plan.stdout(if args.json { "--json" } else { "the result" });
+    if args.json {
+        plan.stdout("--json");
+    } else if out.is_none() {
+        plan.stdout("the result");
+    }
     args.measured.validate()?;
     let coating = args.measured.optics.coating()?;
     let settings = args.measured.settings();
