@@ -6,6 +6,10 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use flakescatter::io::{MapFormat, ReadOptions, read_intensity, read_map};
 use flakescatter::stats::heightmap::HeightMap;
+use flakescatter::stats::segment::{Segmentation, segment};
+
+use crate::flags::SegmentArgs;
+use crate::output::warn;
 
 /// Checks an intensity cutoff: a finite number.
 pub fn check_cutoff(cutoff: Option<f64>) -> anyhow::Result<()> {
@@ -53,6 +57,19 @@ pub fn read_masked(
         format,
         valid_before_cutoff,
     })
+}
+
+/// Reads `map` (with the intensity cutoff) and segments it. A map without flakes gives
+/// an empty result whose warning is printed on stderr.
+pub fn segment_file(map: &Path, args: &SegmentArgs) -> anyhow::Result<(HeightMap, Segmentation)> {
+    let params = args.params()?;
+    let options = args.calibration.read_options()?;
+    let height = read_masked("MAP", map, args.intensity.as_deref(), args.cutoff, &options)?.map;
+    let seg = segment(&height, &params).with_context(|| format!("segmenting {}", map.display()))?;
+    if let Some(w) = seg.warning {
+        warn(&format!("{}: {w}; the flake table is empty", map.display()));
+    }
+    Ok((height, seg))
 }
 
 /// Reads out-of-plane detectors: CSV with header `theta_r_deg, phi_r_deg`, degrees.

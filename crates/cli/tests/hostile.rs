@@ -425,10 +425,22 @@ fn compare_and_fit_select_measured_angles_or_refuse() {
     assert_eq!(j["inputs"]["selection"]["points_used"], 81);
     assert_eq!(j["scales"].as_array().unwrap().len(), 1);
     // The non-parametric histogram to stdout (one use of stdout, not two).
-    let o = run(&["fit", "--measured", &m, "--theta-i", "30", "--nonparametric", "--out", "-"]);
+    let o = run(&[
+        "fit",
+        "--measured",
+        &m,
+        "--theta-i",
+        "30",
+        "--nonparametric",
+        "--out",
+        "-",
+    ]);
     expect(&o, 0, &[]);
     let text = String::from_utf8(o.stdout).unwrap();
-    assert!(text.starts_with("theta_lo_deg,theta_hi_deg,area_fraction,p_per_rad,p_tilde\n"), "{text}");
+    assert!(
+        text.starts_with("theta_lo_deg,theta_hi_deg,area_fraction,p_per_rad,p_tilde\n"),
+        "{text}"
+    );
     // An incidence the file does not have, and a selection that matches nothing.
     let o = run(&["compare", "--measured", &m, "--theta-i", "45"]);
     expect(&o, 2, &["--theta-i", "45", "30, 60"]);

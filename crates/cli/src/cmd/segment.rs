@@ -4,30 +4,14 @@
 //! Units: the library works in µm and radians; the table has µm columns and degrees in
 //! `_deg` columns (cli.md).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::Context;
-use flakescatter::stats::heightmap::HeightMap;
-use flakescatter::stats::segment::{Segmentation, segment};
 use serde_json::json;
 
 use crate::flags::SegmentArgs;
-use crate::maps::read_masked;
-use crate::output::{Plan, print_json, warn};
+use crate::maps::segment_file;
+use crate::output::{Plan, print_json};
 use crate::tables::write_flakes;
-
-/// Reads `map` (with the intensity cutoff) and segments it. A map without flakes gives
-/// an empty result whose warning is printed on stderr.
-pub fn segment_file(map: &Path, args: &SegmentArgs) -> anyhow::Result<(HeightMap, Segmentation)> {
-    let params = args.params()?;
-    let options = args.calibration.read_options()?;
-    let height = read_masked("MAP", map, args.intensity.as_deref(), args.cutoff, &options)?.map;
-    let seg = segment(&height, &params).with_context(|| format!("segmenting {}", map.display()))?;
-    if let Some(w) = seg.warning {
-        warn(&format!("{}: {w}; the flake table is empty", map.display()));
-    }
-    Ok((height, seg))
-}
 
 /// Finds the individual flakes of a confocal height map: mask from the intensity map,
 /// regions split where heights jump or the plane turns, a robust plane fit per flake.

@@ -7,8 +7,8 @@ use flakescatter::io::flakes::{read_flakes, write_histogram};
 use flakescatter::stats::fit::fit_gaussian_ml;
 use flakescatter::stats::histogram::AreaHistogram;
 
-use crate::cmd::segment::segment_file;
 use crate::flags::SegmentArgs;
+use crate::maps::segment_file;
 use crate::output::{Kind, Plan, print_json};
 use crate::tables::write_flakes;
 
