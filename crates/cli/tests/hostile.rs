@@ -156,6 +156,11 @@ fn bad_targets_are_refused_before_anything_is_written() {
         s(&d.join("p")),
     ]);
     expect(&o, 2, &["--plot"]);
+    // A plot or a map cannot go to stdout.
+    let o = run(&["model", "--theta-i", "30", "--out", s(&x), "--plot", "-"]);
+    expect(&o, 2, &["--plot -", "stdout"]);
+    let o = run(&["synth", "--size", "32", "--out", "-"]);
+    expect(&o, 2, &["--out -", "stdout"]);
     // A map output with an unknown extension.
     let o = run(&["synth", "--size", "32", "--out", s(&d.join("m.dat"))]);
     expect(&o, 2, &["--out", "m.dat", ".x3p", ".txt"]);

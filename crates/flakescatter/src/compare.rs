@@ -190,6 +190,43 @@ pub fn distribution_points(
         .collect()
 }
 
+/// A model given as a table of rows `(θi, θs, point)` (radians), e.g. a saved result
+/// of `model` or `topo`, evaluated at `theta_s` for incidence `theta_i`: each detector
+/// must have a row within 1e-6° of it; `source` names the table in errors.
+///
+/// # Errors
+/// [`PipelineError::Measurement`] naming the first detector without a row.
+pub fn tabulated_points(
+    rows: &[(f64, f64, ModelPoint)],
+    source: &str,
+    theta_i: f64,
+    theta_s: &[f64],
+) -> Result<Vec<ModelPoint>, PipelineError> {
+    let tol = 1e-6f64.to_radians();
+    theta_s
+        .iter()
+        .map(|&t| {
+            rows.iter()
+                .find(|(a, b, _)| (a - theta_i).abs() < tol && (b - t).abs() < tol)
+                .map(|r| r.2)
+                .ok_or_else(|| {
+                    PipelineError::Measurement(format!(
+                        "{source}: no row for theta_i_deg {}, theta_s_deg {} (the model was not computed at this measured angle)",
+                        short_deg(theta_i),
+                        short_deg(t)
+                    ))
+                })
+        })
+        .collect()
+}
+
+/// Degrees for messages, to 1e-6 without trailing zeros.
+fn short_deg(rad: f64) -> String {
+    let s = format!("{:.6}", rad.to_degrees());
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
 /// A model as a function `(θi, &[θs]) -> model points` (radians).
 pub type ModelFn<'a> = dyn Fn(f64, &[f64]) -> Result<Vec<ModelPoint>, PipelineError> + 'a;
 
@@ -261,12 +298,7 @@ pub fn select(
     let have = measured.incidences();
     let list = |v: &[f64]| {
         v.iter()
-            .map(|t| {
-                format!("{:.6}", t.to_degrees())
-                    .trim_end_matches('0')
-                    .trim_end_matches('.')
-                    .to_string()
-            })
+            .map(|&t| short_deg(t))
             .collect::<Vec<_>>()
             .join(", ")
     };

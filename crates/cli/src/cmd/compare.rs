@@ -4,9 +4,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use flakescatter::PipelineError;
 use flakescatter::chart::comparison_chart;
-use flakescatter::compare::{IncidenceComparison, ModelPoint, compare, distribution_points};
+use flakescatter::compare::{
+    IncidenceComparison, ModelPoint, compare, distribution_points, tabulated_points,
+};
 use serde_json::{Value, json};
 
 use crate::flags::{MeasuredArgs, OrientationArgs};
@@ -49,7 +50,7 @@ pub struct Args {
     pub plot: Option<PathBuf>,
 }
 
-/// Model values from a result CSV, by `(θi, θs)` in degrees.
+/// Model values from a result CSV, by `(θi, θs)` in radians.
 fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, ModelPoint)>> {
     let name = path.display();
     let mut rdr = csv::ReaderBuilder::new()
@@ -122,8 +123,8 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
             None => None,
         };
         out.push((
-            v[0],
-            v[1],
+            v[0].to_radians(),
+            v[1].to_radians(),
             ModelPoint::from_row(v[3], v[4], reflectance, aperture_deg.to_radians()),
         ));
     }
@@ -161,21 +162,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (measured, selection) = args.measured.read()?;
     let (results, model_desc) = if let Some(path) = &args.model {
         let table = model_file(path, aperture_deg)?;
-        let lookup = |ti: f64, ts: &[f64]| -> Result<Vec<ModelPoint>, PipelineError> {
-            ts.iter()
-                .map(|&t| {
-                    let (a, b) = (ti.to_degrees(), t.to_degrees());
-                    table
-                        .iter()
-                        .find(|(x, y, _)| (x - a).abs() < 1e-6 && (y - b).abs() < 1e-6)
-                        .map(|r| r.2)
-                        .ok_or_else(|| PipelineError::Measurement(format!(
-                            "--model {}: no row for theta_i_deg {}, theta_s_deg {} (the model was not computed at this measured angle)",
-                            path.display(), deg(ti), deg(t)
-                        )))
-                })
-                .collect()
-        };
+        let name = format!("--model {}", path.display());
+        let lookup = |ti: f64, ts: &[f64]| tabulated_points(&table, &name, ti, ts);
         (
             compare(&measured, kind, &lookup)?,
             json!({"file": path.display().to_string()}),

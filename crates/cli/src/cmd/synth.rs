@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use flakescatter::io::{MapFormat, write_intensity, write_map};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::{GaussianWidth, Orientation};
@@ -10,7 +10,7 @@ use flakescatter::synth::{
     DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, SynthError, generate, truth_csv,
 };
 
-use crate::output::{Dest, Kind, Plan, print_json};
+use crate::output::{Kind, Plan, print_json};
 use crate::parse::{pair, whole, whole_u64};
 
 /// Generate a synthetic layer of aluminium flakes (thin discs in a clear film) as a
@@ -216,16 +216,11 @@ fn write_out(plan: &mut Plan, map: &HeightMap, path: &Path, intensity: bool) -> 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
-    let out = plan.output("--out", args.out.as_deref(), Kind::Map);
-    let intensity_out = plan.output("--intensity-out", args.intensity_out.as_deref(), Kind::Map);
+    plan.output("--out", args.out.as_deref(), Kind::Map);
+    plan.output("--intensity-out", args.intensity_out.as_deref(), Kind::Map);
     let truth_out = plan.output("--truth-out", args.truth_out.as_deref(), Kind::Table);
     if args.json {
         plan.stdout("--json");
-    }
-    for (flag, dest) in [("--out", &out), ("--intensity-out", &intensity_out)] {
-        if dest == &Some(Dest::Stdout) {
-            bail!("{flag} -: a map cannot go to stdout; give a file name ending in .x3p or .txt");
-        }
     }
     let (width, flag) = match (args.hwhm, args.sigma) {
         (_, Some(s)) => (

@@ -183,6 +183,19 @@ impl Plan {
 
     /// Checks every registered output (module docs); errors are usage errors (exit 2).
     pub fn check(&self) -> anyhow::Result<()> {
+        for out in self.outputs.iter().filter(|o| o.dest == Dest::Stdout) {
+            match out.kind {
+                Kind::Table => {}
+                Kind::Plot => bail!(
+                    "{} -: a plot cannot go to stdout; give a file name ending in .svg or .png",
+                    out.flag
+                ),
+                Kind::Map => bail!(
+                    "{} -: a map cannot go to stdout; give a file name ending in .x3p or .txt",
+                    out.flag
+                ),
+            }
+        }
         if self.stdout_users.len() > 1 {
             bail!(
                 "{} both write to stdout: give the table a file name (--out FILE)",
