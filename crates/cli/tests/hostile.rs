@@ -359,6 +359,16 @@ fn negative_and_odd_numbers_parse_and_are_refused_with_their_range() {
         ),
         (vec!["model", "--flake-index", "-1,inf"], &["--flake-index"]),
         (
+            vec![
+                "model",
+                "--theta-i",
+                "0:89:0.0001",
+                "--theta-s",
+                "-89:89:0.001",
+            ],
+            &["--theta-i", "rows", "limit"],
+        ),
+        (
             vec!["stats", "--flakes", "x.csv", "--bin", "-1"],
             &["--bin -1", "degrees"],
         ),

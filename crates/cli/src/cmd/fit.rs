@@ -94,9 +94,18 @@ fn region(text: &str) -> anyhow::Result<(f64, f64)> {
     }
 }
 
+/// Largest number of bins of the non-parametric estimate.
+const MAX_BINS: usize = 1000;
+
 /// `--bins` in radians.
 fn bins(text: &str) -> anyhow::Result<Vec<f64>> {
     let edges = angles("--bins", text)?;
+    if edges.len() > MAX_BINS + 1 {
+        bail!(
+            "--bins `{text}`: {} bins is more than the limit of {MAX_BINS} (the estimate solves a bins × bins system)",
+            edges.len() - 1
+        );
+    }
     if edges.len() < 2
         || edges.windows(2).any(|w| w[1] <= w[0])
         || edges[0] < 0.0

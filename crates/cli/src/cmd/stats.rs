@@ -38,7 +38,7 @@ pub struct Args {
     /// With --map: also write the flake table (as `segment --out`) here.
     #[arg(long = "flakes-out", value_name = "FILE", requires = "map")]
     pub flakes_out: Option<PathBuf>,
-    /// Histogram bin width in degrees, in (0, 45].
+    /// Histogram bin width in degrees, in [0.001, 45].
     #[arg(
         long,
         value_name = "DEG",
@@ -71,9 +71,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         plan.stdout("--json");
     }
-    if !(args.bin.is_finite() && args.bin > 0.0 && args.bin <= 45.0) {
+    // At least 0.001°: 90 000 bins over [0, 90°] at most.
+    if !(args.bin.is_finite() && (0.001..=45.0).contains(&args.bin)) {
         bail!(
-            "--bin {}: the bin width must be > 0 and <= 45 degrees",
+            "--bin {}: the bin width must be in [0.001, 45] degrees",
             args.bin
         );
     }

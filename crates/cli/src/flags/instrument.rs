@@ -9,6 +9,9 @@ use flakescatter::{Coating, DetectorSet, Instrument, Settings};
 use serde_json::{Value, json};
 
 use super::{DEFAULT_THETA_I, DEFAULT_THETA_S};
+
+/// Largest number of incidence × detector rows a command computes.
+pub const MAX_ROWS: usize = 10_000_000;
 use crate::output::Plan;
 use crate::parse::{angles, check_range};
 
@@ -170,6 +173,14 @@ impl InstrumentArgs {
                 DetectorSet::InPlane(ts.into_iter().map(f64::to_radians).collect())
             }
         };
+        let rows = theta_i.len() as f64 * detectors.len() as f64;
+        if rows > MAX_ROWS as f64 {
+            bail!(
+                "--theta-i and --theta-s/--detectors: {} incidences × {} detectors = {rows:e} rows is more than the limit of {MAX_ROWS}",
+                theta_i.len(),
+                detectors.len()
+            );
+        }
         Ok(Instrument::new(
             theta_i.into_iter().map(f64::to_radians).collect(),
             detectors,
