@@ -617,3 +617,25 @@ fn standard_errors_that_cannot_be_estimated_are_empty_cells_with_one_warning() {
     assert!(j["rows"][0]["std_err"].is_null());
     assert_eq!(j["warnings"].as_array().unwrap().len(), 1);
 }
+
+#[test]
+fn a_failure_after_the_work_leaves_no_output() {
+    // No ray reaches detectors at 80° and 85°: the relative curve has nothing to draw on
+    // a log axis, so the plot fails after the model ran; the CSV must not appear either.
+    let d = scratch("late");
+    let o = run(&[
+        "topo",
+        s(&fixtures().join("synth-hwhm6-rough.height.x3p")),
+        "--theta-i",
+        "30",
+        "--theta-s",
+        "80,85",
+        "--out",
+        s(&d.join("x.csv")),
+        "--plot",
+        s(&d.join("p.svg")),
+    ]);
+    expect(&o, 2, &["p.svg", "nothing to draw"]);
+    assert!(listing(&d).is_empty(), "{:?}", listing(&d));
+    fs::remove_dir_all(&d).ok();
+}

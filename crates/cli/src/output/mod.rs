@@ -370,3 +370,6 @@ fn check_target(flag: &str, path: &Path, kind: Kind, dir: bool) -> anyhow::Resul
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests;
