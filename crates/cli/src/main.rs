@@ -9,8 +9,12 @@ use clap::{Parser, Subcommand};
 
 mod cmd;
 mod common;
-mod instrument;
+mod flags;
+mod maps;
+mod output;
+mod parse;
 mod plot;
+mod tables;
 
 /// Predict how a metallic (aluminium-flake) coating reflects light at every angle.
 ///

@@ -1,58 +1,19 @@
-//! Plots of curves (SVG or PNG), log axis for reflectance, labelled axes with units.
+//! Drawing of [`Chart`]s (SVG or PNG): log axis for reflectance, labelled axes with
+//! units. What a chart shows is decided by the facade ([`flakescatter::chart`]).
 //!
 //! PNG text is drawn with DejaVu Sans, embedded from the `dejavu` crate (crate MIT /
 //! Apache-2.0; the fonts are under the permissive Bitstream Vera / DejaVu licence), so
-//! plots need no system font. The PNG file itself is written here (8-bit RGB, zlib via
-//! `flate2`, chunk CRCs via `crc32fast`).
+//! plots need no system font. PNG files are encoded by the `png` crate (8-bit RGB).
 
-use std::io::Write;
 use std::path::Path;
 use std::sync::OnceLock;
 
-use anyhow::{Context, bail};
+use anyhow::bail;
+use flakescatter::chart::{Chart, Style};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::common::Failure;
-
-/// How a series is drawn.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Style {
-    /// Solid line.
-    Line,
-    /// Dashed line.
-    Dashed,
-    /// Markers only (measured points).
-    Points,
-}
-
-/// One series of `(x, y)` points.
-#[derive(Debug, Clone)]
-pub struct Series {
-    /// Legend text (empty: no legend entry, e.g. for the second edge of a band).
-    pub label: String,
-    /// Points; non-finite or (on a log axis) non-positive values are skipped.
-    pub points: Vec<(f64, f64)>,
-    /// Drawing style.
-    pub style: Style,
-    /// Colour index into the palette.
-    pub colour: usize,
-}
-
-/// A figure.
-#[derive(Debug, Clone)]
-pub struct Figure {
-    /// Title (first line) and an optional note (second line).
-    pub title: String,
-    /// x-axis label with unit.
-    pub x_label: String,
-    /// y-axis label with unit.
-    pub y_label: String,
-    /// Logarithmic y axis.
-    pub log_y: bool,
-    /// The series.
-    pub series: Vec<Series>,
-}
 
 const PALETTE: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
@@ -81,120 +42,62 @@ fn register_fonts() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The relative curves of a model result, one line per incidence, on a log axis (the
-/// paper's "normalised to 1 in the specular direction"). Out-of-plane detectors are
-/// placed by their polar angle `θr`.
-pub fn relative_figure(curves: &flakescatter::Curves, title: String) -> Figure {
-    let in_plane = matches!(
-        curves.instrument.detectors(),
-        flakescatter::DetectorSet::InPlane(_)
-    );
-    let series = curves
-        .instrument
-        .theta_i()
-        .iter()
-        .enumerate()
-        .map(|(k, &ti)| Series {
-            label: format!("θi = {:.1}°", ti.to_degrees()),
-            points: curves
-                .rows
-                .iter()
-                .filter(|r| r.theta_i == ti)
-                .map(|r| {
-                    let (ts, _) = crate::instrument::detector_deg(&curves.instrument, r.detector);
-                    (ts, r.relative)
-                })
-                .collect(),
-            style: Style::Line,
-            colour: k,
-        })
-        .collect();
-    Figure {
-        title,
-        x_label: if in_plane {
-            "θs (degrees; θs = −θi is specular)".into()
-        } else {
-            "θr, detector polar angle (degrees)".into()
-        },
-        y_label: "relative reflectance (1 at specular)".into(),
-        log_y: true,
-        series,
-    }
-}
-
-/// Draw `fig` to `path`; the extension must be `.svg` or `.png`. The title's first line
-/// is the caption, a second line (after `\n`) a smaller note under it.
-pub fn draw(path: &Path, fig: &Figure) -> anyhow::Result<()> {
-    let png = match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => false,
-        Some("png") => true,
-        _ => bail!(
-            "--plot {}: the plot file must end in .svg or .png",
-            path.display()
-        ),
-    };
+/// The chart as an SVG document; `name` names the plot in errors.
+pub fn svg(chart: &Chart, name: &str) -> anyhow::Result<String> {
     register_fonts()?;
-    let err = |e: String| anyhow::Error::new(Failure(format!("drawing {}: {e}", path.display())));
-    if png {
-        let (w, h) = SIZE;
-        let mut buf = vec![255u8; w as usize * h as usize * 3];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
-            render(&root, fig, path)?;
-            root.present().map_err(|e| err(e.to_string()))?;
-        }
-        write_png(path, w, h, &buf)
-            .map_err(|e| Failure(format!("writing {}: {e}", path.display())))?;
-    } else {
-        let root = SVGBackend::new(path, SIZE).into_drawing_area();
-        render(&root, fig, path)?;
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, SIZE).into_drawing_area();
+        render(&root, chart, name)?;
         root.present()
-            .map_err(|e| err(e.to_string()))
-            .with_context(|| format!("writing {}", path.display()))?;
+            .map_err(|e| Failure(format!("drawing {name}: {e}")))?;
     }
-    Ok(())
+    Ok(text)
 }
 
-/// Write an 8-bit RGB image (`rgb` row-major, 3 bytes a pixel) as a PNG file.
-fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> std::io::Result<()> {
-    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
-        let len = u32::try_from(data.len()).unwrap_or(u32::MAX);
-        out.extend_from_slice(&len.to_be_bytes());
-        let mut crc = crc32fast::Hasher::new();
-        crc.update(kind);
-        crc.update(data);
-        out.extend_from_slice(kind);
-        out.extend_from_slice(data);
-        out.extend_from_slice(&crc.finalize().to_be_bytes());
+/// The chart as a PNG file (8-bit RGB, encoded by the `png` crate).
+pub fn png(chart: &Chart, name: &str) -> anyhow::Result<Vec<u8>> {
+    register_fonts()?;
+    let (w, h) = SIZE;
+    let mut rgb = vec![255u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
+        render(&root, chart, name)?;
+        root.present()
+            .map_err(|e| Failure(format!("drawing {name}: {e}")))?;
     }
-    let row = w as usize * 3;
-    // Filter type 0 (none) before every row, then one zlib stream.
-    let mut raw = Vec::with_capacity((row + 1) * h as usize);
-    for line in rgb.chunks_exact(row) {
-        raw.push(0);
-        raw.extend_from_slice(line);
-    }
-    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
-    z.write_all(&raw)?;
-    let idat = z.finish()?;
-    let mut ihdr = Vec::with_capacity(13);
-    ihdr.extend_from_slice(&w.to_be_bytes());
-    ihdr.extend_from_slice(&h.to_be_bytes());
-    // Bit depth 8, colour type 2 (RGB), deflate, adaptive filtering, no interlace.
-    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
-    let mut out = Vec::with_capacity(idat.len() + 64);
-    out.extend_from_slice(b"\x89PNG\r\n\x1a\n");
-    chunk(&mut out, b"IHDR", &ihdr);
-    chunk(&mut out, b"IDAT", &idat);
-    chunk(&mut out, b"IEND", &[]);
-    std::fs::write(path, out)
+    let mut bytes = Vec::new();
+    let fail = |e: png::EncodingError| Failure(format!("encoding {name}: {e}"));
+    let mut enc = png::Encoder::new(&mut bytes, w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_compression(png::Compression::High);
+    let mut writer = enc.write_header().map_err(fail)?;
+    writer.write_image_data(&rgb).map_err(fail)?;
+    writer.finish().map_err(fail)?;
+    Ok(bytes)
 }
 
-/// Draw `fig` on `root` (any backend); `path` only names the file in errors.
+/// The chart in the format of `path`'s extension (`.svg` or `.png`).
+pub fn encode(path: &Path, chart: &Chart) -> anyhow::Result<Vec<u8>> {
+    let name = path.display().to_string();
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("png") => png(chart, &name),
+        Some("svg") => svg(chart, &name).map(String::into_bytes),
+        _ => bail!("{name}: a plot file must end in .svg or .png"),
+    }
+}
+
+/// Draw `fig` on `root` (any backend); `name` only names the file in errors.
 fn render<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    fig: &Figure,
-    path: &Path,
+    fig: &Chart,
+    name: &str,
 ) -> anyhow::Result<()> {
     let usable = |x: f64, y: f64| x.is_finite() && y.is_finite() && (!fig.log_y || y > 0.0);
     let pts = || {
@@ -216,10 +119,7 @@ fn render<DB: DrawingBackend>(
         y1 = y1.max(y);
     }
     if !(x0.is_finite() && y0.is_finite()) {
-        bail!(
-            "--plot {}: nothing to draw (no finite, positive values)",
-            path.display()
-        );
+        bail!("plot {name}: nothing to draw (no finite, positive values)");
     }
     if x1 <= x0 {
         x1 = x0 + 1.0;
@@ -234,7 +134,7 @@ fn render<DB: DrawingBackend>(
         y0 -= pad;
         y1 += pad;
     }
-    let err = |e: String| anyhow::Error::new(Failure(format!("drawing {}: {e}", path.display())));
+    let err = |e: String| anyhow::Error::new(Failure(format!("drawing {name}: {e}")));
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let mut lines = fig.title.lines();
     let caption = lines.next().unwrap_or("");

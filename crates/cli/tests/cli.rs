@@ -49,3 +49,24 @@ fn usage_errors_exit_2_with_a_message() {
         );
     }
 }
+
+#[test]
+fn every_subcommand_has_help() {
+    // clap checks each command's flag definitions (conflicts, groups) when it is built:
+    // a wrong flag id would fail here rather than for a user.
+    for sub in [
+        "model",
+        "topo",
+        "compare",
+        "fit",
+        "stats",
+        "segment",
+        "info",
+        "synth",
+        "reproduce",
+    ] {
+        let (code, out, err) = run(&[sub, "--help"]);
+        assert_eq!(code, 0, "{sub}: {err}");
+        assert!(out.contains("Usage"), "{sub}: {out}");
+    }
+}

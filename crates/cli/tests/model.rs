@@ -220,8 +220,9 @@ fn out_of_plane_detectors_from_a_file() {
     let rows: Vec<&str> = out.lines().skip(1).collect();
     assert_eq!(rows.len(), 2);
     assert!(rows[1].starts_with("30,30,90,"));
-    // The detector at (30°, 0) is the specular one.
-    assert!(rows[0].ends_with(",1.000000000e0"), "{}", rows[0]);
+    // The detector at (30°, 0) is the specular one: relative = 1 by definition.
+    let relative: f64 = rows[0].rsplit(',').next().unwrap().parse().unwrap();
+    assert!((relative - 1.0).abs() < 1e-12, "{}", rows[0]);
     std::fs::write(&det, "theta_r_deg,phi_r_deg\n95,0\n").unwrap();
     let (code, _, err) = run(&["model", "--detectors", det.to_str().unwrap()]);
     assert_eq!(code, 2);

@@ -190,6 +190,43 @@ pub fn distribution_points(
         .collect()
 }
 
+/// A model given as a table of rows `(θi, θs, point)` (radians), e.g. a saved result
+/// of `model` or `topo`, evaluated at `theta_s` for incidence `theta_i`: each detector
+/// must have a row within 1e-6° of it; `source` names the table in errors.
+///
+/// # Errors
+/// [`PipelineError::Measurement`] naming the first detector without a row.
+pub fn tabulated_points(
+    rows: &[(f64, f64, ModelPoint)],
+    source: &str,
+    theta_i: f64,
+    theta_s: &[f64],
+) -> Result<Vec<ModelPoint>, PipelineError> {
+    let tol = 1e-6f64.to_radians();
+    theta_s
+        .iter()
+        .map(|&t| {
+            rows.iter()
+                .find(|(a, b, _)| (a - theta_i).abs() < tol && (b - t).abs() < tol)
+                .map(|r| r.2)
+                .ok_or_else(|| {
+                    PipelineError::Measurement(format!(
+                        "{source}: no row for theta_i_deg {}, theta_s_deg {} (the model was not computed at this measured angle)",
+                        short_deg(theta_i),
+                        short_deg(t)
+                    ))
+                })
+        })
+        .collect()
+}
+
+/// Degrees for messages, to 1e-6 without trailing zeros.
+fn short_deg(rad: f64) -> String {
+    let s = format!("{:.6}", rad.to_degrees());
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
 /// A model as a function `(θi, &[θs]) -> model points` (radians).
 pub type ModelFn<'a> = dyn Fn(f64, &[f64]) -> Result<Vec<ModelPoint>, PipelineError> + 'a;
 
@@ -239,6 +276,60 @@ pub struct IncidenceComparison {
     pub regions: Vec<RegionSummary>,
     /// The points.
     pub points: Vec<ComparedPoint>,
+}
+
+/// Two angles (radians) that stand for the same typed degrees: within 1e-9 rad.
+fn same_angle(a: f64, b: f64) -> bool {
+    (a - b).abs() < 1e-9
+}
+
+/// The points of `measured` at the incidences `theta_i` and detector angles `theta_s`
+/// (radians; `None` keeps all). Every listed incidence must be in the file; the
+/// detector list may be wider than the file (a range), but must match some point.
+///
+/// # Errors
+/// [`PipelineError::Measurement`] naming the incidence that is not measured (with the
+/// ones that are), or saying that the selection leaves no point.
+pub fn select(
+    measured: &MeasuredCurve,
+    theta_i: Option<&[f64]>,
+    theta_s: Option<&[f64]>,
+) -> Result<MeasuredCurve, PipelineError> {
+    let have = measured.incidences();
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|&t| short_deg(t))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Some(missing) = theta_i.and_then(|ti| {
+        ti.iter()
+            .find(|&&t| !have.iter().any(|&h| same_angle(h, t)))
+    }) {
+        return Err(PipelineError::Measurement(format!(
+            "{}: no measured point at θi = {}° (the file has θi = {}°)",
+            measured.file,
+            list(&[*missing]),
+            list(&have)
+        )));
+    }
+    let points: Vec<_> = measured
+        .points
+        .iter()
+        .filter(|p| theta_i.is_none_or(|v| v.iter().any(|&t| same_angle(t, p.theta_i))))
+        .filter(|p| theta_s.is_none_or(|v| v.iter().any(|&t| same_angle(t, p.theta_s))))
+        .copied()
+        .collect();
+    if points.is_empty() {
+        return Err(PipelineError::Measurement(format!(
+            "{}: the selected angles match no measured point",
+            measured.file
+        )));
+    }
+    Ok(MeasuredCurve {
+        file: measured.file.clone(),
+        points,
+    })
 }
 
 /// Points of `measured` at incidence `theta_i` as `(θs, value, line)`, checked for the

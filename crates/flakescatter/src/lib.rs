@@ -12,8 +12,9 @@
 //! [`isotropic_curves`] ([`topo`] is the topographic layer); the pixel-level
 //! distribution of normals and the flake- against pixel-level width in [`pixels`];
 //! measurement against model in [`compare`], fitting of the orientation distribution in
-//! [`fit`], multi-angle readouts in [`multiangle`], and the three-dimensional layer with
-//! multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is its crate).
+//! [`fit`], multi-angle readouts in [`multiangle`], the three-dimensional layer with
+//! multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is its crate),
+//! what a plot shows in [`chart`], and the paper's figures in kind in [`figures`].
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
@@ -69,7 +70,9 @@
 //! A longer version of the same workflow is the example `map_to_curves`
 //! (`cargo run --release -p flakescatter --example map_to_curves`).
 
+pub mod chart;
 pub mod compare;
+pub mod figures;
 pub mod fit;
 pub mod instrument;
 pub mod multiangle;

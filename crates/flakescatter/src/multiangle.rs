@@ -39,6 +39,8 @@ pub struct Readout {
 /// The readouts and the flop index.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MultiAngle {
+    /// Incidence, radians (45° for the standard geometry).
+    pub theta_i: f64,
     /// Detector half-angle used, radians.
     pub aperture: f64,
     /// The six readouts in [`ASPECULAR_DEG`] order.
@@ -62,16 +64,33 @@ pub fn flop_index(l15: f64, l45: f64, l110: f64) -> Option<f64> {
     crate::colour::flop_index(l15, l45, l110)
 }
 
-/// The distribution model's multi-angle readout for `source` with detectors of
-/// half-angle `aperture` (radians, > 0).
+/// The distribution model's multi-angle readout for `source` at the standard 45°
+/// incidence with detectors of half-angle `aperture` (radians, > 0).
 ///
 /// # Errors
-/// As [`distribution_curves`]; [`PipelineError::Instrument`] for a zero aperture (a
-/// reflectance factor needs a cone).
+/// As [`multi_angle_at`].
 pub fn multi_angle(
     coating: &Coating,
     settings: &Settings,
     source: &OrientationSource,
+    aperture: f64,
+) -> Result<MultiAngle, PipelineError> {
+    multi_angle_at(coating, settings, source, INCIDENCE, aperture)
+}
+
+/// The readout at incidence `theta_i` (radians) instead of 45°: the same aspecular
+/// angles, `θs = −θi + aspecular`, all of which must stay above the horizon (for these
+/// angles `20° < θi < 75°`). The flop index is the same formula on the same aspecular
+/// angles; it is standardised for 45° only.
+///
+/// # Errors
+/// As [`distribution_curves`]; [`PipelineError::Instrument`] for a zero aperture (a
+/// reflectance factor needs a cone) or a detector beyond the horizon.
+pub fn multi_angle_at(
+    coating: &Coating,
+    settings: &Settings,
+    source: &OrientationSource,
+    theta_i: f64,
     aperture: f64,
 ) -> Result<MultiAngle, PipelineError> {
     if aperture <= 0.0 {
@@ -80,8 +99,19 @@ pub fn multi_angle(
         ));
     }
     let asp: Vec<f64> = ASPECULAR_DEG.iter().map(|a| a.to_radians()).collect();
-    let ts: Vec<f64> = asp.iter().map(|a| a - INCIDENCE).collect();
-    let instrument = Instrument::new(vec![INCIDENCE], DetectorSet::InPlane(ts.clone()), aperture)?;
+    let ts: Vec<f64> = asp.iter().map(|a| a - theta_i).collect();
+    if let Some(k) = ts
+        .iter()
+        .position(|t| t.abs() >= std::f64::consts::FRAC_PI_2)
+    {
+        return Err(PipelineError::Instrument(format!(
+            "at θi = {:.6}° the aspecular angle {}° is θs = {:.6}°, beyond the horizon: multi-angle readouts need 20° < θi < 75°",
+            theta_i.to_degrees(),
+            ASPECULAR_DEG[k],
+            ts[k].to_degrees()
+        )));
+    }
+    let instrument = Instrument::new(vec![theta_i], DetectorSet::InPlane(ts.clone()), aperture)?;
     let curves = distribution_curves(coating, &instrument, settings, source)?;
     let readouts: Vec<Readout> = curves
         .rows
@@ -98,6 +128,7 @@ pub fn multi_angle(
         .collect();
     let l = |k: usize| readouts[k].lightness;
     Ok(MultiAngle {
+        theta_i,
         aperture,
         flop_index: flop_index(l(1), l(3), l(5)),
         readouts,

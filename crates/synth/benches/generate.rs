@@ -9,6 +9,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use flakescatter_benchfloor::streaming_sum;
 use flakescatter_stats::distribution::{GaussianWidth, Orientation};
 use flakescatter_synth::{LayerParams, LayerSpec, generate};
 
@@ -22,20 +23,6 @@ fn params(n: usize, rough: bool) -> LayerParams {
         spec.confocal.noise_sd_um = 0.05;
     }
     LayerParams::new(spec).expect("valid parameters")
-}
-
-/// The floor: one pass reading every value once, with eight independent accumulators so
-/// that the loop is limited by memory bandwidth rather than by the latency of one add.
-fn streaming_sum(z: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let chunks = z.chunks_exact(8);
-    let tail: f64 = chunks.remainder().iter().sum();
-    for ch in chunks {
-        for (a, v) in acc.iter_mut().zip(ch) {
-            *a += v;
-        }
-    }
-    acc.iter().sum::<f64>() + tail
 }
 
 fn bench(c: &mut Criterion) {

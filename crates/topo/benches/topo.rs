@@ -16,6 +16,7 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use flakescatter_benchfloor::streaming_sum;
 use flakescatter_optics::detector::Cone;
 use flakescatter_stats::HeightMap;
 use flakescatter_topo::{TopoModel, TopoOptions};
@@ -52,20 +53,6 @@ fn surface(size: usize, seed: u64) -> HeightMap {
         }
     }
     HeightMap::new(size, size, pitch, pitch, z).expect("valid map")
-}
-
-/// The floor: one pass reading every value once, with eight independent accumulators so
-/// that the loop is limited by memory bandwidth rather than by the latency of one add.
-fn streaming_sum(z: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let chunks = z.chunks_exact(8);
-    let tail: f64 = chunks.remainder().iter().sum();
-    for ch in chunks {
-        for (a, v) in acc.iter_mut().zip(ch) {
-            *a += v;
-        }
-    }
-    acc.iter().sum::<f64>() + tail
 }
 
 fn bench(c: &mut Criterion) {

@@ -1,71 +1,42 @@
 //! `flakescatter compare`: a measured goniometric curve against a model (physics.md §7).
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
+use flakescatter::chart::comparison_chart;
 use flakescatter::compare::{
-    IncidenceComparison, MeasuredKind, ModelPoint, compare, distribution_points,
+    IncidenceComparison, ModelPoint, compare, distribution_points, tabulated_points,
 };
-use flakescatter::io::measured::{MeasuredCurve, read_measured};
-use flakescatter::{Coating, PipelineError, Settings};
 use serde_json::{Value, json};
 
-use crate::cmd::model::{OrientationArgs, orientation_from};
-use crate::instrument::{InstrumentArgs, open_out, out_is_stdout};
-use crate::plot::{Figure, Series, Style, draw};
-
-/// The measured curve and what its values are.
-#[derive(Debug, Clone, clap::Args)]
-pub struct MeasuredArgs {
-    /// Measured curve, CSV with header `theta_i_deg, theta_s_deg, value` and optionally
-    /// `uncertainty` (one standard uncertainty, same unit as value).
-    #[arg(long, value_name = "FILE")]
-    pub measured: PathBuf,
-    /// What `value` is: brdf (1/sr), reflectance-factor (π × BRDF) or relative (1 at
-    /// specular).
-    #[arg(long, value_name = "KIND", default_value = "brdf")]
-    pub measured_kind: MeasuredKind,
-    /// Leave out the clear coat's own specular reflection (on by default in comparisons,
-    /// so that the specular peak is modelled too).
-    #[arg(long)]
-    pub no_clearcoat: bool,
-}
-
-impl MeasuredArgs {
-    /// Read the measured file.
-    pub fn read(&self) -> anyhow::Result<MeasuredCurve> {
-        read_measured(&self.measured)
-            .with_context(|| format!("reading --measured {}", self.measured.display()))
-    }
-
-    /// Settings with the clear coat on unless `--no-clearcoat`.
-    pub fn settings(&self, instrument: &InstrumentArgs) -> Settings {
-        Settings {
-            clearcoat: !self.no_clearcoat,
-            ..instrument.settings()
-        }
-    }
-}
+use crate::flags::{MeasuredArgs, OrientationArgs};
+use crate::maps::csv_message;
+use crate::output::{Dest, Kind, Plan, print, print_json, warn};
+use crate::parse::{deg, deg_num, fixed};
+use crate::tables::write_compared;
 
 /// Compare a measured curve with the distribution model (or a model result file):
 /// fits the model's vertical scale per incidence to the points 5°–40° from specular
 /// (excluding the specular peak) and reports residuals of log10 values in the paper's
 /// three regions: specular (< 5° from specular), near-specular (5°–40°), far (> 40°).
 ///
-/// The model is evaluated at the measured angles with --aperture; --theta-i/--theta-s
-/// are not used. Without --json a table goes to stdout; --out writes one CSV row per
-/// measured point.
+/// The model is evaluated at the measured angles with --aperture (--theta-i/--theta-s
+/// select measured points). Without --json a table goes to stdout; --out writes one
+/// CSV row per measured point.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     pub measured: MeasuredArgs,
     #[command(flatten)]
-    pub instrument: InstrumentArgs,
-    #[command(flatten)]
     pub orientation: OrientationArgs,
     /// Compare against a result CSV written by `model` or `topo` (columns theta_i_deg,
-    /// theta_s_deg, aperture_deg, brdf_per_sr, relative) instead of computing the model.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["hwhm", "sigma", "rms_tilt", "distribution"])]
+    /// theta_s_deg, aperture_deg, brdf_per_sr, relative) instead of computing the model;
+    /// the model flags do not apply then and are refused.
+    #[arg(long, value_name = "FILE", conflicts_with_all = [
+        "hwhm", "sigma", "rms_tilt", "distribution", "orientation", "n", "clearcoat",
+        "no_clearcoat", "transmission", "weighting", "flake_index",
+    ])]
     pub model: Option<PathBuf>,
     /// Write one CSV row per measured point: theta_i_deg, theta_s_deg, region, measured,
     /// model (scaled), residual_log10.
@@ -79,7 +50,7 @@ pub struct Args {
     pub plot: Option<PathBuf>,
 }
 
-/// Model values from a result CSV, matched to the measured angles (degrees to 1e-6).
+/// Model values from a result CSV, by `(θi, θs)` in radians.
 fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, ModelPoint)>> {
     let name = path.display();
     let mut rdr = csv::ReaderBuilder::new()
@@ -88,7 +59,7 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
         .with_context(|| format!("reading --model {name}"))?;
     let headers = rdr
         .headers()
-        .with_context(|| format!("--model {name}: no header"))?
+        .map_err(|e| anyhow::anyhow!("--model {name}: no header ({})", csv_message(&e)))?
         .clone();
     let need = [
         "theta_i_deg",
@@ -99,18 +70,21 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
     ];
     let mut idx = [0usize; 5];
     for (k, col) in need.iter().enumerate() {
-        idx[k] = headers.iter().position(|h| h == *col).ok_or_else(|| {
-            anyhow::anyhow!(
-                "--model {name}: missing column {col} (a result CSV of `model` or `topo`)"
-            )
-        })?;
+        let found: Vec<usize> = (0..headers.len())
+            .filter(|&j| &headers[j] == *col)
+            .collect();
+        idx[k] = match found.as_slice() {
+            [j] => *j,
+            [] => bail!("--model {name}: missing column {col} (a result CSV of `model` or `topo`)"),
+            _ => bail!("--model {name}: column {col} appears {} times", found.len()),
+        };
     }
     let col = |want: &str| headers.iter().position(|h| h == want);
     let (phi_col, refl_col) = (col("phi_s_deg"), col("reflectance"));
     let mut out = Vec::new();
     for rec in rdr.records() {
-        let rec = rec.with_context(|| format!("--model {name}"))?;
-        let line = rec.position().map_or(0, |p| p.line());
+        let rec = rec.map_err(|e| anyhow::anyhow!("--model {name}: {}", csv_message(&e)))?;
+        let line = rec.position().map_or(0, csv::Position::line);
         // An empty cell (relative or reflectance undefined) reads as NaN.
         let num = |c: usize, what: &str| -> anyhow::Result<f64> {
             let s = rec.get(c).unwrap_or("");
@@ -125,6 +99,11 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
         for (j, &c) in idx.iter().enumerate() {
             v[j] = num(c, need[j])?;
         }
+        if !(v[0].is_finite() && v[1].is_finite() && v[3].is_finite()) {
+            bail!(
+                "--model {name}, line {line}: theta_i_deg, theta_s_deg and brdf_per_sr must be numbers"
+            );
+        }
         if let Some(c) = phi_col {
             let phi = num(c, "phi_s_deg")?;
             if phi != 0.0 {
@@ -133,7 +112,7 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
                 );
             }
         }
-        if (v[2] - aperture_deg).abs() > 1e-6 {
+        if !((v[2] - aperture_deg).abs() <= 1e-6) {
             bail!(
                 "--model {name}, line {line}: aperture_deg {} differs from --aperture {aperture_deg}; compare at the aperture the model was computed with",
                 v[2]
@@ -144,8 +123,8 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
             None => None,
         };
         out.push((
-            v[0],
-            v[1],
+            v[0].to_radians(),
+            v[1].to_radians(),
             ModelPoint::from_row(v[3], v[4], reflectance, aperture_deg.to_radians()),
         ));
     }
@@ -157,69 +136,110 @@ fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, M
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let out_to_stdout = out_is_stdout(args.out.as_deref(), args.json)?;
-    let measured = args.measured.read()?;
-    let coating = args.instrument.coating()?;
-    let settings = args.measured.settings(&args.instrument);
-    let aperture = args.instrument.aperture_rad()?;
-    let aperture_deg = args.instrument.aperture;
+    let mut plan = Plan::new();
+    args.measured.inputs(&mut plan);
+    args.orientation.inputs(&mut plan);
+    if let Some(m) = &args.model {
+        plan.input("--model", m);
+    }
+    let out = plan.output("--out", args.out.as_deref(), Kind::Table);
+    if args.json {
+        plan.stdout("--json");
+    } else if out != Some(Dest::Stdout) {
+        plan.stdout("the table");
+    }
+    let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
+    args.measured.validate()?;
+    let coating = args.measured.optics.coating()?;
+    let settings = args.measured.settings();
+    let aperture = args.measured.optics.aperture_rad()?;
+    let aperture_deg = args.measured.optics.aperture;
     let kind = args.measured.measured_kind;
+    if args.model.is_none() {
+        args.orientation.validate()?;
+    }
+    plan.check()?;
+    let (measured, selection) = args.measured.read()?;
     let (results, model_desc) = if let Some(path) = &args.model {
         let table = model_file(path, aperture_deg)?;
-        let lookup = |ti: f64, ts: &[f64]| -> Result<Vec<ModelPoint>, PipelineError> {
-            ts.iter()
-                .map(|&t| {
-                    let (a, b) = (ti.to_degrees(), t.to_degrees());
-                    table
-                        .iter()
-                        .find(|(x, y, _)| (x - a).abs() < 1e-6 && (y - b).abs() < 1e-6)
-                        .map(|r| r.2)
-                        .ok_or_else(|| PipelineError::Measurement(format!(
-                            "--model {}: no row for theta_i_deg {a}, theta_s_deg {b} (the model was not computed at this measured angle)",
-                            path.display()
-                        )))
-                })
-                .collect()
-        };
+        let name = format!("--model {}", path.display());
+        let lookup = |ti: f64, ts: &[f64]| tabulated_points(&table, &name, ti, ts);
         (
             compare(&measured, kind, &lookup)?,
             json!({"file": path.display().to_string()}),
         )
     } else {
-        let (orientation, echo) = orientation_from(&args.orientation)?;
+        let (orientation, echo) = args.orientation.orientation()?;
         let model = |ti: f64, ts: &[f64]| {
             distribution_points(&coating, &settings, aperture, &orientation, ti, ts)
         };
         (compare(&measured, kind, &model)?, echo)
     };
-
-    if let Some(path) = &args.out {
-        write_points(&mut open_out(path)?, &results)?;
+    let without = without_model(&results);
+    if !without.is_empty() {
+        warn(&format!(
+            "{} measured point(s) have a model value of zero (no light reaches the detector in the model) and are left out of the residuals: {}",
+            without.len(),
+            without
+                .iter()
+                .map(|(i, s)| format!("θi {} θs {}", deg(*i), deg(*s)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
     }
-    if let Some(path) = &args.plot {
-        draw(path, &figure(&results, kind, &measured.file))?;
+    let plot_bytes = match &plot {
+        Some(Dest::File(p)) => Some((
+            p.clone(),
+            crate::plot::encode(p, &comparison_chart(&results, kind, &measured.file))?,
+        )),
+        _ => None,
+    };
+    if let Some(dest) = &out {
+        let n: usize = results.iter().map(|c| c.points.len()).sum();
+        plan.write(
+            dest,
+            |w| write_compared(w, &results),
+            Some(format!("{n} rows")),
+        )?;
     }
+    if let Some((p, bytes)) = plot_bytes {
+        plan.write(&Dest::File(p), |w| Ok(w.write_all(&bytes)?), None)?;
+    }
+    plan.finish()?;
     if args.json {
-        let summary = json!({
+        let inputs = json!({
+            "measured": measured.file,
+            "measured_kind": kind.name(),
+            "selection": selection,
+            "model": model_desc,
+            "coating": if args.model.is_some() { Value::Null } else { args.measured.optics.echo(settings.clearcoat) },
+            "aperture_deg": aperture_deg,
+            "clearcoat": args.model.is_none().then_some(settings.clearcoat),
+        });
+        print_json(&json!({
             "version": env!("CARGO_PKG_VERSION"),
             "command": "compare",
-            "inputs": {
-                "measured": measured.file,
-                "measured_kind": kind.name(),
-                "model": model_desc,
-                "instrument": args.instrument.echo(),
-                "clearcoat": settings.clearcoat,
-            },
+            "inputs": inputs,
             "regions_deg": {"specular": "< 5 from specular", "near-specular": "5 to 40", "far": "> 40"},
             "scale_fitted_on": "near-specular points (5 to 40 degrees from specular)",
             "residual": "log10(measured) - log10(scale * model)",
             "incidences": incidences_json(&results),
-        });
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else if !out_to_stdout {
-        print_table(&results);
+            "points_without_model": without.iter().map(|(i, s)| json!({"theta_i_deg": deg_num(*i), "theta_s_deg": deg_num(*s)})).collect::<Vec<_>>(),
+        }))?;
+    } else if out != Some(Dest::Stdout) {
+        print(&table_text(&results))?;
     }
     Ok(())
+}
+
+/// The measured points whose model value is zero or undefined, `(θi, θs)` radians.
+fn without_model(results: &[IncidenceComparison]) -> Vec<(f64, f64)> {
+    results
+        .iter()
+        .flat_map(|c| c.points.iter())
+        .filter(|p| !p.residual.is_finite())
+        .map(|p| (p.theta_i, p.theta_s))
+        .collect()
 }
 
 fn incidences_json(results: &[IncidenceComparison]) -> Value {
@@ -228,7 +248,7 @@ fn incidences_json(results: &[IncidenceComparison]) -> Value {
             .iter()
             .map(|c| {
                 json!({
-                    "theta_i_deg": c.theta_i.to_degrees(),
+                    "theta_i_deg": deg_num(c.theta_i),
                     "scale": c.scale,
                     "regions": c.regions.iter().map(|r| json!({
                         "region": r.region.name(),
@@ -243,14 +263,17 @@ fn incidences_json(results: &[IncidenceComparison]) -> Value {
     )
 }
 
-fn print_table(results: &[IncidenceComparison]) {
-    println!("theta_i_deg  scale        region         points  rms_log10  mean_log10");
+/// The table printed on stdout (display rounding: 4 decimals of log10, 5 digits of scale).
+fn table_text(results: &[IncidenceComparison]) -> String {
+    let mut s =
+        String::from("theta_i_deg  scale        region         points  rms_log10  mean_log10\n");
     for c in results {
         for r in &c.regions {
-            let f = |x: Option<f64>| x.map_or_else(|| "-".to_string(), |v| format!("{v:.4}"));
-            println!(
+            let f = |x: Option<f64>| x.map_or_else(|| "-".to_string(), |v| fixed(v, 4));
+            let _ = writeln!(
+                s,
                 "{:<12} {:<12.5e} {:<14} {:>6}  {:>9}  {:>10}",
-                format!("{:.2}", c.theta_i.to_degrees()),
+                deg(c.theta_i),
                 c.scale,
                 r.region.name(),
                 r.points,
@@ -259,92 +282,5 @@ fn print_table(results: &[IncidenceComparison]) {
             );
         }
     }
-}
-
-fn write_points(
-    out: &mut dyn std::io::Write,
-    results: &[IncidenceComparison],
-) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_writer(out);
-    let fail =
-        |e: csv::Error| anyhow::Error::new(crate::common::Failure(format!("writing CSV: {e}")));
-    w.write_record([
-        "theta_i_deg",
-        "theta_s_deg",
-        "region",
-        "measured",
-        "model",
-        "residual_log10",
-    ])
-    .map_err(fail)?;
-    for c in results {
-        for p in &c.points {
-            w.write_record([
-                format!("{}", round(p.theta_i.to_degrees())),
-                format!("{}", round(p.theta_s.to_degrees())),
-                p.region.name().to_string(),
-                format!("{:.9e}", p.measured),
-                format!("{:.9e}", p.model),
-                format!("{:.6}", p.residual),
-            ])
-            .map_err(fail)?;
-        }
-    }
-    w.flush()
-        .map_err(|e| anyhow::Error::new(crate::common::Failure(format!("writing CSV: {e}"))))?;
-    Ok(())
-}
-
-fn round(x: f64) -> f64 {
-    (x * 1e9).round() / 1e9
-}
-
-/// Measured points and scaled model lines per incidence, log axis.
-pub fn figure(results: &[IncidenceComparison], kind: MeasuredKind, file: &str) -> Figure {
-    let mut series = Vec::new();
-    for (k, c) in results.iter().enumerate() {
-        let ti = c.theta_i.to_degrees();
-        series.push(Series {
-            label: format!("measured, θi = {ti:.1}°"),
-            points: c
-                .points
-                .iter()
-                .map(|p| (p.theta_s.to_degrees(), p.measured))
-                .collect(),
-            style: Style::Points,
-            colour: k,
-        });
-        series.push(Series {
-            label: format!("model × {:.3e}, θi = {ti:.1}°", c.scale),
-            points: c
-                .points
-                .iter()
-                .map(|p| (p.theta_s.to_degrees(), p.model))
-                .collect(),
-            style: Style::Line,
-            colour: k,
-        });
-    }
-    let unit = match kind {
-        MeasuredKind::Brdf => "BRDF (1/sr)",
-        MeasuredKind::ReflectanceFactor => "reflectance factor (π × BRDF)",
-        MeasuredKind::Relative => "relative reflectance (1 at specular)",
-    };
-    Figure {
-        title: format!("Measured ({file}) vs model, scale fitted 5°–40° from specular"),
-        x_label: "θs (degrees; θs = −θi is specular)".into(),
-        y_label: unit.into(),
-        log_y: true,
-        series,
-    }
-}
-
-/// The coating and settings echo used by `fit` (kept here so both agree).
-pub fn model_inputs(coating: &Coating, settings: &Settings) -> Value {
-    json!({
-        "n": coating.n,
-        "transmission": settings.transmission.name(),
-        "weighting": settings.weighting.name(),
-        "clearcoat": settings.clearcoat,
-    })
+    s
 }

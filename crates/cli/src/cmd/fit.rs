@@ -1,15 +1,17 @@
 //! `flakescatter fit`: the flake orientation distribution from a measured curve.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::compare::{FAR_REGION, SPECULAR_REGION};
-use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
+use flakescatter::fit::{FitSetup, GaussianFit, NonParametricFit, fit_gaussian, fit_nonparametric};
 use flakescatter::io::flakes::write_histogram_bins;
-use serde_json::json;
+use serde_json::{Value, json};
 
-use crate::cmd::compare::{MeasuredArgs, model_inputs};
-use crate::instrument::{InstrumentArgs, open_out, out_is_stdout, parse_angles};
+use crate::flags::MeasuredArgs;
+use crate::output::{Kind, Plan, print, print_json};
+use crate::parse::{angles, deg, deg_num, fixed, shortest};
 
 /// Fit the flake orientation distribution to a measured curve.
 ///
@@ -19,15 +21,19 @@ use crate::instrument::{InstrumentArgs, open_out, out_is_stdout, parse_angles};
 /// excluded). With --nonparametric: a tabulated p~ on --bins by regularised
 /// non-negative least squares (the paper's "estimate the distribution that can give rise
 /// to a measured reflectance curve"); --out then writes it as a histogram CSV that
-/// `model --orientation table --distribution` reads.
+/// `model --orientation table --distribution` reads. --theta-i/--theta-s select the
+/// measured points used.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     pub measured: MeasuredArgs,
-    #[command(flatten)]
-    pub instrument: InstrumentArgs,
-    /// Start value of the Gaussian hwhm, degrees.
-    #[arg(long, value_name = "DEG", default_value_t = 4.0)]
+    /// Start value of the Gaussian hwhm, degrees, in (0, 60).
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 4.0,
+        allow_negative_numbers = true
+    )]
     pub hwhm_start: f64,
     /// Fit the clear-coat index too (start: --n).
     #[arg(long)]
@@ -37,17 +43,32 @@ pub struct Args {
     #[arg(long)]
     pub common_scale: bool,
     /// Aspecular range of the points used, degrees, `LO:HI`.
-    #[arg(long, value_name = "LO:HI", default_value = "5:40")]
+    #[arg(
+        long,
+        value_name = "LO:HI",
+        default_value = "5:40",
+        allow_hyphen_values = true
+    )]
     pub region: String,
     /// Estimate a tabulated p~ instead of a Gaussian.
     #[arg(long)]
     pub nonparametric: bool,
     /// Bin edges of the tabulated p~, degrees (list or range), for --nonparametric.
-    #[arg(long, value_name = "LIST", default_value = "0:30:2")]
+    #[arg(
+        long,
+        value_name = "LIST",
+        default_value = "0:30:2",
+        allow_hyphen_values = true
+    )]
     pub bins: String,
     /// Smoothness weight of the non-parametric estimate (second differences of p~,
     /// relative to the data), >= 0.
-    #[arg(long, value_name = "X", default_value_t = 0.05)]
+    #[arg(
+        long,
+        value_name = "X",
+        default_value_t = 0.05,
+        allow_negative_numbers = true
+    )]
     pub lambda: f64,
     /// --nonparametric: write the estimated histogram CSV (theta_lo_deg, theta_hi_deg,
     /// area_fraction, p_per_rad, p_tilde) here.
@@ -58,157 +79,213 @@ pub struct Args {
     pub json: bool,
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    out_is_stdout(args.out.as_deref(), args.json)?;
-    let measured = args.measured.read()?;
-    let coating = args.instrument.coating()?;
-    let settings = args.measured.settings(&args.instrument);
-    let aperture_rad = args.instrument.aperture_rad()?;
-    let aperture = args.instrument.aperture;
-    let region = match args
-        .region
+/// `--region LO:HI` in radians.
+fn region(text: &str) -> anyhow::Result<(f64, f64)> {
+    match text
         .split_once(':')
         .map(|(a, b)| (a.trim().parse::<f64>(), b.trim().parse::<f64>()))
     {
         Some((Ok(lo), Ok(hi))) if lo >= 0.0 && hi > lo && hi < 180.0 => {
-            (lo.to_radians(), hi.to_radians())
+            Ok((lo.to_radians(), hi.to_radians()))
         }
         _ => bail!(
-            "--region `{}`: expected LO:HI in degrees with 0 <= LO < HI (default 5:40)",
-            args.region
+            "--region `{text}`: expected LO:HI in degrees with 0 <= LO < HI < 180 (default 5:40)"
         ),
+    }
+}
+
+/// Largest number of bins of the non-parametric estimate.
+const MAX_BINS: usize = 1000;
+
+/// `--bins` in radians.
+fn bins(text: &str) -> anyhow::Result<Vec<f64>> {
+    let edges = angles("--bins", text)?;
+    if edges.len() > MAX_BINS + 1 {
+        bail!(
+            "--bins `{text}`: {} bins is more than the limit of {MAX_BINS} (the estimate solves a bins × bins system)",
+            edges.len() - 1
+        );
+    }
+    if edges.len() < 2
+        || edges.windows(2).any(|w| w[1] <= w[0])
+        || edges[0] < 0.0
+        || edges[edges.len() - 1] > 90.0
+    {
+        bail!("--bins `{text}`: expected at least two increasing edges within [0, 90] degrees");
+    }
+    Ok(edges.iter().map(|d| d.to_radians()).collect())
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut plan = Plan::new();
+    args.measured.inputs(&mut plan);
+    let out = plan.output("--out", args.out.as_deref(), Kind::Table);
+    if args.json {
+        plan.stdout("--json");
+    } else if out.is_none() {
+        plan.stdout("the result");
+    }
+    args.measured.validate()?;
+    let coating = args.measured.optics.coating()?;
+    let settings = args.measured.settings();
+    let aperture = args.measured.optics.aperture_rad()?;
+    let region = region(&args.region)?;
+    let edges = if args.nonparametric {
+        if args.fit_n {
+            bail!("--fit-n applies to the Gaussian fit, not --nonparametric");
+        }
+        if !(args.lambda.is_finite() && args.lambda >= 0.0) {
+            bail!("--lambda {}: expected a finite number >= 0", args.lambda);
+        }
+        Some(bins(&args.bins)?)
+    } else {
+        if out.is_some() {
+            bail!(
+                "--out writes the --nonparametric histogram; the Gaussian fit reports with --json"
+            );
+        }
+        if !(args.hwhm_start.is_finite() && args.hwhm_start > 0.0 && args.hwhm_start < 60.0) {
+            bail!(
+                "--hwhm-start {}: expected a width in (0, 60) degrees",
+                args.hwhm_start
+            );
+        }
+        None
     };
-    let mut setup = FitSetup::new(coating, settings, aperture_rad, args.measured.measured_kind);
+    plan.check()?;
+    let (measured, selection) = args.measured.read()?;
+    let mut setup = FitSetup::new(coating, settings, aperture, args.measured.measured_kind);
     setup.region = region;
     setup.common_scale = args.common_scale;
     let inputs = json!({
         "measured": measured.file,
         "measured_kind": args.measured.measured_kind.name(),
-        "model": model_inputs(&coating, &settings),
-        "aperture_deg": aperture,
-        "region_deg": [region.0.to_degrees(), region.1.to_degrees()],
+        "selection": selection,
+        "model": args.measured.optics.echo(settings.clearcoat),
+        "aperture_deg": args.measured.optics.aperture,
+        "region_deg": [deg_num(region.0), deg_num(region.1)],
         "common_scale": args.common_scale,
     });
-    if args.nonparametric {
-        if args.fit_n {
-            bail!("--fit-n applies to the Gaussian fit, not --nonparametric");
-        }
-        let edges_deg = parse_angles("--bins", &args.bins)?;
-        if edges_deg.len() < 2
-            || edges_deg.windows(2).any(|w| w[1] <= w[0])
-            || edges_deg[0] < 0.0
-            || edges_deg[edges_deg.len() - 1] > 90.0
-        {
-            bail!(
-                "--bins `{}`: expected at least two increasing edges within [0, 90] degrees",
-                args.bins
-            );
-        }
-        if !(args.lambda.is_finite() && args.lambda >= 0.0) {
-            bail!("--lambda {}: expected a finite number >= 0", args.lambda);
-        }
-        let edges: Vec<f64> = edges_deg.iter().map(|d| d.to_radians()).collect();
+    if let Some(edges) = edges {
         let est = fit_nonparametric(&measured, &setup, &edges, args.lambda)
             .with_context(|| format!("non-parametric fit of {}", measured.file))?;
-        if let Some(path) = &args.out {
-            // The histogram CSV of `stats`, which `model --orientation table` reads.
-            write_histogram_bins(
-                open_out(path)?,
-                &path.display().to_string(),
-                &est.edges,
-                &est.area_fractions,
-            )
-            .map_err(|e| anyhow::Error::new(crate::common::Failure(e.to_string())))?;
+        if let Some(dest) = &out {
+            let name = dest.name();
+            plan.write(
+                dest,
+                |w| {
+                    Ok(write_histogram_bins(
+                        w,
+                        &name,
+                        &est.edges,
+                        &est.area_fractions,
+                    )?)
+                },
+                Some(format!("{} bins", est.area_fractions.len())),
+            )?;
         }
-        if args.json {
-            let summary = json!({
-                "version": env!("CARGO_PKG_VERSION"),
-                "command": "fit --nonparametric",
-                "inputs": inputs,
-                "lambda": est.lambda,
-                "points": est.points,
-                "chi2_relative": est.chi2,
-                "bins": est.edges.windows(2).zip(&est.area_fractions).zip(&est.p_tilde).map(|((e, f), p)| json!({
-                    "theta_lo_deg": round_deg(e[0]),
-                    "theta_hi_deg": round_deg(e[1]),
-                    "area_fraction": f,
-                    "p_tilde": p,
-                })).collect::<Vec<_>>(),
-                "units": {"p_tilde": "per steradian x 2 pi, normalised so that the integral of p~ sin(theta) dtheta is 1"},
-            });
-            println!("{}", serde_json::to_string_pretty(&summary)?);
-        } else if args.out.is_none() {
-            println!("theta_lo_deg,theta_hi_deg,area_fraction,p_tilde");
+        plan.finish()?;
+        return if args.json {
+            print_json(&nonparametric_json(&est, inputs))
+        } else if out.is_none() {
+            let mut s = String::from("theta_lo_deg,theta_hi_deg,area_fraction,p_tilde\n");
             for (e, (f, p)) in est
                 .edges
                 .windows(2)
                 .zip(est.area_fractions.iter().zip(&est.p_tilde))
             {
-                println!("{},{},{f:.6},{p:.6}", round_deg(e[0]), round_deg(e[1]));
+                let _ = writeln!(
+                    s,
+                    "{},{},{},{}",
+                    deg(e[0]),
+                    deg(e[1]),
+                    shortest(*f),
+                    shortest(*p)
+                );
             }
-        }
-        return Ok(());
-    }
-    if args.out.is_some() {
-        bail!("--out writes the --nonparametric histogram; the Gaussian fit reports with --json");
-    }
-    if !(args.hwhm_start.is_finite() && args.hwhm_start > 0.0 && args.hwhm_start < 60.0) {
-        bail!(
-            "--hwhm-start {}: expected a width in (0, 60) degrees",
-            args.hwhm_start
-        );
+            print(&s)
+        } else {
+            Ok(())
+        };
     }
     let fit = fit_gaussian(&measured, &setup, args.hwhm_start.to_radians(), args.fit_n)
         .with_context(|| format!("Gaussian fit of {}", measured.file))?;
+    plan.finish()?;
+    if args.json {
+        print_json(&gaussian_json(&fit, inputs))
+    } else {
+        print(&gaussian_text(&fit))
+    }
+}
+
+fn nonparametric_json(est: &NonParametricFit, inputs: Value) -> Value {
+    json!({
+        "version": env!("CARGO_PKG_VERSION"),
+        "command": "fit --nonparametric",
+        "inputs": inputs,
+        "lambda": est.lambda,
+        "points": est.points,
+        "chi2_relative": est.chi2,
+        "bins": est.edges.windows(2).zip(&est.area_fractions).zip(&est.p_tilde).map(|((e, f), p)| json!({
+            "theta_lo_deg": deg_num(e[0]),
+            "theta_hi_deg": deg_num(e[1]),
+            "area_fraction": f,
+            "p_tilde": p,
+        })).collect::<Vec<_>>(),
+        "units": {"p_tilde": "per steradian x 2 pi, normalised so that the integral of p~ sin(theta) dtheta is 1"},
+    })
+}
+
+fn gaussian_json(fit: &GaussianFit, inputs: Value) -> Value {
     let scales: Vec<_> = fit
         .scales
         .iter()
-        .map(|(t, s)| json!({"theta_i_deg": if t.is_nan() { None } else { Some(t.to_degrees()) }, "scale": s}))
+        .map(|(t, s)| json!({"theta_i_deg": if t.is_nan() { None } else { Some(deg_num(*t)) }, "scale": s}))
         .collect();
-    if args.json {
-        let summary = json!({
-            "version": env!("CARGO_PKG_VERSION"),
-            "command": "fit",
-            "inputs": inputs,
-            "hwhm_deg": fit.hwhm.to_degrees(),
-            "hwhm_std_deg": fit.hwhm_std.to_degrees(),
-            "n": fit.n,
-            "n_std": fit.n_std,
-            "scales": scales,
-            "chi2": fit.chi2,
-            "dof": fit.dof,
-            "points": fit.points,
-            "iterations": fit.iterations,
-            "uncertainty_basis": if fit.uncertainties_given { "the file's uncertainties" } else { "residual scatter (no uncertainty column)" },
-            "default_region_deg": [SPECULAR_REGION.to_degrees(), FAR_REGION.to_degrees()],
-        });
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else {
-        println!(
-            "hwhm_deg = {:.4} ± {:.4}",
-            fit.hwhm.to_degrees(),
-            fit.hwhm_std.to_degrees()
-        );
-        if let Some(s) = fit.n_std {
-            println!("n = {:.4} ± {s:.4}", fit.n);
-        }
-        for (t, s) in &fit.scales {
-            if t.is_nan() {
-                println!("scale (all incidences) = {s:.5e}");
-            } else {
-                println!("scale at theta_i_deg {:.2} = {s:.5e}", t.to_degrees());
-            }
-        }
-        println!(
-            "chi2 = {:.3} for {} degrees of freedom ({} points)",
-            fit.chi2, fit.dof, fit.points
-        );
-    }
-    Ok(())
+    json!({
+        "version": env!("CARGO_PKG_VERSION"),
+        "command": "fit",
+        "inputs": inputs,
+        "hwhm_deg": fit.hwhm.to_degrees(),
+        "hwhm_std_deg": fit.hwhm_std.to_degrees(),
+        "n": fit.n,
+        "n_std": fit.n_std,
+        "scales": scales,
+        "chi2": fit.chi2,
+        "dof": fit.dof,
+        "points": fit.points,
+        "iterations": fit.iterations,
+        "uncertainty_basis": if fit.uncertainties_given { "the file's uncertainties" } else { "residual scatter (no uncertainty column)" },
+        "default_region_deg": [deg_num(SPECULAR_REGION), deg_num(FAR_REGION)],
+    })
 }
 
-/// Degrees without float noise (`6`, not `6.000000000000001`).
-fn round_deg(rad: f64) -> f64 {
-    (rad.to_degrees() * 1e9).round() / 1e9
+/// The result for the terminal (display rounding).
+fn gaussian_text(fit: &GaussianFit) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "hwhm_deg = {} ± {}",
+        fixed(fit.hwhm.to_degrees(), 4),
+        fixed(fit.hwhm_std.to_degrees(), 4)
+    );
+    if let Some(e) = fit.n_std {
+        let _ = writeln!(s, "n = {} ± {}", fixed(fit.n, 4), fixed(e, 4));
+    }
+    for (t, sc) in &fit.scales {
+        if t.is_nan() {
+            let _ = writeln!(s, "scale (all incidences) = {sc:.5e}");
+        } else {
+            let _ = writeln!(s, "scale at theta_i_deg {} = {sc:.5e}", deg(*t));
+        }
+    }
+    let _ = writeln!(
+        s,
+        "chi2 = {} for {} degrees of freedom ({} points)",
+        fixed(fit.chi2, 3),
+        fit.dof,
+        fit.points
+    );
+    s
 }

@@ -6,70 +6,15 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, bail};
-use flakescatter::io::{MapFormat, ReadOptions, ZUnit, read_intensity, read_map};
+use std::fmt::Write as _;
+
+use flakescatter::io::{MapFormat, ReadOptions, ZUnit};
 use flakescatter::stats::heightmap::HeightMap;
 use serde_json::{Map, Value, json};
 
-/// Calibration flags shared by every subcommand that reads height maps.
-#[derive(Debug, Clone, clap::Args)]
-pub struct MapArgs {
-    /// Pixel pitch in µm, `DX` or `DX,DY` (x along columns, y along rows). Required for
-    /// plain-text matrices without a size header; overrides the file's pitch otherwise.
-    #[arg(long = "pixel-um", value_name = "DX[,DY]", allow_hyphen_values = true)]
-    pub pixel_um: Option<String>,
-    /// Unit of the heights in plain-text matrices without a unit header: `um`, `nm` or
-    /// `m`. Overrides the file's unit; ignored for X3P and SDF, which are calibrated.
-    #[arg(long = "z-unit", value_name = "UNIT")]
-    pub z_unit: Option<String>,
-    /// Read X3P files whose MD5 checksums do not match; the mismatch is reported in the
-    /// metadata (`x3p.md5_mismatch`) instead of failing.
-    #[arg(long)]
-    pub accept_md5_mismatch: bool,
-}
-
-impl MapArgs {
-    /// Parses the flags into reader options; errors name the flag.
-    pub fn read_options(&self) -> anyhow::Result<ReadOptions> {
-        let pixel_um = match &self.pixel_um {
-            None => None,
-            Some(s) => {
-                let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-                let parse = |p: &str| -> anyhow::Result<f64> {
-                    let v: f64 = p.parse().with_context(|| {
-                        format!(
-                            "--pixel-um {s}: {p:?} is not a number (expected DX or DX,DY in µm)"
-                        )
-                    })?;
-                    if !(v.is_finite() && v > 0.0) {
-                        bail!("--pixel-um {s}: the pitch must be finite and > 0 µm");
-                    }
-                    Ok(v)
-                };
-                match parts.as_slice() {
-                    [d] => {
-                        let d = parse(d)?;
-                        Some((d, d))
-                    }
-                    [x, y] => Some((parse(x)?, parse(y)?)),
-                    _ => bail!("--pixel-um {s}: expected DX or DX,DY in µm"),
-                }
-            }
-        };
-        let z_unit = match &self.z_unit {
-            None => None,
-            Some(s) => Some(
-                s.parse::<ZUnit>()
-                    .with_context(|| format!("--z-unit {s}"))?,
-            ),
-        };
-        Ok(ReadOptions {
-            pixel_um,
-            z_unit,
-            accept_md5_mismatch: self.accept_md5_mismatch,
-        })
-    }
-}
+use crate::flags::MapArgs;
+use crate::maps::{check_cutoff, read_masked};
+use crate::output::{print, print_json};
 
 /// Describe a height-map file (X3P, SDF or plain text, recognised from its content):
 /// size, pixel pitch, valid and invalid points, height statistics, metadata.
@@ -92,7 +37,7 @@ pub struct Args {
         long,
         value_name = "X",
         requires = "intensity",
-        allow_hyphen_values = true
+        allow_negative_numbers = true
     )]
     pub cutoff: Option<f64>,
     /// Calibration flags.
@@ -150,70 +95,75 @@ fn summary_json(
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let options = args.calibration.read_options()?;
-    let (mut map, format) = read_map(&args.map, &options)
-        .with_context(|| format!("flakescatter info {}", args.map.display()))?;
-    let valid_before_cutoff = map.valid_count();
-    if let (Some(path), Some(cutoff)) = (&args.intensity, args.cutoff) {
-        let (intensity, _) = read_intensity(path, &options)
-            .with_context(|| format!("--intensity {}", path.display()))?;
-        map.apply_intensity_cutoff(&intensity, cutoff)
-            .with_context(|| {
-                format!(
-                    "--intensity {} --cutoff {cutoff} on {}",
-                    path.display(),
-                    args.map.display()
-                )
-            })?;
-    }
+    check_cutoff(args.cutoff)?;
+    let masked = read_masked(
+        "MAP",
+        &args.map,
+        args.intensity.as_deref(),
+        args.cutoff,
+        &options,
+    )?;
+    let (map, format, valid_before_cutoff) =
+        (masked.map, masked.format, masked.valid_before_cutoff);
     if args.json {
-        let v = summary_json(&args, &options, &map, format, valid_before_cutoff);
-        println!("{}", serde_json::to_string_pretty(&v)?);
-        return Ok(());
+        return print_json(&summary_json(
+            &args,
+            &options,
+            &map,
+            format,
+            valid_before_cutoff,
+        ));
     }
     let n = map.len();
     let valid = map.valid_count();
-    println!("file            {}", args.map.display());
-    println!("format          {format}");
-    println!(
+    let mut s = String::new();
+    let _ = writeln!(s, "file            {}", args.map.display());
+    let _ = writeln!(s, "format          {format}");
+    let _ = writeln!(
+        s,
         "size            {} x {} points (nx x ny)",
         map.nx(),
         map.ny()
     );
-    println!(
+    let _ = writeln!(
+        s,
         "pixel pitch     {} µm x {} µm (dx x dy)",
         map.dx(),
         map.dy()
     );
-    println!(
+    let _ = writeln!(
+        s,
         "extent          {} µm x {} µm",
         map.dx() * map.nx() as f64,
         map.dy() * map.ny() as f64
     );
-    println!(
+    let _ = writeln!(
+        s,
         "valid points    {valid} of {n} ({} invalid, {:.2} %)",
         n - valid,
         100.0 * (n - valid) as f64 / n as f64
     );
     if let (Some(path), Some(cutoff)) = (&args.intensity, args.cutoff) {
-        println!(
+        let _ = writeln!(
+            s,
             "intensity mask  {} with cutoff {cutoff}: {valid} of {valid_before_cutoff} valid points kept",
             path.display()
         );
     }
     match map.summary() {
-        Some(s) => {
-            println!("height min      {} µm", s.min);
-            println!("height max      {} µm", s.max);
-            println!("height mean     {} µm", s.mean);
-            println!("height rms      {} µm (about the mean)", s.rms);
+        Some(h) => {
+            let _ = writeln!(s, "height min      {} µm", h.min);
+            let _ = writeln!(s, "height max      {} µm", h.max);
+            let _ = writeln!(s, "height mean     {} µm", h.mean);
+            let _ = writeln!(s, "height rms      {} µm (about the mean)", h.rms);
         }
-        None => println!("heights         no valid point"),
+        None => s.push_str("heights         no valid point\n"),
     }
     if !map.metadata().is_empty() {
-        println!("metadata");
+        s.push_str("metadata\n");
         for (k, v) in map.metadata() {
-            println!("  {k:<28} {v}");
+            let _ = writeln!(s, "  {k:<28} {v}");
         }
     }
-    Ok(())
+    print(&s)
 }

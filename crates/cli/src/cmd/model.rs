@@ -3,27 +3,16 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
+use flakescatter::chart::distribution_chart;
 use flakescatter::gaussian::ConeMethod;
-use flakescatter::io::flakes::read_histogram;
-use flakescatter::multiangle::multi_angle;
-use flakescatter::stats::{GaussianWidth, Orientation};
-use flakescatter::{OrientationSource, distribution_curves, p_tilde_about_specular};
+use flakescatter::multiangle::{MultiAngle, multi_angle_at};
+use flakescatter::{OrientationSource, distribution_curves};
 use serde_json::json;
 
-use crate::instrument::{
-    InstrumentArgs, open_out, rows_json, table_to_stdout, table_writer, units_json,
-    warn_undefined_relative, write_curves_csv,
-};
-use crate::plot::{Figure, Series, Style, draw, relative_figure};
-
-/// Where the flake orientation distribution comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum OrientationKind {
-    /// A Gaussian p~(θn) ∝ exp(-θn²/(2s²)) with one of --hwhm, --sigma, --rms-tilt.
-    Gaussian,
-    /// A measured histogram (`--distribution FILE`, the CSV written by `stats`).
-    Table,
-}
+use crate::flags::{InstrumentArgs, OrientationArgs};
+use crate::output::{Dest, Kind, Plan, print_json, warn};
+use crate::parse::{angles, check_range, deg, deg_num, shortest};
+use crate::tables::{num, rows_json, units_json, write_curves};
 
 /// How detector cones are integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -32,29 +21,6 @@ pub enum ConeKind {
     Exact,
     /// The paper's constant-integrand approximation f(r) cos θ ΔΩ.
     Constant,
-}
-
-/// Where the orientation distribution comes from (shared by model, compare, fit).
-#[derive(Debug, Clone, clap::Args)]
-#[command(group = clap::ArgGroup::new("width").multiple(false).args(["hwhm", "sigma", "rms_tilt"]))]
-pub struct OrientationArgs {
-    /// Orientation source.
-    #[arg(long, value_enum, default_value = "gaussian")]
-    pub orientation: OrientationKind,
-    /// Gaussian half-width at half-maximum of p~, degrees, in (0, 90) (the paper's w).
-    /// Default 6 when no width is given.
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
-    pub hwhm: Option<f64>,
-    /// Gaussian standard deviation s of each tilt component, degrees, in (0, 90).
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
-    pub sigma: Option<f64>,
-    /// Gaussian rms tilt σt = s·√2 (p~ ∝ exp(-θ²/σt²)), degrees, in (0, 90).
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
-    pub rms_tilt: Option<f64>,
-    /// Histogram CSV (`theta_lo_deg, theta_hi_deg, area_fraction`, as written by
-    /// `flakescatter stats` or `fit --nonparametric`) for `--orientation table`.
-    #[arg(long, value_name = "FILE")]
-    pub distribution: Option<PathBuf>,
 }
 
 /// Reflectance of flat mirror flakes under a clear coat, from their orientation
@@ -73,15 +39,17 @@ pub struct Args {
     /// Cone integration.
     #[arg(long, value_enum, default_value = "exact")]
     pub cone: ConeKind,
-    /// Multi-angle readout instead of a curve: 45° incidence, aspecular −15°, 15°, 25°,
-    /// 45°, 75°, 110°, reflectance factors (π × BRDF over the --aperture cone) and the
-    /// flop index (single-wavelength approximation; see docs/physics.md).
+    /// Multi-angle readout instead of a curve: 45° incidence (or the one --theta-i),
+    /// aspecular −15°, 15°, 25°, 45°, 75°, 110°, reflectance factors (π × BRDF over the
+    /// --aperture cone) and the flop index (single-wavelength approximation; see
+    /// docs/physics.md).
     #[arg(long)]
     pub multi_angle: bool,
     /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Print a JSON summary on stdout (inputs, units, version, rows).
+    /// Print a JSON summary on stdout (inputs, units, version; the rows unless --out
+    /// writes them).
     #[arg(long)]
     pub json: bool,
     /// Draw the relative curves (log axis) to this .svg or .png file, with the Gaussian
@@ -90,89 +58,80 @@ pub struct Args {
     pub plot: Option<PathBuf>,
 }
 
-/// Validate a width flag (degrees) and convert it.
-fn width(flag: &str, deg: f64) -> anyhow::Result<f64> {
-    if !(deg.is_finite() && deg > 0.0 && deg < 90.0) {
-        bail!("{flag} {deg}: the width must be > 0 and < 90 degrees");
-    }
-    Ok(deg.to_radians())
-}
-
-/// The orientation distribution the flags ask for, with its JSON echo.
-pub fn orientation_from(
-    args: &OrientationArgs,
-) -> anyhow::Result<(Orientation, serde_json::Value)> {
-    match args.orientation {
-        OrientationKind::Gaussian => {
-            if args.distribution.is_some() {
-                bail!("--distribution needs --orientation table");
-            }
-            let (w, echo) = match (args.hwhm, args.sigma, args.rms_tilt) {
-                (Some(h), _, _) => (
-                    GaussianWidth::Hwhm(width("--hwhm", h)?),
-                    json!({"hwhm_deg": h}),
-                ),
-                (_, Some(s), _) => (
-                    GaussianWidth::Sigma(width("--sigma", s)?),
-                    json!({"sigma_deg": s}),
-                ),
-                (_, _, Some(r)) => (
-                    GaussianWidth::RmsTilt(width("--rms-tilt", r)?),
-                    json!({"rms_tilt_deg": r}),
-                ),
-                _ => (
-                    GaussianWidth::Hwhm(6f64.to_radians()),
-                    json!({"hwhm_deg": 6.0}),
-                ),
-            };
-            let o = Orientation::gaussian(w).context("Gaussian width")?;
-            Ok((o, json!({"kind": "gaussian", "width": echo})))
-        }
-        OrientationKind::Table => {
-            if args.hwhm.is_some() || args.sigma.is_some() || args.rms_tilt.is_some() {
-                bail!("--hwhm/--sigma/--rms-tilt need --orientation gaussian");
-            }
-            let Some(path) = &args.distribution else {
-                bail!("--orientation table needs --distribution FILE");
-            };
-            let t = read_histogram(path)
-                .with_context(|| format!("reading --distribution {}", path.display()))?;
-            let o = Orientation::tabulated(t.edges_rad, t.area_fractions)
-                .with_context(|| format!("--distribution {}", path.display()))?;
-            Ok((
-                o,
-                json!({"kind": "table", "file": path.display().to_string()}),
-            ))
-        }
-    }
-}
-
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let to_stdout = table_to_stdout(args.out.as_deref(), args.json)?;
-    let coating = args.instrument.coating()?;
-    let instrument = args.instrument.instrument()?;
+    let mut plan = Plan::new();
+    args.instrument.inputs(&mut plan);
+    args.source.inputs(&mut plan);
+    let table = plan.table("--out", args.out.as_deref(), args.json);
+    if args.json {
+        plan.stdout("--json");
+    }
+    let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
+    args.source.validate()?;
+    let coating = args.instrument.optics.coating()?;
     let mut settings = args.instrument.settings();
     settings.cone_method = match args.cone {
         ConeKind::Exact => ConeMethod::Exact,
         ConeKind::Constant => ConeMethod::ConstantIntegrand,
     };
-    let (orientation, orientation_echo) = orientation_from(&args.source)?;
-    let source = OrientationSource::Distribution(orientation.clone());
     if args.multi_angle {
-        return multi_angle_run(&args, &coating, &settings, &source, orientation_echo);
+        if plot.is_some() {
+            bail!("--plot draws curves; it does not apply to --multi-angle");
+        }
+        if args.instrument.theta_s.is_some() || args.instrument.detectors.is_some() {
+            bail!(
+                "--theta-s/--detectors do not apply to --multi-angle: its detectors are the six aspecular angles"
+            );
+        }
+        let text = args.instrument.theta_i.as_deref().unwrap_or("45");
+        let ti = angles("--theta-i", text)?;
+        check_range("--theta-i", &ti, 0.0, 90.0, false, true)?;
+        let [theta_i] = ti.as_slice() else {
+            bail!("--theta-i {text}: --multi-angle gives one readout; give one incidence");
+        };
+        let aperture = args.instrument.optics.aperture_rad()?;
+        plan.check()?;
+        let (orientation, echo) = args.source.orientation()?;
+        let m = multi_angle_at(
+            &coating,
+            &settings,
+            &OrientationSource::Distribution(orientation),
+            theta_i.to_radians(),
+            aperture,
+        )
+        .context("--multi-angle (needs --aperture > 0)")?;
+        return multi_angle_out(&args, plan, table, &m, echo);
     }
+    let instrument = args.instrument.instrument()?;
+    plan.check()?;
+    let (orientation, orientation_echo) = args.source.orientation()?;
+    let source = OrientationSource::Distribution(orientation.clone());
     let curves = distribution_curves(&coating, &instrument, &settings, &source)?;
-
-    warn_undefined_relative(&curves);
-    if let Some((mut w, _)) = table_writer(args.out.as_deref(), to_stdout)? {
-        write_curves_csv(&mut w, &curves, false)?;
+    let warnings = crate::tables::curve_warnings(&curves, false);
+    for w in &warnings {
+        warn(w);
     }
-    if let Some(path) = &args.plot {
-        draw(path, &figure(&curves, &orientation))?;
+    let plot_bytes = match &plot {
+        Some(Dest::File(p)) => Some((
+            p.clone(),
+            crate::plot::encode(p, &distribution_chart(&curves, &orientation))?,
+        )),
+        _ => None,
+    };
+    if let Some(dest) = &table {
+        let rows = curves.rows.len();
+        plan.write(
+            dest,
+            |w| write_curves(w, &curves, false),
+            Some(format!("{rows} rows")),
+        )?;
+    }
+    if let Some((p, bytes)) = plot_bytes {
+        plan.write(&Dest::File(p), |w| Ok(w.write_all(&bytes)?), None)?;
     }
     if args.json {
-        let summary = json!({
+        let mut summary = json!({
             "version": env!("CARGO_PKG_VERSION"),
             "command": "model",
             "model": curves.model,
@@ -182,109 +141,71 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "cone": match args.cone { ConeKind::Exact => "exact", ConeKind::Constant => "constant-integrand" },
             },
             "units": units_json(),
-            "rows": rows_json(&curves),
+            "warnings": warnings,
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
+            "plot": args.plot.as_ref().map(|p| p.display().to_string()),
         });
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    }
-    Ok(())
-}
-
-/// Relative curves per incidence on a log axis, plus p~ about specular (Fig. 4 style).
-fn figure(curves: &flakescatter::Curves, orientation: &Orientation) -> Figure {
-    let mut fig = relative_figure(
-        curves,
-        format!(
-            "Distribution model, n = {}, aperture {:.2}°",
-            curves.coating.n,
-            curves.instrument.aperture().to_degrees()
-        ),
-    );
-    let in_plane = matches!(
-        curves.instrument.detectors(),
-        flakescatter::DetectorSet::InPlane(_)
-    );
-    if in_plane && orientation.gaussian_width().is_some() {
-        for (k, &ti) in curves.instrument.theta_i().iter().enumerate() {
-            // p~(θn)/p~(0) drawn about the specular direction θs = −θi (paper Fig. 4).
-            let points = (-900..=900)
-                .map(|j| -ti.to_degrees() + f64::from(j) * 0.1)
-                .filter(|&x| x > -90.0 && x < 90.0)
-                .map(|x| (x, p_tilde_about_specular(orientation, ti, x.to_radians())))
-                .collect();
-            fig.series.push(Series {
-                label: format!("p~ about specular, θi = {:.1}°", ti.to_degrees()),
-                points,
-                style: Style::Dashed,
-                colour: k,
-            });
+        if table.is_none() {
+            summary["rows"] = rows_json(&curves);
+        } else {
+            summary["row_count"] = json!(curves.rows.len());
         }
+        plan.finish()?;
+        return print_json(&summary);
     }
-    fig
+    plan.finish()
 }
 
-/// `--multi-angle`: the six-angle readout and the flop index.
-fn multi_angle_run(
+/// Writes `--multi-angle`: the six-angle readout and the flop index.
+fn multi_angle_out(
     args: &Args,
-    coating: &flakescatter::Coating,
-    settings: &flakescatter::Settings,
-    source: &OrientationSource,
+    mut plan: Plan,
+    table: Option<Dest>,
+    m: &MultiAngle,
     orientation_echo: serde_json::Value,
 ) -> anyhow::Result<()> {
-    if args.plot.is_some() {
-        bail!("--plot draws curves; it does not apply to --multi-angle");
-    }
-    let m = multi_angle(
-        coating,
-        settings,
-        source,
-        args.instrument.aperture.to_radians(),
-    )
-    .context("--multi-angle (needs --aperture > 0)")?;
-    let to_stdout = match &args.out {
-        Some(p) => p.as_os_str() == "-",
-        None => !args.json,
-    };
-    if to_stdout || args.out.is_some() {
-        let mut out: Box<dyn std::io::Write> = match &args.out {
-            Some(p) if p.as_os_str() != "-" => open_out(p)?,
-            _ => Box::new(std::io::stdout().lock()),
-        };
+    let ti = deg(m.theta_i);
+    let aperture = deg(m.aperture);
+    if let Some(dest) = &table {
         let mut text = String::from(
             "theta_i_deg,aspecular_deg,theta_s_deg,aperture_deg,reflectance_factor,lightness_l_star\n",
         );
         for r in &m.readouts {
             text.push_str(&format!(
-                "45,{},{},{},{:.9e},{:.4}\n",
-                r.aspecular.to_degrees().round(),
-                r.theta_s.to_degrees().round(),
-                args.instrument.aperture,
-                r.reflectance_factor,
-                r.lightness
+                "{ti},{},{},{aperture},{},{}\n",
+                deg(r.aspecular),
+                shortest(deg_num(r.aspecular) - deg_num(m.theta_i)),
+                num(r.reflectance_factor),
+                num(r.lightness)
             ));
         }
-        out.write_all(text.as_bytes()).map_err(|e| {
-            anyhow::Error::new(crate::common::Failure(format!("writing the readout: {e}")))
-        })?;
+        plan.write(
+            dest,
+            |w| Ok(w.write_all(text.as_bytes())?),
+            Some(format!("{} rows", m.readouts.len())),
+        )?;
     }
+    plan.finish()?;
     if args.json {
         let summary = json!({
             "version": env!("CARGO_PKG_VERSION"),
             "command": "model --multi-angle",
-            "inputs": {"instrument": args.instrument.echo(), "orientation": orientation_echo},
-            "theta_i_deg": 45.0,
-            "aperture_deg": args.instrument.aperture,
+            "inputs": {"instrument": args.instrument.optics.echo(args.instrument.clearcoat), "orientation": orientation_echo},
+            "theta_i_deg": deg_num(m.theta_i),
+            "aperture_deg": deg_num(m.aperture),
             "readouts": m.readouts.iter().map(|r| json!({
-                "aspecular_deg": r.aspecular.to_degrees().round(),
-                "theta_s_deg": r.theta_s.to_degrees().round(),
+                "aspecular_deg": deg_num(r.aspecular),
+                "theta_s_deg": deg_num(r.aspecular) - deg_num(m.theta_i),
                 "reflectance_factor": r.reflectance_factor,
                 "lightness_l_star": r.lightness,
             })).collect::<Vec<_>>(),
             "flop_index": m.flop_index,
-            "flop_index_formula": "2.69 (L*15 - L*110)^1.11 / (L*45)^0.86, L* = CIE 1976 lightness of the reflectance factor",
+            "flop_index_formula": "2.69 (L*15 - L*110)^1.11 / (L*45)^0.86, L* = CIE 1976 lightness of the reflectance factor (standardised for 45° incidence)",
             "approximation": "single wavelength: the monochromatic reflectance factor stands in for the luminance factor Y",
             "units": {"reflectance_factor": "pi x BRDF averaged over the detector cone (1 for a perfect diffuser)"},
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
         });
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        print_json(&summary)?;
     }
     Ok(())
 }

@@ -1,6 +1,5 @@
 //! `flakescatter stats`: area-weighted flake orientation histogram and Gaussian width fit.
 
-use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
@@ -8,9 +7,10 @@ use flakescatter::io::flakes::{read_flakes, write_histogram};
 use flakescatter::stats::fit::fit_gaussian_ml;
 use flakescatter::stats::histogram::AreaHistogram;
 
-use crate::cmd::segment::{SegmentArgs, segment_file, write_table};
-use crate::common::Failure;
-use crate::instrument::{open_out, table_to_stdout, table_writer};
+use crate::flags::SegmentArgs;
+use crate::maps::segment_file;
+use crate::output::{Kind, Plan, print_json};
+use crate::tables::write_flakes;
 
 /// Orientation statistics of a flake table (--flakes) or of the flakes segmented from a
 /// height map (--map, as `flakescatter segment`): writes the area-weighted histogram of the
@@ -38,7 +38,7 @@ pub struct Args {
     /// With --map: also write the flake table (as `segment --out`) here.
     #[arg(long = "flakes-out", value_name = "FILE", requires = "map")]
     pub flakes_out: Option<PathBuf>,
-    /// Histogram bin width in degrees, in (0, 45].
+    /// Histogram bin width in degrees, in [0.001, 45].
     #[arg(
         long,
         value_name = "DEG",
@@ -58,13 +58,31 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(args.bin.is_finite() && args.bin > 0.0 && args.bin <= 45.0) {
+    let mut plan = Plan::new();
+    if let Some(f) = &args.flakes {
+        plan.input("--flakes", f);
+    }
+    if let Some(m) = &args.map {
+        plan.input("--map", m);
+        args.segment.inputs(&mut plan);
+    }
+    let table = plan.table("--out", args.out.as_deref(), args.json);
+    let flakes_out = plan.output("--flakes-out", args.flakes_out.as_deref(), Kind::Table);
+    if args.json {
+        plan.stdout("--json");
+    }
+    // At least 0.001°: 90 000 bins over [0, 90°] at most.
+    if !(args.bin.is_finite() && (0.001..=45.0).contains(&args.bin)) {
         bail!(
-            "--bin {}: the bin width must be > 0 and <= 45 degrees",
+            "--bin {}: the bin width must be in [0.001, 45] degrees",
             args.bin
         );
     }
-    let to_stdout = table_to_stdout(args.out.as_deref(), args.json)?;
+    if args.map.is_some() {
+        args.segment.params()?;
+        args.segment.calibration.read_options()?;
+    }
+    plan.check()?;
     let (flakes, source, column_set) = match (&args.flakes, &args.map) {
         (Some(path), _) => {
             let table = read_flakes(path)
@@ -73,14 +91,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         (None, Some(map)) => {
             let (_, seg) = segment_file(map, &args.segment)?;
-            if let Some(out) = &args.flakes_out {
-                write_table(open_out(out)?, &out.display().to_string(), &seg.flakes)?;
-            }
             if seg.flakes.is_empty() {
                 bail!(
                     "no flake found in --map {}: nothing to histogram",
                     map.display()
                 );
+            }
+            if let Some(dest) = &flakes_out {
+                plan.write(
+                    dest,
+                    |w| write_flakes(w, &seg.flakes),
+                    Some(format!("{} flakes", seg.flakes.len())),
+                )?;
             }
             let flakes = seg.flakes.iter().map(|f| f.to_flake()).collect();
             (flakes, map.clone(), "segmented map")
@@ -92,16 +114,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let samples: Vec<(f64, f64)> = flakes.iter().map(|f| (f.theta_n(), f.area_um2)).collect();
     let fit = fit_gaussian_ml(&samples)
         .with_context(|| format!("fitting a Gaussian to {}", source.display()));
-
-    if let Some((w, name)) = table_writer(args.out.as_deref(), to_stdout)? {
-        write_histogram(w, &name, &hist).map_err(|e| anyhow::Error::new(Failure(e.to_string())))?;
+    let fit = if args.json { Some(fit?) } else { None };
+    if let Some(dest) = &table {
+        let name = dest.name();
+        plan.write(
+            dest,
+            |w| Ok(write_histogram(w, &name, &hist)?),
+            Some(format!("{} bins", hist.bins().len())),
+        )?;
     }
-
-    if args.json {
-        let fit = fit?;
+    plan.finish()?;
+    if let Some(fit) = fit {
         let (lo, hi) = fit.hwhm_ci95();
         let finite = |x: f64| if x.is_finite() { Some(x) } else { None };
-        let summary = serde_json::json!({
+        print_json(&serde_json::json!({
             "version": env!("CARGO_PKG_VERSION"),
             "input": {
                 "flakes_file": args.flakes.as_ref().map(|p| p.display().to_string()),
@@ -120,10 +146,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "effective_flakes": fit.effective_n,
             "histogram_bins": hist.bins().len(),
             "histogram_file": args.out.as_ref().map(|p| p.display().to_string()),
-        });
-        let mut out = std::io::stdout().lock();
-        writeln!(out, "{}", serde_json::to_string_pretty(&summary)?)
-            .map_err(|e| anyhow::Error::new(Failure(format!("writing stdout: {e}"))))?;
+        }))?;
     }
     Ok(())
 }

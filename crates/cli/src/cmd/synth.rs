@@ -1,17 +1,17 @@
 //! `flakescatter synth`: a synthetic confocal map of a flake layer with known truth.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use flakescatter::io::{MapFormat, write_intensity, write_map};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::synth::{
-    DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, generate, truth_csv,
+    DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, SynthError, generate, truth_csv,
 };
 
-use crate::common::Failure;
+use crate::output::{Kind, Plan, print_json};
+use crate::parse::{pair, whole, whole_u64};
 
 /// Generate a synthetic layer of aluminium flakes (thin discs in a clear film) as a
 /// confocal microscope would see it: a height map, an intensity map and the exact table
@@ -32,13 +32,23 @@ pub struct Args {
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub sigma: Option<f64>,
     /// Map size in pixels: `N` (square) or `NX,NY`.
-    #[arg(long, value_name = "N[,NY]", default_value = "512")]
+    #[arg(
+        long,
+        value_name = "N[,NY]",
+        default_value = "512",
+        allow_hyphen_values = true
+    )]
     pub size: String,
     /// Pixel pitch in µm: `D` or `DX,DY` (default 0.18, the paper's microscope).
-    #[arg(long, value_name = "DX[,DY]", default_value = "0.18")]
+    #[arg(
+        long,
+        value_name = "DX[,DY]",
+        default_value = "0.18",
+        allow_hyphen_values = true
+    )]
     pub pixel_um: String,
     /// Seed of every random draw; the same seed gives the same files, bit for bit.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = whole_u64, allow_negative_numbers = true)]
     pub seed: u64,
     /// Film thickness, µm.
     #[arg(
@@ -82,7 +92,7 @@ pub struct Args {
     )]
     pub coverage: Option<f64>,
     /// Place exactly this many flakes instead of a coverage.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = whole, allow_negative_numbers = true)]
     pub count: Option<usize>,
     /// Flake roughness rms, µm (0 = smooth).
     #[arg(
@@ -124,10 +134,10 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub height_noise_um: f64,
-    /// Height map output: X3P, or plain text when the name ends in `.txt`.
+    /// Height map output: `.x3p` (ISO 25178-72) or `.txt` (plain text).
     #[arg(long, value_name = "MAP")]
     pub out: Option<PathBuf>,
-    /// Intensity map output (X3P, or plain text for `.txt`).
+    /// Intensity map output: `.x3p` or `.txt`.
     #[arg(long, value_name = "FILE")]
     pub intensity_out: Option<PathBuf>,
     /// Truth table (CSV, `-` = stdout): `id, x_um, y_um, nx, ny, nz, area_um2 (visible true
@@ -140,25 +150,46 @@ pub struct Args {
     pub json: bool,
 }
 
-/// Parses `A` or `A,B` into a pair (`A,A` for a single value).
-fn pair<T: std::str::FromStr + Copy>(s: &str, flag: &str) -> anyhow::Result<(T, T)> {
-    let parse = |p: &str| {
-        p.trim()
-            .parse::<T>()
-            .ok()
-            .with_context(|| format!("{flag} {s}: `{p}` is not a valid number"))
-    };
-    match s.split(',').collect::<Vec<_>>().as_slice() {
-        [a] => {
-            let a = parse(a)?;
-            Ok((a, a))
-        }
-        [a, b] => Ok((parse(a)?, parse(b)?)),
-        _ => bail!("{flag} {s}: expected one value or two separated by a comma"),
+/// The flag of a generator parameter (for messages in the user's terms).
+fn flag_of(field: &str) -> &'static str {
+    match field {
+        "dx_um" | "dy_um" => "--pixel-um",
+        "film_um" => "--film-um",
+        "thickness_um" => "--thickness-um",
+        "diameter_um" | "diameter_mean_um" => "--diameter-um",
+        "diameter_rel_sd" => "--diameter-rel-sd",
+        "coverage" => "--coverage",
+        "count" => "--count",
+        "roughness_rms_um" => "--roughness-um",
+        "roughness_correlation_um" => "--correlation-um",
+        "psf_sd_um" => "--psf-sd-um",
+        "z_step_um" => "--z-step-um",
+        "height_noise_sd_um" => "--height-noise-um",
+        _ => "a parameter",
     }
 }
 
-fn write_out(map: &HeightMap, path: &Path, flag: &str, intensity: bool) -> anyhow::Result<()> {
+/// A generator error in terms of the flags.
+fn explain(e: SynthError) -> anyhow::Error {
+    match e {
+        SynthError::InvalidParameter {
+            field,
+            value,
+            expected,
+        } => anyhow::anyhow!(
+            "{} {value}: expected {expected}{}",
+            flag_of(field),
+            if field.ends_with("_um") { " (µm)" } else { "" }
+        ),
+        SynthError::EmptyMap { .. } | SynthError::TooLarge { .. } => {
+            anyhow::anyhow!("--size: {e}")
+        }
+        other => anyhow::Error::new(other).context("invalid synth parameters (see --help)"),
+    }
+}
+
+/// Writes a map output through the output layer (X3P, or text for `.txt`).
+fn write_out(plan: &mut Plan, map: &HeightMap, path: &Path, intensity: bool) -> anyhow::Result<()> {
     let is_txt = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
@@ -167,36 +198,48 @@ fn write_out(map: &HeightMap, path: &Path, flag: &str, intensity: bool) -> anyho
     } else {
         MapFormat::X3p
     };
-    let written = if intensity {
-        write_intensity(map, path, format)
-    } else {
-        write_map(map, path, format)
-    };
-    written.map_err(|e| anyhow::Error::new(Failure(format!("{flag}: {e}"))))
+    let detail = format!("{} x {}", map.nx(), map.ny());
+    plan.write_via_path(
+        path,
+        |tmp| {
+            if intensity {
+                write_intensity(map, tmp, format)?;
+            } else {
+                write_map(map, tmp, format)?;
+            }
+            Ok(())
+        },
+        Some(detail),
+    )
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let width = match (args.hwhm, args.sigma) {
-        (_, Some(s)) => GaussianWidth::Sigma(s.to_radians()),
-        (Some(h), None) => GaussianWidth::Hwhm(h.to_radians()),
-        (None, None) => GaussianWidth::Hwhm(6f64.to_radians()),
-    };
-    let flag = if args.sigma.is_some() {
-        "--sigma"
-    } else {
-        "--hwhm"
+    let mut plan = Plan::new();
+    plan.output("--out", args.out.as_deref(), Kind::Map);
+    plan.output("--intensity-out", args.intensity_out.as_deref(), Kind::Map);
+    let truth_out = plan.output("--truth-out", args.truth_out.as_deref(), Kind::Table);
+    if args.json {
+        plan.stdout("--json");
+    }
+    let (width, flag) = match (args.hwhm, args.sigma) {
+        (_, Some(s)) => (
+            GaussianWidth::Sigma(crate::flags::width("--sigma", s)?),
+            "--sigma",
+        ),
+        (Some(h), None) => (
+            GaussianWidth::Hwhm(crate::flags::width("--hwhm", h)?),
+            "--hwhm",
+        ),
+        (None, None) => (GaussianWidth::Hwhm(6f64.to_radians()), "--hwhm"),
     };
     let orientation = Orientation::gaussian(width).context(flag)?;
-    let (nx, ny) = pair::<usize>(&args.size, "--size")?;
-    let (dx, dy) = pair::<f64>(&args.pixel_um, "--pixel-um")?;
-    let truth_to_stdout = args
-        .truth_out
-        .as_ref()
-        .is_some_and(|p| p.as_os_str() == "-");
-    if truth_to_stdout && args.json {
-        bail!("--truth-out - and --json both write to stdout: give --truth-out a file name");
-    }
+    let (nx, ny) = pair("--size", &args.size, "a whole number of pixels", |p| {
+        whole(p).ok()
+    })?;
+    let (dx, dy) = pair("--pixel-um", &args.pixel_um, "a number (µm)", |p| {
+        p.parse::<f64>().ok()
+    })?;
 
     let mut spec = LayerSpec::new(nx, ny, orientation, args.seed);
     spec.dx_um = dx;
@@ -217,36 +260,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     spec.confocal.psf_sd_um = args.psf_sd_um;
     spec.confocal.z_step_um = args.z_step_um;
     spec.confocal.noise_sd_um = args.height_noise_um;
-    let params = LayerParams::new(spec).context("invalid synth parameters (see --help)")?;
+    let params = LayerParams::new(spec).map_err(explain)?;
+    plan.check()?;
     let layer = generate(&params).context("generating the layer")?;
 
     if let Some(p) = &args.out {
-        write_out(&layer.height, p, "--out", false)?;
+        write_out(&mut plan, &layer.height, p, false)?;
     }
     if let Some(p) = &args.intensity_out {
-        write_out(&layer.intensity, p, "--intensity-out", true)?;
+        write_out(&mut plan, &layer.intensity, p, true)?;
     }
-    if let Some(p) = &args.truth_out {
+    if let Some(dest) = &truth_out {
         let text = truth_csv(&layer);
-        if truth_to_stdout {
-            std::io::stdout()
-                .lock()
-                .write_all(text.as_bytes())
-                .map_err(|e| anyhow::Error::new(Failure(format!("writing stdout: {e}"))))?;
-        } else {
-            std::fs::write(p, text).map_err(|e| {
-                anyhow::Error::new(Failure(format!(
-                    "cannot write --truth-out {}: {e}",
-                    p.display()
-                )))
-            })?;
-        }
+        let rows = text.lines().count().saturating_sub(1);
+        plan.write(
+            dest,
+            |w| Ok(w.write_all(text.as_bytes())?),
+            Some(format!("{rows} flakes")),
+        )?;
     }
+    plan.finish()?;
 
     if args.json {
         let s = params.spec();
         let show = |p: &Option<PathBuf>| p.as_ref().map(|p| p.display().to_string());
-        let summary = serde_json::json!({
+        print_json(&serde_json::json!({
             "version": env!("CARGO_PKG_VERSION"),
             "input": {
                 "orientation": "gaussian",
@@ -283,10 +321,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "height_file": show(&args.out),
             "intensity_file": show(&args.intensity_out),
             "truth_file": show(&args.truth_out),
-        });
-        let mut out = std::io::stdout().lock();
-        writeln!(out, "{}", serde_json::to_string_pretty(&summary)?)
-            .map_err(|e| anyhow::Error::new(Failure(format!("writing stdout: {e}"))))?;
+        }))?;
     }
     Ok(())
 }

@@ -5,18 +5,16 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::io::{read_intensity, read_map};
+use flakescatter::chart::topographic_chart;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult};
 use flakescatter::{Curves, TopoSettings, topographic_curves};
 use serde_json::{Value, json};
 
-use crate::cmd::info::MapArgs;
-use crate::instrument::{
-    InstrumentArgs, rows_json, table_to_stdout, table_writer, units_json, warn_undefined_relative,
-    write_curves_csv,
-};
-use crate::plot::{Figure, draw, relative_figure};
+use crate::flags::{InstrumentArgs, MapArgs};
+use crate::maps::{check_cutoff, read_masked};
+use crate::output::{Dest, Kind, Plan, print_json, warn};
+use crate::tables::{curve_warnings, rows_json, units_json, write_curves};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -25,7 +23,7 @@ use crate::plot::{Figure, draw, relative_figure};
 /// aperture_deg, brdf_per_sr, reflectance (fraction of the beam over all pixels of all
 /// maps), relative (to the same detector at the specular direction), rays (rays counted
 /// in the detector) and std_err (standard error of brdf_per_sr, from the spread between
-/// map tiles of --tile-um).
+/// map tiles of --tile-um; empty when it cannot be estimated).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Height maps (X3P, SDF or plain text, recognised from the content); all are traced
@@ -42,7 +40,7 @@ pub struct Args {
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
     pub cutoff: Option<f64>,
     /// Side of the least-squares window for local normals, pixels (odd, >= 3).
-    #[arg(long, value_name = "K", default_value_t = 5)]
+    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::whole, allow_negative_numbers = true)]
     pub window: usize,
     /// Side of the square map tiles whose spread gives std_err, µm (a few flake
     /// diameters).
@@ -54,17 +52,29 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// Print a JSON summary on stdout (inputs, counts of pixels and rays, units,
-    /// version, rows).
+    /// version; the rows unless --out writes them).
     #[arg(long)]
     pub json: bool,
-    /// Draw the relative curves (log axis) to this SVG file.
-    #[arg(long, value_name = "FILE.svg")]
+    /// Draw the relative curves (log axis) to this .svg or .png file.
+    #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
 }
 
-/// Read the maps and apply the intensity cutoff; errors name the file.
-fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
-    let options = args.calibration.read_options()?;
+/// Checks the flags that need no file.
+fn validate(args: &Args) -> anyhow::Result<()> {
+    if args.window < 3 || args.window.is_multiple_of(2) {
+        bail!(
+            "--window {}: the least-squares window must be an odd number of pixels >= 3",
+            args.window
+        );
+    }
+    if !(args.tile_um.is_finite() && args.tile_um > 0.0) {
+        bail!(
+            "--tile-um {}: the tile side must be a finite length > 0 µm",
+            args.tile_um
+        );
+    }
+    check_cutoff(args.cutoff)?;
     match (args.intensity.is_empty(), args.cutoff) {
         (true, Some(c)) => bail!("--cutoff {c} needs --intensity FILE (one per map)"),
         (false, None) => bail!("--intensity needs --cutoff X"),
@@ -73,24 +83,17 @@ fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
             args.intensity.len(),
             args.maps.len()
         ),
-        _ => {}
+        _ => Ok(()),
     }
+}
+
+/// Read the maps and apply the intensity cutoff; errors name the file.
+fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
+    let options = args.calibration.read_options()?;
     let mut maps = Vec::with_capacity(args.maps.len());
     for (k, path) in args.maps.iter().enumerate() {
-        let (mut map, _) = read_map(path, &options)
-            .with_context(|| format!("reading height map {}", path.display()))?;
-        if let (Some(ipath), Some(cutoff)) = (args.intensity.get(k), args.cutoff) {
-            let (intensity, _) = read_intensity(ipath, &options)
-                .with_context(|| format!("reading --intensity {}", ipath.display()))?;
-            map.apply_intensity_cutoff(&intensity, cutoff)
-                .with_context(|| {
-                    format!(
-                        "height map {} with --intensity {} and --cutoff {cutoff}",
-                        path.display(),
-                        ipath.display()
-                    )
-                })?;
-        }
+        let intensity = args.intensity.get(k).map(PathBuf::as_path);
+        let map = read_masked("height map", path, intensity, args.cutoff, &options)?.map;
         if map.valid_count() == 0 {
             bail!(
                 "height map {}: no valid pixel (all {} are NaN or masked)",
@@ -98,9 +101,7 @@ fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
                 map.len()
             );
         }
-        if args.window <= map.nx().min(map.ny()) {
-            maps.push(map);
-        } else {
+        if args.window > map.nx().min(map.ny()) {
             bail!(
                 "--window {}: larger than height map {} ({} x {} pixels)",
                 args.window,
@@ -109,27 +110,37 @@ fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
                 map.ny()
             );
         }
+        maps.push(map);
     }
     Ok(maps)
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let to_stdout = table_to_stdout(args.out.as_deref(), args.json)?;
-    let coating = args.instrument.coating()?;
-    let instrument = args.instrument.instrument()?;
+    let mut plan = Plan::new();
+    for m in &args.maps {
+        plan.input("MAP", m);
+    }
+    for i in &args.intensity {
+        plan.input("--intensity", i);
+    }
+    args.instrument.inputs(&mut plan);
+    let table = plan.table("--out", args.out.as_deref(), args.json);
+    if args.json {
+        plan.stdout("--json");
+    }
+    let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
+    let coating = args.instrument.optics.coating()?;
     let settings = args.instrument.settings();
-    if instrument.aperture() <= 0.0 {
+    validate(&args)?;
+    if args.instrument.optics.aperture_rad()? <= 0.0 {
         bail!(
             "--aperture 0: the topographic model counts rays into detector cones; give a half-angle > 0"
         );
     }
-    if args.window < 3 || args.window.is_multiple_of(2) {
-        bail!(
-            "--window {}: the least-squares window must be an odd number of pixels >= 3",
-            args.window
-        );
-    }
+    let instrument = args.instrument.instrument()?;
+    args.calibration.read_options()?;
+    plan.check()?;
     let topo = TopoSettings {
         window: args.window,
         tile_um: args.tile_um,
@@ -160,23 +171,43 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    warn_undefined_relative(&curves);
-    if let Some((mut w, _)) = table_writer(args.out.as_deref(), to_stdout)? {
-        write_curves_csv(&mut w, &curves, true)?;
+    let warnings = curve_warnings(&curves, true);
+    for w in &warnings {
+        warn(w);
     }
-    if let Some(path) = &args.plot {
-        draw(path, &figure(&curves))?;
+    let plot_bytes = match &plot {
+        Some(Dest::File(p)) => Some((
+            p.clone(),
+            crate::plot::encode(p, &topographic_chart(&curves))?,
+        )),
+        _ => None,
+    };
+    if let Some(dest) = &table {
+        let rows = curves.rows.len();
+        plan.write(
+            dest,
+            |w| write_curves(w, &curves, true),
+            Some(format!("{rows} rows")),
+        )?;
     }
+    if let Some((p, bytes)) = plot_bytes {
+        plan.write(&Dest::File(p), |w| Ok(w.write_all(&bytes)?), None)?;
+    }
+    plan.finish()?;
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&summary(&args, &maps, &result, &curves))?
-        );
+        let mut s = summary(&args, &maps, &result, &curves);
+        s["warnings"] = json!(warnings);
+        if table.is_none() {
+            s["rows"] = rows_json(&curves);
+        } else {
+            s["row_count"] = json!(curves.rows.len());
+        }
+        print_json(&s)?;
     }
     Ok(())
 }
 
-/// The `--json` summary.
+/// The `--json` summary (without the rows).
 fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> Value {
     let per_map: Vec<Value> = args
         .maps
@@ -220,21 +251,10 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
         "units": {
             "columns": units_json(),
             "rays": "number of rays counted in the detector",
-            "std_err": "1/sr, standard error of brdf_per_sr from the spread between map tiles",
+            "std_err": "1/sr, standard error of brdf_per_sr from the spread between map tiles (null when it cannot be estimated)",
             "reflectance_normalisation": "fraction of the incident beam over all pixels of all maps (invalid pixels are black substrate)",
         },
-        "rows": rows_json(curves),
+        "out": args.out.as_ref().map(|p| p.display().to_string()),
+        "plot": args.plot.as_ref().map(|p| p.display().to_string()),
     })
-}
-
-/// Relative curves per incidence on a log axis.
-fn figure(curves: &Curves) -> Figure {
-    relative_figure(
-        curves,
-        format!(
-            "Topographic model, n = {}, aperture {:.2}°",
-            curves.coating.n,
-            curves.instrument.aperture().to_degrees()
-        ),
-    )
 }

@@ -1,0 +1,141 @@
+//! The measured curve of `compare` and `fit` and the selection of its points.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use flakescatter::Settings;
+use flakescatter::compare::{MeasuredKind, select};
+use flakescatter::io::measured::{MeasuredCurve, read_measured};
+use serde_json::{Value, json};
+
+use super::OpticsArgs;
+use crate::output::{Plan, note};
+use crate::parse::{angles, check_range, deg_num};
+
+/// Angles selected by `--theta-i` and `--theta-s`, degrees (`None` = all).
+struct Selection {
+    theta_i: Option<Vec<f64>>,
+    theta_s: Option<Vec<f64>>,
+}
+
+/// The measured curve of `compare` and `fit`, which of its points to use, and the
+/// coating flags.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MeasuredArgs {
+    /// Measured curve, CSV with header `theta_i_deg, theta_s_deg, value` and optionally
+    /// `uncertainty` (one standard uncertainty, same unit as value).
+    #[arg(long, value_name = "FILE")]
+    pub measured: PathBuf,
+    /// What `value` is: brdf (1/sr), reflectance-factor (π × BRDF) or relative (1 at
+    /// specular).
+    #[arg(long, value_name = "KIND", default_value = "brdf")]
+    pub measured_kind: MeasuredKind,
+    /// Use only the measured points at these incidences, degrees (list or range); each
+    /// must be in the file. Default: every incidence of the file.
+    #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+    pub theta_i: Option<String>,
+    /// Use only the measured points at these detector angles, degrees (list or range).
+    /// Default: every angle of the file.
+    #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+    pub theta_s: Option<String>,
+    /// Leave out the clear coat's own specular reflection (on by default in comparisons,
+    /// so that the specular peak is modelled too).
+    #[arg(long)]
+    pub no_clearcoat: bool,
+    /// Include the clear coat's own specular reflection (the default here).
+    #[arg(long, conflicts_with = "no_clearcoat")]
+    pub clearcoat: bool,
+    /// Coating and model flags.
+    #[command(flatten)]
+    pub optics: OpticsArgs,
+}
+
+impl MeasuredArgs {
+    /// Registers `--measured` as an input.
+    pub fn inputs(&self, plan: &mut Plan) {
+        plan.input("--measured", &self.measured);
+    }
+
+    /// The `--theta-i` / `--theta-s` selections in degrees (`None` = all).
+    fn selection_deg(&self) -> anyhow::Result<Selection> {
+        let ti = match &self.theta_i {
+            Some(t) => {
+                let v = angles("--theta-i", t)?;
+                check_range("--theta-i", &v, 0.0, 90.0, false, true)?;
+                Some(v)
+            }
+            None => None,
+        };
+        let ts = match &self.theta_s {
+            Some(t) => {
+                let v = angles("--theta-s", t)?;
+                check_range("--theta-s", &v, -90.0, 90.0, true, true)?;
+                Some(v)
+            }
+            None => None,
+        };
+        Ok(Selection {
+            theta_i: ti,
+            theta_s: ts,
+        })
+    }
+
+    /// Checks the selection flags without reading the file.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        self.selection_deg().map(|_| ())
+    }
+
+    /// Reads the measured file and keeps the selected points; says on stderr what was
+    /// selected. Returns the curve and the JSON echo of the selection.
+    pub fn read(&self) -> anyhow::Result<(MeasuredCurve, Value)> {
+        let all = read_measured(&self.measured)
+            .with_context(|| format!("reading --measured {}", self.measured.display()))?;
+        let Selection {
+            theta_i: ti,
+            theta_s: ts,
+        } = self.selection_deg()?;
+        if ti.is_none() && ts.is_none() {
+            let n = all.points.len();
+            return Ok((all, json!({"points_in_file": n, "points_used": n})));
+        }
+        let rad = |v: &Option<Vec<f64>>| {
+            v.as_ref()
+                .map(|v| v.iter().map(|d| d.to_radians()).collect::<Vec<_>>())
+        };
+        let curve = select(&all, rad(&ti).as_deref(), rad(&ts).as_deref())
+            .map_err(|e| anyhow::anyhow!("--theta-i/--theta-s: {e}"))?;
+        let used_i: Vec<f64> = curve.incidences().iter().map(|&t| deg_num(t)).collect();
+        let mut what = Vec::new();
+        if let Some(t) = &self.theta_i {
+            what.push(format!("--theta-i {t}"));
+        }
+        if let Some(t) = &self.theta_s {
+            what.push(format!("--theta-s {t}"));
+        }
+        note(&format!(
+            "using {} of {} measured points of {} ({})",
+            curve.points.len(),
+            all.points.len(),
+            self.measured.display(),
+            what.join(", ")
+        ));
+        let echo = json!({
+            "theta_i_deg": self.theta_i,
+            "theta_s_deg": self.theta_s,
+            "incidences_used_deg": used_i,
+            "points_in_file": all.points.len(),
+            "points_used": curve.points.len(),
+        });
+        Ok((curve, echo))
+    }
+
+    /// Whether the clear coat's reflection is modelled.
+    pub fn clearcoat(&self) -> bool {
+        !self.no_clearcoat
+    }
+
+    /// Settings with the clear coat on unless `--no-clearcoat`.
+    pub fn settings(&self) -> Settings {
+        self.optics.settings(self.clearcoat())
+    }
+}

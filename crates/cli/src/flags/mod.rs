@@ -1,0 +1,18 @@
+//! Flag groups shared by several subcommands (docs/cli.md "Instrument flags"): the
+//! coating and model settings, the instrument's angles, the measured curve, the
+//! orientation source, map calibration and segmentation.
+//!
+//! Degrees on the command line; every method here hands radians to the library.
+
+mod instrument;
+mod measured;
+mod source;
+
+pub use instrument::{InstrumentArgs, OpticsArgs};
+pub use measured::MeasuredArgs;
+pub use source::{MapArgs, OrientationArgs, SegmentArgs, width};
+
+/// Default incidences of `model` and `topo`, degrees.
+pub const DEFAULT_THETA_I: &str = "0,30,45,60,75";
+/// Default in-plane detectors of `model` and `topo`, degrees.
+pub const DEFAULT_THETA_S: &str = "-70:70:0.5";

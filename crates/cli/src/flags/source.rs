@@ -1,0 +1,239 @@
+//! Where orientations and maps come from: the orientation source of `model` and
+//! `compare`, map calibration, segmentation.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use flakescatter::io::flakes::read_histogram;
+use flakescatter::io::{ReadOptions, ZUnit};
+use flakescatter::stats::segment::SegmentParams;
+use flakescatter::stats::{GaussianWidth, Orientation};
+use serde_json::{Value, json};
+
+use crate::output::Plan;
+
+/// Where the flake orientation distribution comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OrientationKind {
+    /// A Gaussian p~(θn) ∝ exp(-θn²/(2s²)) with one of --hwhm, --sigma, --rms-tilt.
+    Gaussian,
+    /// A measured histogram (`--distribution FILE`, the CSV written by `stats`).
+    Table,
+}
+
+/// Where the orientation distribution comes from (`model`, `compare`).
+#[derive(Debug, Clone, clap::Args)]
+#[command(group = clap::ArgGroup::new("width").multiple(false).args(["hwhm", "sigma", "rms_tilt"]))]
+pub struct OrientationArgs {
+    /// Orientation source.
+    #[arg(long, value_enum, default_value = "gaussian")]
+    pub orientation: OrientationKind,
+    /// Gaussian half-width at half-maximum of p~, degrees, in (0, 90) (the paper's w).
+    /// Default 6 when no width is given.
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub hwhm: Option<f64>,
+    /// Gaussian standard deviation s of each tilt component, degrees, in (0, 90).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub sigma: Option<f64>,
+    /// Gaussian rms tilt σt = s·√2 (p~ ∝ exp(-θ²/σt²)), degrees, in (0, 90).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub rms_tilt: Option<f64>,
+    /// Histogram CSV (`theta_lo_deg, theta_hi_deg, area_fraction`, as written by
+    /// `flakescatter stats` or `fit --nonparametric`) for `--orientation table`.
+    #[arg(long, value_name = "FILE")]
+    pub distribution: Option<PathBuf>,
+}
+
+/// Validate a width flag (degrees) and convert it.
+pub fn width(flag: &str, deg: f64) -> anyhow::Result<f64> {
+    if !(deg.is_finite() && deg > 0.0 && deg < 90.0) {
+        bail!("{flag} {deg}: the width must be > 0 and < 90 degrees");
+    }
+    Ok(deg.to_radians())
+}
+
+impl OrientationArgs {
+    /// Registers `--distribution` as an input.
+    pub fn inputs(&self, plan: &mut Plan) {
+        if let Some(p) = &self.distribution {
+            plan.input("--distribution", p);
+        }
+    }
+
+    /// Checks the flags without reading the histogram.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        match self.orientation {
+            OrientationKind::Gaussian => {
+                if self.distribution.is_some() {
+                    bail!("--distribution needs --orientation table");
+                }
+                for (flag, v) in [
+                    ("--hwhm", self.hwhm),
+                    ("--sigma", self.sigma),
+                    ("--rms-tilt", self.rms_tilt),
+                ] {
+                    if let Some(v) = v {
+                        width(flag, v)?;
+                    }
+                }
+            }
+            OrientationKind::Table => {
+                if self.hwhm.is_some() || self.sigma.is_some() || self.rms_tilt.is_some() {
+                    bail!("--hwhm/--sigma/--rms-tilt need --orientation gaussian");
+                }
+                if self.distribution.is_none() {
+                    bail!("--orientation table needs --distribution FILE");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The orientation distribution the flags ask for, with its JSON echo.
+    pub fn orientation(&self) -> anyhow::Result<(Orientation, Value)> {
+        self.validate()?;
+        if let Some(path) = &self.distribution {
+            let t = read_histogram(path)
+                .with_context(|| format!("reading --distribution {}", path.display()))?;
+            let o = Orientation::tabulated(t.edges_rad, t.area_fractions)
+                .with_context(|| format!("--distribution {}", path.display()))?;
+            return Ok((
+                o,
+                json!({"kind": "table", "file": path.display().to_string()}),
+            ));
+        }
+        let (w, echo) = match (self.hwhm, self.sigma, self.rms_tilt) {
+            (Some(h), _, _) => (
+                GaussianWidth::Hwhm(width("--hwhm", h)?),
+                json!({"hwhm_deg": h}),
+            ),
+            (_, Some(s), _) => (
+                GaussianWidth::Sigma(width("--sigma", s)?),
+                json!({"sigma_deg": s}),
+            ),
+            (_, _, Some(r)) => (
+                GaussianWidth::RmsTilt(width("--rms-tilt", r)?),
+                json!({"rms_tilt_deg": r}),
+            ),
+            _ => (
+                GaussianWidth::Hwhm(6f64.to_radians()),
+                json!({"hwhm_deg": 6.0}),
+            ),
+        };
+        let o = Orientation::gaussian(w).context("Gaussian width")?;
+        Ok((o, json!({"kind": "gaussian", "width": echo})))
+    }
+}
+
+/// Calibration flags shared by every subcommand that reads height maps.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MapArgs {
+    /// Pixel pitch in µm, `DX` or `DX,DY` (x along columns, y along rows). Required for
+    /// plain-text matrices without a size header; overrides the file's pitch otherwise.
+    #[arg(long = "pixel-um", value_name = "DX[,DY]", allow_hyphen_values = true)]
+    pub pixel_um: Option<String>,
+    /// Unit of the heights in plain-text matrices without a unit header: `um`, `nm` or
+    /// `m`. Overrides the file's unit; ignored for X3P and SDF, which are calibrated.
+    #[arg(long = "z-unit", value_name = "UNIT")]
+    pub z_unit: Option<String>,
+    /// Read X3P files whose MD5 checksums do not match; the mismatch is reported in the
+    /// metadata (`x3p.md5_mismatch`) instead of failing.
+    #[arg(long)]
+    pub accept_md5_mismatch: bool,
+}
+
+impl MapArgs {
+    /// Parses the flags into reader options; errors name the flag.
+    pub fn read_options(&self) -> anyhow::Result<ReadOptions> {
+        let pixel_um = match &self.pixel_um {
+            None => None,
+            Some(s) => {
+                let (x, y) = crate::parse::pair("--pixel-um", s, "a number (µm)", |p| {
+                    p.parse::<f64>().ok()
+                })?;
+                if !(x.is_finite() && x > 0.0 && y.is_finite() && y > 0.0) {
+                    bail!("--pixel-um {s}: the pitch must be finite and > 0 µm");
+                }
+                Some((x, y))
+            }
+        };
+        let z_unit = match &self.z_unit {
+            None => None,
+            Some(s) => Some(
+                s.parse::<ZUnit>()
+                    .with_context(|| format!("--z-unit {s}"))?,
+            ),
+        };
+        Ok(ReadOptions {
+            pixel_um,
+            z_unit,
+            accept_md5_mismatch: self.accept_md5_mismatch,
+        })
+    }
+}
+
+/// Map input and segmentation flags of `segment` and `stats --map`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SegmentArgs {
+    /// Calibration flags.
+    #[command(flatten)]
+    pub calibration: MapArgs,
+    /// Intensity image of the same size (X3P, SDF or text); pixels whose intensity is
+    /// below --cutoff are left out (dark background between flakes).
+    #[arg(long, value_name = "FILE", requires = "cutoff")]
+    pub intensity: Option<PathBuf>,
+    /// Intensity cutoff, in the intensity file's own stored values (unit-less).
+    #[arg(
+        long,
+        value_name = "X",
+        requires = "intensity",
+        allow_negative_numbers = true
+    )]
+    pub cutoff: Option<f64>,
+    /// z quantisation step of the instrument, µm (0 = none); sets the height-jump and
+    /// plane-residual thresholds.
+    #[arg(
+        long = "z-step-um",
+        value_name = "UM",
+        default_value_t = 0.3,
+        allow_negative_numbers = true
+    )]
+    pub z_step_um: f64,
+    /// Height noise standard deviation of the instrument, µm.
+    #[arg(
+        long = "noise-um",
+        value_name = "UM",
+        default_value_t = 0.03,
+        allow_negative_numbers = true
+    )]
+    pub noise_um: f64,
+    /// Smallest flake kept, pixels (>= 3).
+    #[arg(long = "min-pixels", value_name = "N", default_value_t = 100, value_parser = crate::parse::whole, allow_negative_numbers = true)]
+    pub min_pixels: usize,
+}
+
+impl SegmentArgs {
+    /// The segmentation parameters; errors name the flag.
+    pub fn params(&self) -> anyhow::Result<SegmentParams> {
+        if !(self.z_step_um.is_finite() && self.z_step_um >= 0.0) {
+            bail!("--z-step-um {}: must be finite and >= 0 µm", self.z_step_um);
+        }
+        if !(self.noise_um.is_finite() && self.noise_um >= 0.0) {
+            bail!("--noise-um {}: must be finite and >= 0 µm", self.noise_um);
+        }
+        if self.min_pixels < 3 {
+            bail!("--min-pixels {}: must be at least 3", self.min_pixels);
+        }
+        crate::maps::check_cutoff(self.cutoff)?;
+        let mut p = SegmentParams::for_instrument(self.z_step_um, self.noise_um);
+        p.min_pixels = self.min_pixels;
+        Ok(p)
+    }
+
+    /// Registers `--intensity` as an input.
+    pub fn inputs(&self, plan: &mut Plan) {
+        if let Some(p) = &self.intensity {
+            plan.input("--intensity", p);
+        }
+    }
+}

@@ -1,0 +1,240 @@
+//! The CSV tables and JSON rows the subcommands write (docs/cli.md "Output columns").
+//!
+//! Files keep full precision: values in the shortest form that reads back to the same
+//! number (`{:e}`), angles exactly as they were given ([`crate::parse::deg`]). An
+//! undefined value (no specular reference, no standard error) is an empty cell in CSV
+//! and `null` in JSON.
+
+use std::io::Write;
+
+use flakescatter::compare::IncidenceComparison;
+use flakescatter::stats::segment::SegmentedFlake;
+use flakescatter::{Curves, DetectorSet, Instrument};
+use serde_json::{Value, json};
+
+use crate::parse::{deg, deg_num, shortest};
+
+/// Shortest round-trip text of a value, in exponent form; empty when not finite.
+pub fn num(x: f64) -> String {
+    if !x.is_finite() {
+        String::new()
+    } else if x == 0.0 {
+        "0".into()
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// An optional value: [`num`], empty for `None` or a non-finite value.
+fn opt(x: Option<f64>) -> String {
+    x.map(num).unwrap_or_default()
+}
+
+/// Detector coordinates for output: `(θs, φ = 0)` in plane (the side is the sign of
+/// θs), `(θr, φr)` out of plane; radians.
+pub fn detector_rad(instrument: &Instrument, j: usize) -> (f64, f64) {
+    match instrument.detectors() {
+        DetectorSet::InPlane(ts) => (ts[j], 0.0),
+        DetectorSet::OutOfPlane(d) => d[j],
+    }
+}
+
+fn csv_error(e: csv::Error) -> anyhow::Error {
+    let msg = e.to_string();
+    match e.into_kind() {
+        csv::ErrorKind::Io(io) => io.into(),
+        _ => anyhow::anyhow!("CSV: {msg}"),
+    }
+}
+
+/// Writes the curve CSV of cli.md (`theta_i_deg, theta_s_deg, phi_s_deg, aperture_deg,
+/// brdf_per_sr, reflectance, relative`, plus `rays, std_err` when `topo_columns`).
+pub fn write_curves(
+    out: &mut dyn Write,
+    curves: &Curves,
+    topo_columns: bool,
+) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_writer(out);
+    let mut header = vec![
+        "theta_i_deg",
+        "theta_s_deg",
+        "phi_s_deg",
+        "aperture_deg",
+        "brdf_per_sr",
+        "reflectance",
+        "relative",
+    ];
+    if topo_columns {
+        header.extend(["rays", "std_err"]);
+    }
+    w.write_record(&header).map_err(csv_error)?;
+    let aperture = deg(curves.instrument.aperture());
+    for row in &curves.rows {
+        let (ts, ps) = detector_rad(&curves.instrument, row.detector);
+        let mut rec = vec![
+            deg(row.theta_i),
+            deg(ts),
+            deg(ps),
+            aperture.clone(),
+            num(row.brdf),
+            opt(row.reflectance),
+            num(row.relative),
+        ];
+        if topo_columns {
+            rec.push(row.rays.map(|r| r.to_string()).unwrap_or_default());
+            rec.push(opt(row.std_err));
+        }
+        w.write_record(&rec).map_err(csv_error)?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Rows as JSON objects with unit-suffixed keys (undefined values are `null`).
+pub fn rows_json(curves: &Curves) -> Value {
+    let aperture = deg_num(curves.instrument.aperture());
+    let finite = |x: f64| x.is_finite().then_some(x);
+    Value::Array(
+        curves
+            .rows
+            .iter()
+            .map(|row| {
+                let (ts, ps) = detector_rad(&curves.instrument, row.detector);
+                json!({
+                    "theta_i_deg": deg_num(row.theta_i),
+                    "theta_s_deg": deg_num(ts),
+                    "phi_s_deg": deg_num(ps),
+                    "aperture_deg": aperture,
+                    "brdf_per_sr": finite(row.brdf),
+                    "reflectance": row.reflectance.and_then(finite),
+                    "relative": finite(row.relative),
+                    "rays": row.rays,
+                    "std_err": row.std_err.and_then(finite),
+                })
+            })
+            .collect(),
+    )
+}
+
+/// Units of the curve columns, for JSON metadata.
+pub fn units_json() -> Value {
+    json!({
+        "theta_i_deg": "degree, incidence angle from the coating normal",
+        "theta_s_deg": "degree, signed in-plane detector angle (theta_s = -theta_i is specular); theta_r for out-of-plane detectors",
+        "phi_s_deg": "degree, detector azimuth (0 = specular half-plane); 0 for in-plane detectors",
+        "aperture_deg": "degree, detector cone half-angle",
+        "brdf_per_sr": "1/sr, BRDF averaged over the detector cone (point BRDF for aperture 0)",
+        "reflectance": "fraction of the incident beam power collected by the detector",
+        "relative": "collected power relative to the same detector at the specular direction",
+    })
+}
+
+/// Warnings for undefined values in curves: per incidence whose `relative` is undefined
+/// (the specular detector collects nothing), and once for rows without a standard
+/// error. Returns the warnings (printed by the caller, also put in JSON).
+pub fn curve_warnings(curves: &Curves, std_err_expected: bool) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut seen: Vec<f64> = Vec::new();
+    for row in curves.rows.iter().filter(|r| !r.relative.is_finite()) {
+        if !seen.contains(&row.theta_i) {
+            seen.push(row.theta_i);
+            out.push(format!(
+                "theta_i {}°: the detector at the specular direction collects nothing, so `relative` is undefined (empty in the CSV, null in JSON)",
+                deg(row.theta_i)
+            ));
+        }
+    }
+    if std_err_expected {
+        let missing = curves
+            .rows
+            .iter()
+            .filter(|r| !r.std_err.is_some_and(f64::is_finite))
+            .count();
+        if missing > 0 {
+            out.push(format!(
+                "{missing} of {} rows have no standard error (too few map tiles to estimate one: make --tile-um smaller than the maps, or give more maps); the std_err cells are empty",
+                curves.rows.len()
+            ));
+        }
+    }
+    out
+}
+
+/// Columns of the flake table written by `segment` (the first eight are the flake-table
+/// "normals" set with centre and angles, readable by `stats --flakes`).
+pub const FLAKE_COLUMNS: [&str; 16] = [
+    "x_um",
+    "y_um",
+    "nx",
+    "ny",
+    "nz",
+    "area_um2",
+    "theta_n_deg",
+    "phi_n_deg",
+    "projected_area_um2",
+    "equivalent_diameter_um",
+    "rms_um",
+    "tilt_se_deg",
+    "pixels",
+    "inliers",
+    "touches_border",
+    "quality",
+];
+
+/// Writes the flake table (header [`FLAKE_COLUMNS`]).
+pub fn write_flakes(out: &mut dyn Write, flakes: &[SegmentedFlake]) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_writer(out);
+    w.write_record(FLAKE_COLUMNS).map_err(csv_error)?;
+    for f in flakes {
+        let row = [
+            shortest(f.centre_um[0]),
+            shortest(f.centre_um[1]),
+            shortest(f.normal.x),
+            shortest(f.normal.y),
+            shortest(f.normal.z),
+            shortest(f.area_um2),
+            shortest(f.theta_n.to_degrees()),
+            shortest(f.phi_n.to_degrees()),
+            shortest(f.projected_area_um2),
+            shortest(f.equivalent_diameter_um),
+            shortest(f.rms_um),
+            shortest(f.tilt_se.to_degrees()),
+            f.pixels.to_string(),
+            f.inliers.to_string(),
+            f.touches_border.to_string(),
+            shortest(f.quality),
+        ];
+        w.write_record(&row).map_err(csv_error)?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Writes `compare --out`: one row per measured point.
+pub fn write_compared(out: &mut dyn Write, results: &[IncidenceComparison]) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_writer(out);
+    w.write_record([
+        "theta_i_deg",
+        "theta_s_deg",
+        "region",
+        "measured",
+        "model",
+        "residual_log10",
+    ])
+    .map_err(csv_error)?;
+    for c in results {
+        for p in &c.points {
+            w.write_record([
+                deg(p.theta_i),
+                deg(p.theta_s),
+                p.region.name().to_string(),
+                num(p.measured),
+                num(p.model),
+                num(p.residual),
+            ])
+            .map_err(csv_error)?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}

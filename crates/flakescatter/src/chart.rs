@@ -1,0 +1,180 @@
+//! What a plot shows, as plain data: series of `(x, y)` points with a style, axis labels
+//! with units, a title. The command-line tool draws a [`Chart`] (SVG or PNG); the
+//! library only decides what goes into it.
+//!
+//! Conventions: x values are degrees (θs, θr or θn, as the axis label says) because
+//! charts are read by people; y values in the unit of the label. Points that cannot be
+//! drawn (not finite, or ≤ 0 on a log axis) are gaps.
+
+use crate::compare::{IncidenceComparison, MeasuredKind};
+use crate::instrument::DetectorSet;
+use crate::pipeline::{Curves, p_tilde_about_specular};
+use flakescatter_stats::Orientation;
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Style {
+    /// Solid line.
+    Line,
+    /// Dashed line.
+    Dashed,
+    /// Markers only (measured points).
+    Points,
+}
+
+/// One series of `(x, y)` points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend text (empty: no legend entry).
+    pub label: String,
+    /// Points; non-finite or (on a log axis) non-positive values are gaps.
+    pub points: Vec<(f64, f64)>,
+    /// Drawing style.
+    pub style: Style,
+    /// Colour index into the drawing palette.
+    pub colour: usize,
+}
+
+/// A chart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Chart {
+    /// Title (first line) and an optional note (after `\n`).
+    pub title: String,
+    /// x-axis label with unit.
+    pub x_label: String,
+    /// y-axis label with unit.
+    pub y_label: String,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+    /// The series.
+    pub series: Vec<Series>,
+}
+
+/// x-axis label of in-plane curves.
+pub const THETA_S_LABEL: &str = "θs (degrees; θs = −θi is specular)";
+
+/// The relative curves of a model result, one line per incidence, on a log axis (the
+/// paper's "normalised to 1 in the specular direction"). Out-of-plane detectors are
+/// placed by their polar angle `θr`.
+#[must_use]
+pub fn relative_chart(curves: &Curves, title: String) -> Chart {
+    let detectors = curves.instrument.detectors();
+    let x = |j: usize| match detectors {
+        DetectorSet::InPlane(ts) => ts[j].to_degrees(),
+        DetectorSet::OutOfPlane(d) => d[j].0.to_degrees(),
+    };
+    let series = curves
+        .instrument
+        .theta_i()
+        .iter()
+        .enumerate()
+        .map(|(k, &ti)| Series {
+            label: format!("θi = {:.1}°", ti.to_degrees()),
+            points: curves
+                .rows
+                .iter()
+                .filter(|r| r.theta_i == ti)
+                .map(|r| (x(r.detector), r.relative))
+                .collect(),
+            style: Style::Line,
+            colour: k,
+        })
+        .collect();
+    Chart {
+        title,
+        x_label: match detectors {
+            DetectorSet::InPlane(_) => THETA_S_LABEL.into(),
+            DetectorSet::OutOfPlane(_) => "θr, detector polar angle (degrees)".into(),
+        },
+        y_label: "relative reflectance (1 at specular)".into(),
+        log_y: true,
+        series,
+    }
+}
+
+/// The distribution model's chart (`model --plot`): relative curves per incidence and,
+/// for a Gaussian `orientation` and in-plane detectors, `p̃` drawn about the specular
+/// direction (dashed, as in the paper's Fig. 4).
+#[must_use]
+pub fn distribution_chart(curves: &Curves, orientation: &Orientation) -> Chart {
+    let mut chart = relative_chart(
+        curves,
+        format!(
+            "Distribution model, n = {}, aperture {:.2}°",
+            curves.coating.n,
+            curves.instrument.aperture().to_degrees()
+        ),
+    );
+    let in_plane = matches!(curves.instrument.detectors(), DetectorSet::InPlane(_));
+    if in_plane && orientation.gaussian_width().is_some() {
+        for (k, &ti) in curves.instrument.theta_i().iter().enumerate() {
+            let points = (-900..=900)
+                .map(|j| -ti.to_degrees() + f64::from(j) * 0.1)
+                .filter(|&x| x > -90.0 && x < 90.0)
+                .map(|x| (x, p_tilde_about_specular(orientation, ti, x.to_radians())))
+                .collect();
+            chart.series.push(Series {
+                label: format!("p~ about specular, θi = {:.1}°", ti.to_degrees()),
+                points,
+                style: Style::Dashed,
+                colour: k,
+            });
+        }
+    }
+    chart
+}
+
+/// The topographic model's chart (`topo --plot`): relative curves per incidence.
+#[must_use]
+pub fn topographic_chart(curves: &Curves) -> Chart {
+    relative_chart(
+        curves,
+        format!(
+            "Topographic model, n = {}, aperture {:.2}°",
+            curves.coating.n,
+            curves.instrument.aperture().to_degrees()
+        ),
+    )
+}
+
+/// Measured points and scaled model lines per incidence, log axis (`compare --plot`);
+/// `file` names the measurement in the title.
+#[must_use]
+pub fn comparison_chart(results: &[IncidenceComparison], kind: MeasuredKind, file: &str) -> Chart {
+    let mut series = Vec::new();
+    for (k, c) in results.iter().enumerate() {
+        let ti = c.theta_i.to_degrees();
+        series.push(Series {
+            label: format!("measured, θi = {ti:.1}°"),
+            points: c
+                .points
+                .iter()
+                .map(|p| (p.theta_s.to_degrees(), p.measured))
+                .collect(),
+            style: Style::Points,
+            colour: k,
+        });
+        series.push(Series {
+            label: format!("model × {:.3e}, θi = {ti:.1}°", c.scale),
+            points: c
+                .points
+                .iter()
+                .map(|p| (p.theta_s.to_degrees(), p.model))
+                .collect(),
+            style: Style::Line,
+            colour: k,
+        });
+    }
+    let unit = match kind {
+        MeasuredKind::Brdf => "BRDF (1/sr)",
+        MeasuredKind::ReflectanceFactor => "reflectance factor (π × BRDF)",
+        MeasuredKind::Relative => "relative reflectance (1 at specular)",
+    };
+    Chart {
+        title: format!("Measured ({file}) vs model, scale fitted 5°–40° from specular"),
+        x_label: THETA_S_LABEL.into(),
+        y_label: unit.into(),
+        log_y: true,
+        series,
+    }
+}
