@@ -21,7 +21,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use thiserror::Error;
 
-use crate::distribution::{GaussianWidth, HWHM_PER_SIGMA, Orientation};
+use crate::distribution::{GaussianWidth, HWHM_PER_SIGMA, Orientation, cos_diff};
 use crate::histogram::AreaHistogram;
 use crate::quad;
 
@@ -230,7 +230,7 @@ pub fn fit_gaussian_histogram(hist: &AreaHistogram) -> Result<HistogramFit, FitE
         };
         let g: Vec<f64> = bins
             .iter()
-            .map(|b| d.mass_between(b.theta_lo, b.theta_hi) / (b.theta_lo.cos() - b.theta_hi.cos()))
+            .map(|b| d.mass_between(b.theta_lo, b.theta_hi) / cos_diff(b.theta_lo, b.theta_hi))
             .collect();
         let gg: f64 = g.iter().map(|x| x * x).sum();
         let gy: f64 = g.iter().zip(&bins).map(|(x, b)| x * b.p_tilde).sum();
