@@ -309,12 +309,36 @@ fn support_and_features_of_tables() {
         vec![0.0, 1.0, 2.0, 0.0],
     )
     .unwrap();
-    // Narrowest bin that carries area: [0.5°, 1°]; support ends at 3° (the last bin is
-    // empty); the edges are returned as given.
+    // Support [0.5°, 3°] (first and last bins empty); the bin [0.5°, 1°] has p2 =
+    // (1/3)/(2π(cos 0.5° − cos 1°)) against (2/3)/(2π(cos 1° − cos 3°)) beside it: 5.3×
+    // as dense (solid angles 0.75 : 8 in units of 2π·(1°)²/2), isolated, so the feature is
+    // its 0.5°. The edges are returned as given.
     assert!((d.narrowest_feature() - e(0.5)).abs() < 1e-15);
+    let even =
+        Orientation::tabulated(vec![0.0, e(0.5), e(1.0), e(3.0)], vec![0.0, 0.75, 8.0]).unwrap();
+    // Equal p2 in both bins: no isolated bin, the support's 2.5° it is.
+    assert!((even.narrowest_feature() - e(2.5)).abs() < 1e-15);
     assert_eq!(d.support_end(), e(3.0));
     assert_eq!(d.bin_edges().unwrap().len(), 5);
     assert_eq!(Orientation::flat().support_end(), 0.0);
+    // A spike: half the area within 0.002° under a 3° bin (p2 ratio ~ (3/0.002)²/0.8).
+    let spike =
+        Orientation::tabulated(vec![0.0, e(0.002), e(3.0), e(8.0)], vec![0.5, 0.4, 0.1]).unwrap();
+    assert!((spike.narrowest_feature() - e(0.002)).abs() < 1e-18);
+    // A thin ring at 5°, 0.01° wide, on a faint background: isolated.
+    let ring =
+        Orientation::tabulated(vec![0.0, e(5.0), e(5.01), e(20.0)], vec![0.1, 0.5, 0.4]).unwrap();
+    assert!((ring.narrowest_feature() - e(0.01)).abs() < 1e-15);
+    // A smooth table of fine bins (a Gaussian of hwhm 3° on 0.25° bins): no isolated bin,
+    // the feature is its support.
+    let g = Orientation::gaussian(GaussianWidth::Hwhm(e(3.0))).unwrap();
+    let edges: Vec<f64> = (0..=120).map(|k| e(0.25 * f64::from(k))).collect();
+    let masses = edges
+        .windows(2)
+        .map(|w| g.mass_between(w[0], w[1]))
+        .collect();
+    let fine = Orientation::tabulated(edges, masses).unwrap();
+    assert!((fine.narrowest_feature() - e(30.0)).abs() < 1e-12);
     assert!(
         Orientation::gaussian(GaussianWidth::Hwhm(0.1))
             .unwrap()
