@@ -49,7 +49,9 @@ mod index;
 pub mod model;
 pub mod normals;
 
-pub use model::{DEFAULT_BLOCK_UM, TopoModel, TopoOptions, TopoPoint, TopoResult};
+pub use model::{
+    DEFAULT_BLOCK_UM, MIN_TILES, TopoModel, TopoOptions, TopoPoint, TopoResult, TopoWarning,
+};
 pub use normals::{Normals, normal_from_slopes};
 
 /// Errors of the topographic model.
