@@ -25,7 +25,7 @@ use crate::plot::{Figure, draw, relative_figure};
 /// aperture_deg, brdf_per_sr, reflectance (fraction of the beam over all pixels of all
 /// maps), relative (to the same detector at the specular direction), rays (rays counted
 /// in the detector) and std_err (standard error of brdf_per_sr, from the spread between
-/// map tiles of --tile-um).
+/// map tiles of --tile-um; empty when not estimable: fewer than 2 tiles, or no ray).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Height maps (X3P, SDF or plain text, recognised from the content); all are traced
@@ -161,6 +161,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         b.finish_and_clear();
     }
     warn_undefined_relative(&curves);
+    for w in &result.warnings {
+        eprintln!("warning: {w} (--tile-um {})", args.tile_um);
+    }
     if let Some((mut w, _)) = table_writer(args.out.as_deref(), to_stdout)? {
         write_curves_csv(&mut w, &curves, true)?;
     }
@@ -217,10 +220,11 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
             "rays_lost_down": r.rays_lost_down,
             "tiles": r.tiles,
         },
+        "warnings": r.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
         "units": {
             "columns": units_json(),
             "rays": "number of rays counted in the detector",
-            "std_err": "1/sr, standard error of brdf_per_sr from the spread between map tiles",
+            "std_err": "1/sr, standard error of brdf_per_sr from the spread between map tiles; null (empty in the CSV) when not estimable: fewer than 2 tiles, or no ray in the detector",
             "reflectance_normalisation": "fraction of the incident beam over all pixels of all maps (invalid pixels are black substrate)",
         },
         "rows": rows_json(curves),
