@@ -161,6 +161,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let fit = fit_gaussian(&measured, &setup, args.hwhm_start.to_radians(), args.fit_n)
         .with_context(|| format!("Gaussian fit of {}", measured.file))?;
+    for w in &fit.warnings {
+        eprintln!("warning: {}: {w}", measured.file);
+    }
     let scales: Vec<_> = fit
         .scales
         .iter()
@@ -180,7 +183,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "dof": fit.dof,
             "points": fit.points,
             "iterations": fit.iterations,
-            "uncertainty_basis": if fit.uncertainties_given { "the file's uncertainties" } else { "residual scatter (no uncertainty column)" },
+            "uncertainty_basis": fit.uncertainty_basis.describe(),
+            "uncertainty_scale": fit.uncertainty_scale,
+            "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
             "default_region_deg": [SPECULAR_REGION.to_degrees(), FAR_REGION.to_degrees()],
         });
         println!("{}", serde_json::to_string_pretty(&summary)?);
