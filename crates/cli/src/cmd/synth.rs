@@ -5,10 +5,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flakescatter::io::{MapFormat, write_intensity, write_map};
+use flakescatter::stats::distribution::MIN_GAUSSIAN_WIDTH;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::synth::{
-    DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, generate, truth_csv,
+    DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, Param, SynthError, generate,
+    truth_csv,
 };
 
 use crate::common::Failure;
@@ -187,7 +189,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         "--hwhm"
     };
-    let orientation = Orientation::gaussian(width).context(flag)?;
+    let given = args.sigma.or(args.hwhm).unwrap_or(6.0);
+    let Ok(orientation) = Orientation::gaussian(width) else {
+        bail!(
+            "{flag} {given}: the width must be at least {:.1e} and below 90 degrees",
+            MIN_GAUSSIAN_WIDTH.to_degrees()
+        );
+    };
     let (nx, ny) = pair::<usize>(&args.size, "--size")?;
     let (dx, dy) = pair::<f64>(&args.pixel_um, "--pixel-um")?;
     let truth_to_stdout = args
@@ -217,7 +225,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     spec.confocal.psf_sd_um = args.psf_sd_um;
     spec.confocal.z_step_um = args.z_step_um;
     spec.confocal.noise_sd_um = args.height_noise_um;
-    let params = LayerParams::new(spec).context("invalid synth parameters (see --help)")?;
+    let params = LayerParams::new(spec).map_err(|e| invalid(&e))?;
     let layer = generate(&params).context("generating the layer")?;
 
     if let Some(p) = &args.out {
@@ -278,6 +286,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "height_um": s.ny as f64 * s.dy_um,
             "flakes_placed": layer.truth.len(),
             "flakes_visible": layer.visible_flakes().count(),
+            "flakes_redrawn_to_fit_the_film": layer.redrawn_flakes,
             "covered_fraction": layer.covered_fraction(),
             "suggested_cutoff": s.intensity.midpoint(),
             "height_file": show(&args.out),
@@ -289,4 +298,55 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map_err(|e| anyhow::Error::new(Failure(format!("writing stdout: {e}"))))?;
     }
     Ok(())
+}
+
+/// The flag a library parameter comes from, if it has one.
+fn flag(param: Param) -> Option<&'static str> {
+    Some(match param {
+        Param::DxUm | Param::DyUm => "--pixel-um",
+        Param::FilmUm => "--film-um",
+        Param::ThicknessUm => "--thickness-um",
+        Param::DiameterMeanUm => "--diameter-um",
+        Param::DiameterRelSd => "--diameter-rel-sd",
+        Param::Coverage => "--coverage",
+        Param::Count => "--count",
+        Param::RoughnessRmsUm => "--roughness-um",
+        Param::RoughnessCorrelationUm => "--correlation-um",
+        Param::PsfSdUm => "--psf-sd-um",
+        Param::ZStepUm => "--z-step-um",
+        Param::HeightNoiseSdUm => "--height-noise-um",
+        _ => return None,
+    })
+}
+
+/// A refused specification, in the flags and units the user typed (µm for lengths).
+fn invalid(e: &SynthError) -> anyhow::Error {
+    match *e {
+        SynthError::InvalidParameter {
+            param,
+            value,
+            expected,
+        } => match flag(param) {
+            Some(f) => anyhow::anyhow!("{f} {value}: expected {expected}"),
+            None => anyhow::anyhow!("invalid synth parameters (see --help): {e}"),
+        },
+        SynthError::FilmThinnerThanFlakes {
+            film_um,
+            thickness_um,
+        } => anyhow::anyhow!(
+            "--film-um {film_um}: the film is thinner than the flakes (--thickness-um {thickness_um}); every flake must lie inside the film"
+        ),
+        SynthError::FlakesDoNotFit {
+            film_um,
+            diameter_um,
+            max_diameter_um,
+            thickness_um,
+            fraction,
+        } => anyhow::anyhow!(
+            "--film-um {film_um}: flakes of --diameter-um {diameter_um} (up to {max_diameter_um} um) and --thickness-um {thickness_um} do not fit: {:.2} % of them are tilted too far to lie inside the film (at most {:.1} % may be drawn again); use a thicker --film-um, a smaller --diameter-um or a narrower --hwhm",
+            100.0 * fraction,
+            100.0 * flakescatter::synth::MAX_REDRAWN_FRACTION
+        ),
+        _ => anyhow::anyhow!("invalid synth parameters (see --help): {e}"),
+    }
 }
