@@ -187,7 +187,9 @@ impl DistributionModel {
             return 0.0;
         };
         // θn from atan2 rather than acos(m.z): acos cannot resolve angles below ~1e-8 rad.
-        let p2 = self.orientation.p2((h.x * h.x + h.y * h.y).sqrt().atan2(h.z));
+        let p2 = self
+            .orientation
+            .p2((h.x * h.x + h.y * h.y).sqrt().atan2(h.z));
         if p2 == 0.0 {
             return 0.0;
         }
