@@ -37,7 +37,7 @@ fn mc_curve(
             .map(|&t| Cone::in_plane(t, alpha).unwrap())
             .collect();
         let inc = model.incidence(deg(ti)).unwrap();
-        let est = monte_carlo(&model, &inc, &cones, samples, seed ^ ti.to_bits());
+        let est = monte_carlo(&model, &inc, &cones, samples, seed ^ ti.to_bits()).unwrap();
         for ((t, c), e) in ts.iter().zip(&cones).zip(&est) {
             if e.hits < 400 {
                 continue;

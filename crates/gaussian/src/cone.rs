@@ -557,7 +557,7 @@ mod tests {
         let far = Cone::in_plane(-0.5 + 20f64.to_radians(), 1.5f64.to_radians()).unwrap();
         let got = m.collect(&inc, &far, ConeMethod::Exact);
         assert_eq!((got.reflectance, got.error), (Some(0.0), 0.0));
-        let mc = crate::monte_carlo(&m, &inc, &[far], 100_000, 3);
+        let mc = crate::monte_carlo(&m, &inc, &[far], 100_000, 3).unwrap();
         assert_eq!(mc[0].hits, 0);
         assert!(m.light_reach(&inc) < 5f64.to_radians());
     }

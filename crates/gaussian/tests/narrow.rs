@@ -208,7 +208,7 @@ fn a_cone_edge_near_specular_cuts_the_image_of_the_distribution() {
 fn check_against_monte_carlo(m: &DistributionModel, ti: f64, cones: &[Cone], seed: u64) {
     const SAMPLES: u64 = 400_000;
     let inc = m.incidence(ti).unwrap();
-    let mc = monte_carlo(m, &inc, cones, SAMPLES, seed);
+    let mc = monte_carlo(m, &inc, cones, SAMPLES, seed).unwrap();
     for (est, cone) in mc.iter().zip(cones) {
         let q = m.collect(&inc, cone, ConeMethod::Exact);
         let rho = q.reflectance.unwrap();
