@@ -66,6 +66,26 @@ pub enum FitError {
     /// The histogram has no mass in any bin with a finite `p̃`.
     #[error("histogram has no usable bins")]
     EmptyHistogram,
+    /// The least-squares width lies at an end of the searched range: the histogram is
+    /// narrower than its bins resolve, or wider than any Gaussian of the family.
+    #[error(
+        "the best Gaussian width lies at the {} end of the searched range [{:.3}, {:.1}] degrees (s = {:.3} degrees): {}; use finer bins or the maximum-likelihood fit of the flakes",
+        if *.narrow { "lower" } else { "upper" },
+        .lo.to_degrees(),
+        .hi.to_degrees(),
+        .sigma.to_degrees(),
+        if *.narrow { "the histogram is narrower than its bins can resolve" } else { "the histogram is wider than the widths searched" }
+    )]
+    HistogramWidthAtBound {
+        /// The width found, radians.
+        sigma: f64,
+        /// `true` at the lower end (narrower than the bins resolve).
+        narrow: bool,
+        /// Lower end of the search, radians.
+        lo: f64,
+        /// Upper end of the search, radians.
+        hi: f64,
+    },
 }
 
 /// How a confidence interval was made.
@@ -313,7 +333,8 @@ impl HistogramFit {
 /// scan over `ln s` on `[10⁻³, 1.3]` rad followed by golden-section refinement.
 ///
 /// # Errors
-/// [`FitError::EmptyHistogram`] if the histogram has no mass.
+/// [`FitError::EmptyHistogram`] if the histogram has no mass;
+/// [`FitError::HistogramWidthAtBound`] when the best width is an end of the scan.
 pub fn fit_gaussian_histogram(hist: &AreaHistogram) -> Result<HistogramFit, FitError> {
     let bins = hist.bins();
     if bins.iter().all(|b| b.area_fraction == 0.0) {
@@ -378,6 +399,22 @@ pub fn fit_gaussian_histogram(hist: &AreaHistogram) -> Result<HistogramFit, FitE
     }
     let s = (0.5 * (a + b)).exp();
     let (rss, amp) = eval(s);
+    // A best width at an end of the scan, or as good as an end (a plateau: below the bin
+    // resolution every width gives the same bin masses), is not a fit.
+    let (s_lo, s_hi) = (l0.exp(), l1.exp());
+    let flat = |r: f64| r <= rss + 1e-9 * rss.abs() + 1e-300;
+    let (at_lo, at_hi) = (
+        best.1 == 0 || flat(eval(s_lo).0),
+        best.1 == n || flat(eval(s_hi).0),
+    );
+    if at_lo || at_hi {
+        return Err(FitError::HistogramWidthAtBound {
+            sigma: s,
+            narrow: at_lo,
+            lo: s_lo,
+            hi: s_hi,
+        });
+    }
     Ok(HistogramFit {
         sigma: s,
         amplitude: amp,

@@ -199,3 +199,15 @@ fn ml_interval_of_one_flake_is_wide_and_says_how_it_was_made() {
     let fit = fit_gaussian_ml(&[(0.9, 1.0), (1.1, 1.0)]).unwrap();
     assert_eq!(fit.sigma_ci95.1, f64::INFINITY);
 }
+
+#[test]
+fn histogram_fit_refuses_widths_its_bins_cannot_resolve() {
+    // Flakes of hwhm 0.01° in 1° bins: all area in the first bin, where every width
+    // below ~0.1° gives the same bin masses; the scan ends at s = 1e-3 rad and that end
+    // is not a fit.
+    let d = Orientation::gaussian(GaussianWidth::Hwhm(0.01f64.to_radians())).unwrap();
+    let h = AreaHistogram::new(draw(&d, 2_000, 4, false), 1f64.to_radians()).unwrap();
+    let e = fit_gaussian_histogram(&h).unwrap_err();
+    assert!(matches!(e, FitError::HistogramWidthAtBound { .. }), "{e:?}");
+    assert!(e.to_string().contains("narrower than"), "{e}");
+}
