@@ -7,10 +7,11 @@
 //!
 //! * the point BRDF `f(θi, r)` (sr⁻¹) with the four Fresnel bookkeepings and both
 //!   weightings ([`DistributionModel::brdf`], module [`model`]);
-//! * what a detector cone collects, exactly (quadrature about the detector axis with an
-//!   error estimate) or in the paper's constant-integrand approximation
-//!   ([`DistributionModel::collect`], module [`cone`]), and whole curves with the
-//!   `relative` normalisation to the specular detector ([`curve`]);
+//! * what a detector cone collects, exactly (quadrature with an error estimate, about the
+//!   detector axis or, for distributions narrower than the aperture down to the delta
+//!   limit, about the specular direction) or in the paper's constant-integrand
+//!   approximation ([`DistributionModel::collect`], module [`cone`]), and whole curves
+//!   with the `relative` normalisation to the specular detector ([`curve`]);
 //! * the hemispherical total computed in detector space and in normal space, which must
 //!   agree (module [`hemisphere`]);
 //! * an independent Monte Carlo estimator (module [`montecarlo`]).
