@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use flakescatter::compare::{
-    IncidenceComparison, MeasuredKind, ModelPoint, compare, distribution_points,
+    IncidenceComparison, MeasuredKind, ModelPoint, Region, compare, distribution_points,
 };
 use flakescatter::io::measured::MeasuredCurve;
 use flakescatter::io::{ReadOptions, read_intensity, read_map};
@@ -762,7 +762,7 @@ fn fig10(
                     && (ctx.theta_s_deg[r.detector].to_radians() - ts).abs() < 1e-9
             })
         };
-        let kept = MeasuredCurve {
+        let mut kept = MeasuredCurve {
             file: measured.file.clone(),
             points: measured
                 .points
@@ -771,6 +771,25 @@ fn fig10(
                 .copied()
                 .collect(),
         };
+        // With ~70 flakes a map may send no ray at all 5°–40° from specular at some
+        // incidence (the smooth fixture's terraces send light to specular or far from
+        // it): there is no scale to fit, so that incidence is not shown for this map.
+        for ti in kept.incidences() {
+            let fittable = kept
+                .points
+                .iter()
+                .any(|p| p.theta_i == ti && Region::of(ti, p.theta_s) == Region::NearSpecular);
+            if !fittable {
+                kept.points.retain(|p| p.theta_i != ti);
+                notes.push(format!(
+                    "`{stem}` at θi = {}°: no ray 5°–40° from specular, so no scale to fit; not shown",
+                    ti.to_degrees().round()
+                ));
+            }
+        }
+        if kept.points.is_empty() {
+            continue;
+        }
         let model = |ti: f64, ts: &[f64]| -> Result<Vec<ModelPoint>, PipelineError> {
             ts.iter()
                 .map(|&t| {
