@@ -143,6 +143,19 @@ pub enum DistributionError {
     /// Every mass is zero.
     #[error("tabulated distribution has zero total area")]
     ZeroTotal,
+    /// A bin that carries area is so narrow that its solid angle underflows (its density
+    /// would be infinite).
+    #[error(
+        "bin {index} [{lo} rad, {hi} rad] carries area but is too narrow for double precision (its solid angle underflows)"
+    )]
+    BinTooNarrow {
+        /// Index of the bin.
+        index: usize,
+        /// Its lower edge, radians.
+        lo: f64,
+        /// Its upper edge, radians.
+        hi: f64,
+    },
 }
 
 /// Precomputed Gaussian member.
@@ -248,7 +261,7 @@ impl Orientation {
     /// # Errors
     /// [`DistributionError::BinCount`], [`DistributionError::EdgeOutOfRange`],
     /// [`DistributionError::EdgesNotIncreasing`], [`DistributionError::BadMass`],
-    /// [`DistributionError::ZeroTotal`].
+    /// [`DistributionError::ZeroTotal`], [`DistributionError::BinTooNarrow`].
     pub fn tabulated(
         edges_rad: Vec<f64>,
         area_fractions: Vec<f64>,
@@ -292,7 +305,19 @@ impl Orientation {
         let mut mean_cos = 0.0;
         for (i, m) in masses.iter().enumerate() {
             let (clo, chi) = (edges_rad[i].cos(), edges_rad[i + 1].cos());
-            p2.push(m / (2.0 * PI * cos_diff(edges_rad[i], edges_rad[i + 1])));
+            let density = if *m == 0.0 {
+                0.0
+            } else {
+                m / (2.0 * PI * cos_diff(edges_rad[i], edges_rad[i + 1]))
+            };
+            if !density.is_finite() {
+                return Err(DistributionError::BinTooNarrow {
+                    index: i,
+                    lo: edges_rad[i],
+                    hi: edges_rad[i + 1],
+                });
+            }
+            p2.push(density);
             // Within a bin p2 is constant, so cos θ is uniform on [cos hi, cos lo].
             mean_cos += m * 0.5 * (clo + chi);
         }

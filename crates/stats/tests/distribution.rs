@@ -360,3 +360,18 @@ fn widths_below_the_resolvable_floor_are_refused() {
     assert!(msg.contains("degrees") && msg.contains("1e-10"), "{msg}");
     assert!(Orientation::gaussian(GaussianWidth::Sigma(1e-10)).is_ok());
 }
+
+#[test]
+fn bins_too_narrow_for_double_precision_are_refused_or_harmless() {
+    // [0, 1e-200] rad has a solid angle of ~π·1e-400, which underflows: with area in it
+    // the density would be infinite, so it is refused; empty, it is just a zero bin (it
+    // once gave p2 = 0/0 = NaN).
+    let e = Orientation::tabulated(vec![0.0, 1e-200, 0.1], vec![1.0, 1.0]).unwrap_err();
+    assert!(
+        matches!(e, DistributionError::BinTooNarrow { index: 0, .. }),
+        "{e:?}"
+    );
+    let d = Orientation::tabulated(vec![0.0, 1e-200, 0.1], vec![0.0, 1.0]).unwrap();
+    assert_eq!(d.p2(1e-201), 0.0);
+    assert!(d.p2(0.05).is_finite() && d.p2(0.05) > 0.0);
+}
