@@ -44,5 +44,5 @@ pub use generate::{
 };
 pub use params::{
     Confocal, DiameterDistribution, FlakeAmount, IntensityLevels, LayerParams, LayerSpec,
-    MAX_PIXELS, MAX_REDRAWN_FRACTION, Param, Roughness,
+    MAX_FLAKES, MAX_PIXELS, MAX_REDRAWN_FRACTION, Param, Roughness,
 };

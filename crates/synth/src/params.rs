@@ -27,6 +27,9 @@ use crate::SynthError;
 /// map).
 pub const MAX_PIXELS: usize = 1 << 28;
 
+/// The most flakes a layer may hold (given as a count, or taken by a coverage).
+pub const MAX_FLAKES: usize = 10_000_000;
+
 /// The largest expected fraction of flakes that may need a new draw to fit inside the
 /// film (module docs, the film rule).
 pub const MAX_REDRAWN_FRACTION: f64 = 1e-3;
@@ -438,9 +441,26 @@ impl LayerParams {
                     c > 0.0 && c <= 100.0,
                     "finite, in (0, 100]",
                 )?;
+                // The number of flakes that coverage takes, as for a count: c · A over the
+                // mean true area π E[d²]/4 (E[d²] = m²(1 + rel_sd²) for the log-normal).
+                let margin = s.diameter.max_um();
+                let region = (s.nx as f64 * s.dx_um + margin) * (s.ny as f64 * s.dy_um + margin);
+                let mean_d2 = match s.diameter {
+                    DiameterDistribution::Fixed(d) => d * d,
+                    DiameterDistribution::LogNormal { mean_um, rel_sd } => {
+                        mean_um * mean_um * (1.0 + rel_sd * rel_sd)
+                    }
+                };
+                let expected = c * region / (std::f64::consts::PI * mean_d2 / 4.0);
+                check(
+                    Param::Coverage,
+                    c,
+                    expected <= MAX_FLAKES as f64,
+                    "a coverage that takes at most 10^7 flakes of this size on this map",
+                )?;
             }
             FlakeAmount::Count(n) => {
-                if n == 0 || n > 10_000_000 {
+                if n == 0 || n > MAX_FLAKES {
                     return Err(SynthError::InvalidParameter {
                         param: Param::Count,
                         value: n as f64,

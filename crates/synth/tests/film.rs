@@ -173,3 +173,24 @@ fn the_truth_keeps_the_digits_of_tiny_tilts() {
     let layer = generate_from_discs(&params, &[disc]).unwrap();
     assert!((layer.truth[0].theta_n / tilt - 1.0).abs() < 1e-9);
 }
+
+#[test]
+fn a_coverage_that_takes_too_many_flakes_is_refused() {
+    // 0.01 µm flakes at coverage 1 on 4096² pixels of 0.18 µm: (737 µm)² / (π 0.01²/4)
+    // ≈ 7·10⁹ flakes, far beyond the 10⁷ a count may ask for (it used to try).
+    let mut s = LayerSpec::new(4096, 4096, gaussian(6.0), 1);
+    s.diameter = DiameterDistribution::Fixed(0.01);
+    s.thickness_um = 0.001;
+    s.amount = FlakeAmount::Coverage(1.0);
+    let e = LayerParams::new(s).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            SynthError::InvalidParameter {
+                param: flakescatter_synth::Param::Coverage,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
