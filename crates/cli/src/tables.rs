@@ -152,7 +152,7 @@ pub fn curve_warnings(curves: &Curves, std_err_expected: bool) -> Vec<String> {
             .count();
         if missing > 0 {
             out.push(format!(
-                "{missing} of {} rows have no standard error (too few map tiles to estimate one: make --tile-um smaller than the maps, or give more maps); the std_err cells are empty",
+                "{missing} of {} rows have no standard error (no ray reached the detector, or too few map tiles to estimate one); their std_err cells are empty",
                 curves.rows.len()
             ));
         }

@@ -295,3 +295,35 @@ fn undefined_relative_is_an_empty_cell_with_a_warning() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_poor_fit_warns_on_stderr_and_in_the_json() {
+    // The model's curve with every other point off by a factor e (so the data scatter by
+    // ±1 in ln) and 1 % stated uncertainties: chi2/dof is in the thousands. The fit
+    // still runs, scales its uncertainty by sqrt(chi2/dof) and says why.
+    let dir = tmp("poor");
+    let m = measured_from_model(&dir, "6", 1.0);
+    let text = std::fs::read_to_string(&m).unwrap();
+    let mut out = String::from("theta_i_deg,theta_s_deg,value,uncertainty\n");
+    for (k, line) in text.lines().skip(1).enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        let v: f64 =
+            f[2].parse::<f64>().unwrap() * if k % 2 == 0 { std::f64::consts::E } else { 1.0 };
+        out.push_str(&format!("{},{},{v:e},{:e}\n", f[0], f[1], 0.01 * v));
+    }
+    std::fs::write(&m, out).unwrap();
+    let (code, stdout, err) = run(&["fit", "--measured", m.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("warning") && err.contains("poor fit"), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let warnings = v["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("poor fit"))
+    );
+    assert!(v["uncertainty_basis"].as_str().unwrap().contains("scaled"));
+    let chi2_dof = v["chi2"].as_f64().unwrap() / v["dof"].as_f64().unwrap();
+    assert!((v["uncertainty_scale"].as_f64().unwrap() - chi2_dof.sqrt()).abs() < 1e-9 * chi2_dof);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -594,7 +594,7 @@ fn standard_errors_that_cannot_be_estimated_are_empty_cells_with_one_warning() {
         "--tile-um",
         "1e9",
     ]);
-    expect(&o, 0, &["no standard error"]);
+    expect(&o, 0, &["standard errors not estimable", "--tile-um"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.matches("warning:").count(), 1, "{err}");
     let text = String::from_utf8(o.stdout).unwrap();

@@ -158,9 +158,11 @@ fn quick_run_writes_every_figure() {
     // The measured curve is the `compare --measured` format, BRDF with uncertainties.
     let (h, rows) = read_csv(&out.join("measured.csv"));
     assert_eq!(h, ["theta_i_deg", "theta_s_deg", "value", "uncertainty"]);
-    // Detectors that no ray reached are left out (a few far from specular in --quick).
+    // Detectors that no ray reached are left out (a few dozen far from specular in
+    // --quick: 2 maps of ~470 visible flakes; 501 of 562 detectors were reached before
+    // the film rule moved the flakes' heights, 486 after).
     assert!(
-        rows.len() <= 2 * 281 && rows.len() >= 2 * 250,
+        rows.len() <= 2 * 281 && rows.len() >= 2 * 230,
         "{}",
         rows.len()
     );

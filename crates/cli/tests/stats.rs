@@ -77,6 +77,12 @@ fn histogram_and_json_summary() {
     let ci = v["hwhm_ci95_deg"].as_array().unwrap();
     let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
     assert!(lo < hwhm && hwhm < hi);
+    assert!(
+        v["hwhm_ci95_method"]
+            .as_str()
+            .unwrap()
+            .contains("profile likelihood")
+    );
 }
 
 #[test]

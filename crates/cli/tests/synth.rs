@@ -155,3 +155,35 @@ fn truth_to_stdout_and_bad_input_exit_codes() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--out"));
 }
+
+#[test]
+fn refusals_name_the_flag_in_the_units_typed() {
+    // Each refusal names the flag and speaks degrees or µm, never rad or `dx_um`.
+    for (args, needles) in [
+        (vec!["--hwhm", "0"], vec!["--hwhm 0", "degrees"]),
+        (vec!["--sigma", "1e-12"], vec!["--sigma", "degrees"]),
+        (vec!["--pixel-um", "0"], vec!["--pixel-um 0"]),
+        (vec!["--pixel-um", "0.18,0"], vec!["--pixel-um 0"]),
+        (
+            vec!["--film-um", "0.5"],
+            vec!["--film-um 0.5", "--thickness-um 1"],
+        ),
+        (
+            vec!["--film-um", "10", "--hwhm", "30"],
+            vec!["--film-um 10", "--diameter-um 16", "%"],
+        ),
+    ] {
+        let mut all = vec!["--size", "16"];
+        all.extend(&args);
+        let out = run(&all);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: {err}");
+        }
+        assert!(
+            !err.contains("rad") && !err.contains("dx_um"),
+            "{args:?}: {err}"
+        );
+    }
+}

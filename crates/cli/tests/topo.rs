@@ -113,6 +113,61 @@ fn tilted_plane_csv_has_the_documented_columns_and_values() {
 }
 
 #[test]
+fn standard_errors_not_estimable_are_empty_with_one_warning() {
+    // The 40 × 40 map of 0.5 µm is 20 µm square, smaller than one default 32 µm tile (and
+    // --tile-um 1e9 makes one tile of anything): no spread between tiles, so the std_err
+    // column is empty in every row, the JSON has null, and stderr says it once.
+    let d = dir("one-tile");
+    let (plane, _) = fixtures(&d);
+    let base = [
+        plane.to_str().unwrap(),
+        "--pixel-um",
+        "0.5",
+        "--z-unit",
+        "um",
+        "--theta-i",
+        "0,30",
+        "--theta-s",
+        "-40:40:10",
+    ];
+    for extra in [&[][..], &["--tile-um", "1e9"][..]] {
+        let out = run(&[&base[..], extra].concat());
+        assert!(out.status.success(), "{}", stderr(&out));
+        let text = String::from_utf8(out.stdout.clone()).unwrap();
+        let rows: Vec<&str> = text.lines().skip(1).collect();
+        assert_eq!(rows.len(), 18);
+        assert!(rows.iter().all(|r| r.ends_with(',')), "{text}");
+        assert_eq!(
+            stderr(&out).matches("not estimable").count(),
+            1,
+            "{}",
+            stderr(&out)
+        );
+    }
+    let out = run(&[&base[..], &["--json"][..]].concat());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        v["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|r| r["std_err"].is_null())
+    );
+    // One warning about the standard errors (others, e.g. an undefined `relative` where
+    // the tilted plane sends nothing to specular, may stand beside it).
+    let warnings = v["warnings"].as_array().unwrap();
+    assert_eq!(
+        warnings
+            .iter()
+            .filter(|w| w.as_str().unwrap().contains("not estimable"))
+            .count(),
+        1,
+        "{warnings:?}"
+    );
+}
+
+#[test]
 fn json_summary_counts_pixels_and_rays_over_several_maps() {
     let d = dir("json");
     let (plane, intensity) = fixtures(&d);

@@ -172,6 +172,7 @@ pub fn distribution_points(
     } else {
         settings.cone_method
     };
+    model.check_method(&inc, aperture, method)?;
     let spec = model.collect(&inc, &cone(-theta_i)?, method).power_per_sr;
     theta_s
         .iter()

@@ -259,7 +259,7 @@ pub fn topographic_curves(
             reflectance: Some(p.reflectance),
             relative: p.relative,
             rays: Some(p.rays),
-            std_err: Some(p.brdf_std_err),
+            std_err: p.brdf_std_err,
         })
         .collect();
     let curves = Curves {
@@ -325,7 +325,7 @@ pub fn isotropic_curves(
             reflectance: Some(p.reflectance),
             relative: p.relative,
             rays: Some(p.rays),
-            std_err: Some(p.brdf_std_err),
+            std_err: p.brdf_std_err,
         })
         .collect();
     let curves = Curves {

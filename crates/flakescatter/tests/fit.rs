@@ -1,7 +1,7 @@
 //! Comparison and fitting against synthetic measurements with a known truth.
 
 use flakescatter::compare::{MeasuredKind, Region, compare, distribution_points};
-use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
+use flakescatter::fit::{FitSetup, FitWarning, UncertaintyBasis, fit_gaussian, fit_nonparametric};
 use flakescatter::gaussian::{DistributionModel, ModelOptions, monte_carlo};
 use flakescatter::io::measured::{MeasuredCurve, MeasuredPoint};
 use flakescatter::optics::detector::Cone;
@@ -37,7 +37,7 @@ fn mc_curve(
             .map(|&t| Cone::in_plane(t, alpha).unwrap())
             .collect();
         let inc = model.incidence(deg(ti)).unwrap();
-        let est = monte_carlo(&model, &inc, &cones, samples, seed ^ ti.to_bits());
+        let est = monte_carlo(&model, &inc, &cones, samples, seed ^ ti.to_bits()).unwrap();
         for ((t, c), e) in ts.iter().zip(&cones).zip(&est) {
             if e.hits < 400 {
                 continue;
@@ -233,7 +233,7 @@ fn unusable_measurements_are_clear_errors() {
     };
     assert!(fit_gaussian(&few, &setup, deg(3.0), false).is_err());
     // Bad bins.
-    assert!(fit_nonparametric(&few, &setup, &[deg(1.0), deg(0.5)], 0.1).is_err());
+    assert!(fit_nonparametric(&few, &setup, &[deg(1.0), 0.0], 0.1).is_err());
 }
 
 #[test]
@@ -415,4 +415,207 @@ fn points_where_the_model_vanishes_are_counted_not_averaged() {
         .unwrap();
     assert!(far.no_model > 0);
     assert!(far.rms_log10.is_none_or(f64::is_finite));
+}
+
+/// A "measured" BRDF curve from the distribution model itself (hwhm `w_deg` at 45°,
+/// point detectors, aspecular 6°–38° every 2°: 17 points) with log-normal noise of sd
+/// `noise` in `ln y`, and stated uncertainties `u = y · stated` (relative).
+fn noisy_model_curve(w_deg: f64, noise: f64, stated: f64, seed: u64) -> MeasuredCurve {
+    let o = Orientation::gaussian(GaussianWidth::Hwhm(deg(w_deg))).unwrap();
+    let ti = deg(45.0);
+    let ts: Vec<f64> = (0..17)
+        .map(|k| -ti + deg(6.0 + 2.0 * f64::from(k)))
+        .collect();
+    let pts =
+        distribution_points(&Coating::default(), &Settings::default(), 0.0, &o, ti, &ts).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let eps = Normal::new(0.0, noise).unwrap();
+    let points = ts
+        .iter()
+        .zip(&pts)
+        .enumerate()
+        .map(|(k, (&t, p))| {
+            let value = p.brdf * eps.sample(&mut rng).exp();
+            MeasuredPoint {
+                theta_i: ti,
+                theta_s: t,
+                value,
+                uncertainty: Some(stated * value),
+                line: k as u64 + 2,
+            }
+        })
+        .collect();
+    MeasuredCurve {
+        file: "noisy.csv".into(),
+        points,
+    }
+}
+
+/// Share of `reps` seeded curves whose reported `hwhm ± hwhm_std` (times `k`) covers the
+/// truth, with `k = 1/uncertainty_scale` giving the unscaled interval.
+fn fit_coverage(w_deg: f64, noise: f64, stated: f64, reps: u64, unscaled: bool) -> f64 {
+    let setup = FitSetup::new(
+        Coating::default(),
+        Settings::default(),
+        0.0,
+        MeasuredKind::Brdf,
+    );
+    let mut covered = 0;
+    for r in 0..reps {
+        let measured = noisy_model_curve(w_deg, noise, stated, 7000 + r);
+        let fit = fit_gaussian(&measured, &setup, deg(3.0), false).unwrap();
+        let half = if unscaled {
+            fit.hwhm_std / fit.uncertainty_scale
+        } else {
+            fit.hwhm_std
+        };
+        if (fit.hwhm - deg(w_deg)).abs() <= half {
+            covered += 1;
+        }
+    }
+    f64::from(covered) / reps as f64
+}
+
+#[test]
+fn fit_uncertainty_covers_the_truth_when_stated_uncertainties_are_3x_too_small() {
+    // 700 seeded curves, 4 % log-normal noise, uncertainties stated as 4/3 %: χ²/dof ≈ 9,
+    // so the covariance is scaled by χ²/dof. With the noise level estimated from dof = 15
+    // residuals (17 points, width and scale fitted), (ŵ − w)/std is Student-t with 15
+    // dof, so hwhm ± std covers the truth with probability P(|t₁₅| ≤ 1) = 0.6666 (the fit
+    // is linear to well within the noise here). Binomial sd for 700 curves: 1.8 %; the
+    // tolerance 5.5 % is 3 sd. Unscaled, the interval is 3× too narrow and covers about
+    // P(|t| ≤ 1/3) ≈ 26 %.
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    let t = StudentsT::new(0.0, 1.0, 15.0).unwrap();
+    let want = t.cdf(1.0) - t.cdf(-1.0);
+    let cov = fit_coverage(5.0, 0.04, 0.04 / 3.0, 700, false);
+    assert!((cov - want).abs() < 0.055, "coverage {cov} vs {want}");
+    let raw = fit_coverage(5.0, 0.04, 0.04 / 3.0, 200, true);
+    assert!(raw < 0.4, "unscaled coverage {raw}");
+    // The result says so.
+    let fit = fit_gaussian(
+        &noisy_model_curve(5.0, 0.04, 0.04 / 3.0, 1),
+        &FitSetup::new(
+            Coating::default(),
+            Settings::default(),
+            0.0,
+            MeasuredKind::Brdf,
+        ),
+        deg(3.0),
+        false,
+    )
+    .unwrap();
+    assert_eq!(fit.uncertainty_basis, UncertaintyBasis::StatedScaledByChi2);
+    assert!((fit.uncertainty_scale - (fit.chi2 / fit.dof as f64).sqrt()).abs() < 1e-12);
+    assert!(
+        fit.warnings
+            .iter()
+            .any(|w| matches!(w, FitWarning::PoorFit { .. })),
+        "{:?}",
+        fit.warnings
+    );
+}
+
+#[test]
+fn fit_uncertainty_with_honest_stated_uncertainties_is_not_scaled_down() {
+    // Stated uncertainties equal to the noise: χ²/dof scatters about 1 and the
+    // covariance is scaled only when it exceeds 1, so hwhm ± std covers with probability
+    // E[P(|Z| ≤ max(1, S))], S² ~ χ²₁₅/15 (Z the standardised error, independent of S
+    // for a linear fit): computed below by quadrature over the χ² density. 500 curves:
+    // binomial sd 2.0 %, tolerance 6 %.
+    use statrs::distribution::{ChiSquared, Continuous, ContinuousCDF, Normal as SNormal};
+    let chi = ChiSquared::new(15.0).unwrap();
+    let z = SNormal::new(0.0, 1.0).unwrap();
+    let (mut want, steps) = (0.0, 20_000);
+    let top = 80.0;
+    for i in 0..steps {
+        let x = (f64::from(i) + 0.5) * top / f64::from(steps);
+        let s = (x / 15.0).sqrt().max(1.0);
+        want += chi.pdf(x) * (2.0 * z.cdf(s) - 1.0) * top / f64::from(steps);
+    }
+    let cov = fit_coverage(5.0, 0.04, 0.04, 500, false);
+    assert!((cov - want).abs() < 0.06, "coverage {cov} vs {want}");
+    let fit = fit_gaussian(
+        &noisy_model_curve(5.0, 0.04, 0.04, 3),
+        &FitSetup::new(
+            Coating::default(),
+            Settings::default(),
+            0.0,
+            MeasuredKind::Brdf,
+        ),
+        deg(3.0),
+        false,
+    )
+    .unwrap();
+    let expected_basis = if fit.chi2 > fit.dof as f64 {
+        UncertaintyBasis::StatedScaledByChi2
+    } else {
+        UncertaintyBasis::Stated
+    };
+    assert_eq!(fit.uncertainty_basis, expected_basis);
+    assert!(fit.uncertainty_scale >= 1.0);
+}
+
+#[test]
+fn fit_warnings_flag_poor_fits_bounds_and_few_points() {
+    let setup = FitSetup::new(
+        Coating::default(),
+        Settings::default(),
+        0.0,
+        MeasuredKind::Brdf,
+    );
+    // Garbage: values scattered by a factor e^{±2} with 1 % stated uncertainties.
+    let garbage = noisy_model_curve(5.0, 2.0, 0.01, 11);
+    let fit = fit_gaussian(&garbage, &setup, deg(3.0), false).unwrap();
+    assert!(fit.chi2 / fit.dof as f64 > 100.0);
+    let poor = fit
+        .warnings
+        .iter()
+        .find(|w| matches!(w, FitWarning::PoorFit { .. }));
+    assert!(poor.is_some(), "{:?}", fit.warnings);
+    assert!(poor.unwrap().to_string().contains("chi2/dof"));
+    // Its uncertainty grew with sqrt(χ²/dof) (≈ 200/1 here): no more "± 0.036°" on
+    // garbage.
+    assert!(fit.uncertainty_scale > 10.0);
+    // Without uncertainty columns the rms log residual is the criterion (threshold 0.3).
+    let mut no_u = garbage.clone();
+    for p in &mut no_u.points {
+        p.uncertainty = None;
+    }
+    let fit = fit_gaussian(&no_u, &setup, deg(3.0), false).unwrap();
+    assert_eq!(fit.uncertainty_basis, UncertaintyBasis::ResidualScatter);
+    assert!(fit.warnings.iter().any(|w| matches!(
+        w,
+        FitWarning::PoorFit {
+            uncertainties_given: false,
+            ..
+        }
+    )));
+    // A clean, much wider curve than the search range allows (60°): at the bound.
+    let wide = noisy_model_curve(75.0, 0.001, 0.001, 12);
+    let fit = fit_gaussian(&wide, &setup, deg(10.0), false).unwrap();
+    assert!(
+        fit.warnings.iter().any(|w| matches!(
+            w,
+            FitWarning::AtBound {
+                parameter: "hwhm",
+                ..
+            }
+        )),
+        "{:?} at {}°",
+        fit.warnings,
+        fit.hwhm.to_degrees()
+    );
+    // Four points for two parameters (width and scale): fewer than 3 per parameter.
+    let mut few = noisy_model_curve(5.0, 0.01, 0.01, 13);
+    few.points.truncate(4);
+    let fit = fit_gaussian(&few, &setup, deg(3.0), false).unwrap();
+    assert!(fit.warnings.contains(&FitWarning::FewPoints {
+        points: 4,
+        parameters: 2
+    }));
+    // A good fit has none.
+    let good = noisy_model_curve(5.0, 0.01, 0.01, 14);
+    let fit = fit_gaussian(&good, &setup, deg(3.0), false).unwrap();
+    assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
 }

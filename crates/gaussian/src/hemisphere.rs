@@ -30,11 +30,16 @@ const OUTER_REL: f64 = 1e-10;
 const INNER_PANELS: usize = 400;
 const OUTER_PANELS: usize = 400;
 
-/// Geometric break points `1e-4 · 2^k` below `hi`, so that peaks of any width from
-/// 0.1 mrad up are seen by the first panels.
-fn scale_breaks(hi: f64) -> Vec<f64> {
-    let mut v = Vec::new();
-    let mut x = 1e-4;
+/// Geometric break points `x0 · 2^k` below `hi` with `x0 = min(1e-4, scale/8)`, so that
+/// peaks of any width from `scale` (or 0.1 mrad) up are seen by the first panels, plus
+/// the `extra` points (bin edges of a table) inside `(0, hi)`.
+fn scale_breaks(hi: f64, scale: f64, extra: &[f64]) -> Vec<f64> {
+    let mut v: Vec<f64> = extra
+        .iter()
+        .copied()
+        .filter(|&e| e > 0.0 && e < hi)
+        .collect();
+    let mut x = (scale / 8.0).clamp(1e-300, 1e-4);
     while x < hi {
         v.push(x);
         x *= 2.0;
@@ -58,6 +63,8 @@ fn over_both_halves(f: impl FnMut(f64) -> f64) -> (f64, f64) {
 /// incident beam; the clear coat is not included).
 #[must_use]
 pub fn total_detector_space(model: &DistributionModel, inc: &Incidence) -> (f64, f64) {
+    // The peak about specular is at least this wide (cone module docs).
+    let feature = model.exit_feature(inc);
     let (s, c) = inc.theta_i.sin_cos();
     let a = Vec3::new(s, 0.0, c);
     let u = Vec3::new(-c, 0.0, s);
@@ -71,7 +78,7 @@ pub fn total_detector_space(model: &DistributionModel, inc: &Incidence) -> (f64,
             let r = a * cb + side * sb;
             model.brdf(inc, &r) * r.z.max(0.0) * sb
         };
-        inner_integral(inner, horizon, &scale_breaks(horizon))
+        inner_integral(inner, horizon, &scale_breaks(horizon, feature, &[]))
     };
     over_both_halves(outer)
 }
@@ -109,6 +116,8 @@ pub fn totals_normal_space(model: &DistributionModel, inc: &Incidence) -> Normal
     // Escape needs n² (1 − k2.z²) < 1, i.e. k2.z > sqrt(1 − 1/n²) (which implies k2.z > 0).
     let cz = (1.0 - 1.0 / (n * n)).max(0.0).sqrt();
     let theta_max = model.orientation().max_theta().min(FRAC_PI_2);
+    let feature = model.orientation().narrowest_feature();
+    let edges = model.orientation().bin_edges().unwrap_or(&[]);
     let normal = |t: f64, p: f64| {
         let (st, ct) = t.sin_cos();
         let (sp, cp) = p.sin_cos();
@@ -130,7 +139,7 @@ pub fn totals_normal_space(model: &DistributionModel, inc: &Incidence) -> Normal
     for (slot, which) in [(0usize, 0u8), (1, 1), (2, 2), (3, 3)] {
         let outer = |phi: f64| {
             // Boundaries along this meridian: sign changes of γ and of k2.z − cz.
-            let mut breaks = scale_breaks(theta_max);
+            let mut breaks = scale_breaks(theta_max, feature, edges);
             let g = |t: f64| {
                 let m = normal(t, phi);
                 let gamma = -k1.dot(&m);

@@ -7,10 +7,11 @@
 //!
 //! * the point BRDF `f(θi, r)` (sr⁻¹) with the four Fresnel bookkeepings and both
 //!   weightings ([`DistributionModel::brdf`], module [`model`]);
-//! * what a detector cone collects, exactly (quadrature about the detector axis with an
-//!   error estimate) or in the paper's constant-integrand approximation
-//!   ([`DistributionModel::collect`], module [`cone`]), and whole curves with the
-//!   `relative` normalisation to the specular detector ([`curve`]);
+//! * what a detector cone collects, exactly (quadrature with an error estimate, about the
+//!   detector axis or, for distributions narrower than the aperture down to the delta
+//!   limit, about the specular direction) or in the paper's constant-integrand
+//!   approximation ([`DistributionModel::collect`], module [`cone`]), and whole curves
+//!   with the `relative` normalisation to the specular detector ([`curve`]);
 //! * the hemispherical total computed in detector space and in normal space, which must
 //!   agree (module [`hemisphere`]);
 //! * an independent Monte Carlo estimator (module [`montecarlo`]).
@@ -71,6 +72,20 @@ pub enum ModelError {
     /// Nothing to compute.
     #[error("{0} list is empty")]
     Empty(&'static str),
+    /// The constant-integrand approximation was asked for a distribution narrower than
+    /// the aperture (see [`DistributionModel::check_method`]).
+    #[error(
+        "the constant-integrand approximation takes the BRDF as constant over the detector cone, but the flake light is only {:.3e} degrees wide in exit directions against a {:.3} degree aperture (half-angle): its values would be wrong by orders of magnitude; use the exact cone integral",
+        .feature.to_degrees(),
+        .aperture.to_degrees()
+    )]
+    ConstantIntegrandTooNarrow {
+        /// Narrowest width of the flake light in exit directions, radians
+        /// ([`DistributionModel::exit_feature`]).
+        feature: f64,
+        /// Aperture half-angle, radians.
+        aperture: f64,
+    },
     /// The flat (delta) distribution has no density to integrate.
     #[error(
         "all flakes flat (a delta distribution): the reflectance is a delta at the specular direction; use a Gaussian of small width instead"
@@ -109,7 +124,8 @@ impl CurvePoint {
 /// # Errors
 /// [`ModelError::Incidence`] for an angle outside `[0, π/2)`, [`ModelError::Empty`]
 /// for an empty list, [`ModelError::Detector`] if the specular reference cone cannot be
-/// built.
+/// built, [`ModelError::ConstantIntegrandTooNarrow`] for the constant-integrand
+/// approximation with a distribution narrower than the aperture.
 pub fn curve(
     model: &DistributionModel,
     theta_i: &[f64],
@@ -125,6 +141,9 @@ pub fn curve(
     let mut rows = Vec::with_capacity(theta_i.len() * cones.len());
     for &ti in theta_i {
         let inc = model.incidence(ti)?;
+        for c in cones {
+            model.check_method(&inc, c.half_angle(), method)?;
+        }
         let mut cache: Vec<(f64, f64)> = Vec::new();
         let collected: Vec<Collected> = cones
             .par_iter()

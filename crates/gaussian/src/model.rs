@@ -166,32 +166,76 @@ impl DistributionModel {
     #[must_use]
     #[inline]
     pub fn brdf(&self, inc: &Incidence, r: &Vec3) -> f64 {
+        self.brdf_about(inc, r, &Vec3::zeros())
+    }
+
+    /// The point BRDF at the exit direction `base + offset` (a unit vector), sr⁻¹, with
+    /// the offset's digits kept: the half vector's transverse part is formed as
+    /// `(base/n − k1) + offset/n`. With `base` the specular direction, whose term is
+    /// zero to rounding, directions a few 1e-12 rad from specular are resolved, which
+    /// narrow distributions need (`brdf` itself loses the digits of `r − specular`
+    /// below ~1e-16).
+    #[must_use]
+    #[inline]
+    pub fn brdf_about(&self, inc: &Incidence, base: &Vec3, offset: &Vec3) -> f64 {
+        let r = base + offset;
         if r.z <= 0.0 {
             return 0.0;
         }
         let n = self.n;
-        // Inside direction that leaves along r.
-        let tx = r.x / n;
-        let ty = r.y / n;
-        // cos θ2 = sqrt(1 − (r.x² + r.y²)/n²) written as sqrt(n² − 1 + r.z²)/n (|r| = 1):
-        // no cancellation near the horizon, so f·cos θr stays finite as r.z → 0.
-        let c2 = (n * n - 1.0 + r.z * r.z).max(0.0).sqrt() / n;
-        let h = Vec3::new(tx - inc.k1.x, ty - inc.k1.y, c2 - inc.k1.z);
-        let hn = h.norm();
-        let mz = h.z / hn;
-        if mz <= 0.0 {
+        let Some((h, c2)) = self.half_vector(inc, base, offset, r.z) else {
             return 0.0;
-        }
-        let p2 = self.orientation.p2(mz.min(1.0).acos());
+        };
+        // θn from atan2 rather than acos(m.z): acos cannot resolve angles below ~1e-8 rad.
+        let p2 = self
+            .orientation
+            .p2((h.x * h.x + h.y * h.y).sqrt().atan2(h.z));
         if p2 == 0.0 {
             return 0.0;
         }
+        let hn = h.norm();
         let factor = self.path_factor(inc, -inc.k1.dot(&h) / hn, r.z, c2);
         let mut f = factor * p2 * self.inv_mean_cos / (4.0 * n * n * inc.cos_t * c2);
         if self.options.weighting == Weighting::PaperPrinted {
             f *= c2 / r.z;
         }
         f
+    }
+
+    /// Unnormalised internal half vector `k2 − k1` and `cos θ2 = k2.z` for the exit
+    /// direction `base + offset` with air cosine `rz > 0`; `None` when the half vector's
+    /// `z` is not positive (no flake normal sends light there).
+    #[inline]
+    fn half_vector(
+        &self,
+        inc: &Incidence,
+        base: &Vec3,
+        offset: &Vec3,
+        rz: f64,
+    ) -> Option<(Vec3, f64)> {
+        let n = self.n;
+        // cos θ2 = sqrt(1 − (r.x² + r.y²)/n²) written as sqrt(n² − 1 + r.z²)/n (|r| = 1):
+        // no cancellation near the horizon, so f·cos θr stays finite as r.z → 0.
+        let c2 = (n * n - 1.0 + rz * rz).max(0.0).sqrt() / n;
+        let h = Vec3::new(
+            (base.x / n - inc.k1.x) + offset.x / n,
+            (base.y / n - inc.k1.y) + offset.y / n,
+            c2 - inc.k1.z,
+        );
+        (h.z > 0.0).then_some((h, c2))
+    }
+
+    /// Polar angle `θn` (radians) of the flake normal that sends light to the exit
+    /// direction `base + offset` (the internal half vector of §2, digits of the offset
+    /// kept as in [`DistributionModel::brdf_about`]), or `None` when no normal does.
+    #[must_use]
+    pub fn normal_polar_angle(&self, inc: &Incidence, base: &Vec3, offset: &Vec3) -> Option<f64> {
+        let rz = base.z + offset.z;
+        if rz <= 0.0 {
+            return None;
+        }
+        let (h, _) = self.half_vector(inc, base, offset, rz)?;
+        Some((h.x * h.x + h.y * h.y).sqrt().atan2(h.z))
     }
 
     /// `F · R` for a ray with obliquity `gamma` leaving at air cosine `cos_o` from inside
@@ -246,7 +290,7 @@ impl DistributionModel {
     #[must_use]
     pub fn normal_space_weight(&self, inc: &Incidence, m: &UnitVec3) -> Option<(f64, UnitVec3)> {
         let (w, out) = self.ray_weight(inc, m)?;
-        let theta_n = m.z.clamp(-1.0, 1.0).acos();
+        let theta_n = (m.x * m.x + m.y * m.y).sqrt().atan2(m.z);
         Some((w * self.orientation.p2(theta_n) * self.inv_mean_cos, out))
     }
 }

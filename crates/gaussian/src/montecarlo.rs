@@ -17,6 +17,7 @@ use rayon::prelude::*;
 
 use flakescatter_optics::detector::Cone;
 
+use crate::ModelError;
 use crate::model::{DistributionModel, Incidence};
 
 /// Samples per independently seeded chunk.
@@ -35,14 +36,19 @@ pub struct McEstimate {
 }
 
 /// Estimate what each cone collects at incidence `inc` from `samples` flake normals.
-#[must_use]
+///
+/// # Errors
+/// [`ModelError::Empty`] for `samples == 0` (the estimate would be 0/0).
 pub fn monte_carlo(
     model: &DistributionModel,
     inc: &Incidence,
     cones: &[Cone],
     samples: u64,
     seed: u64,
-) -> Vec<McEstimate> {
+) -> Result<Vec<McEstimate>, ModelError> {
+    if samples == 0 {
+        return Err(ModelError::Empty("Monte Carlo sample"));
+    }
     let chunks = samples.div_ceil(CHUNK);
     // Rays farther than every cone's aperture from the plane of incidence cannot enter an
     // in-plane cone: one comparison rejects them.
@@ -88,7 +94,7 @@ pub fn monte_carlo(
         }
     }
     let nf = samples as f64;
-    total
+    Ok(total
         .iter()
         .zip(cones)
         .map(|(&(s, s2, hits), cone)| {
@@ -105,5 +111,5 @@ pub fn monte_carlo(
                 hits,
             }
         })
-        .collect()
+        .collect())
 }

@@ -17,7 +17,7 @@ fn chi_square(
     seed: u64,
 ) -> (f64, usize) {
     let inc = model.incidence(ti_deg.to_radians()).unwrap();
-    let mc = monte_carlo(model, &inc, cones, samples, seed);
+    let mc = monte_carlo(model, &inc, cones, samples, seed).unwrap();
     let (mut chi2, mut dof) = (0.0, 0);
     let (mut pool_mc, mut pool_q, mut pool_var, mut pool_hits) = (0.0, 0.0, 0.0, 0u64);
     for (est, cone) in mc.iter().zip(cones) {
@@ -130,9 +130,9 @@ fn monte_carlo_is_reproducible_and_seed_dependent() {
     let m = DistributionModel::new(o, 1.5, ModelOptions::default()).unwrap();
     let inc = m.incidence(0.5).unwrap();
     let cones = in_plane_cones(2.0, 10.0);
-    let a = monte_carlo(&m, &inc, &cones, 300_000, 1);
-    let b = monte_carlo(&m, &inc, &cones, 300_000, 1);
-    let c = monte_carlo(&m, &inc, &cones, 300_000, 2);
+    let a = monte_carlo(&m, &inc, &cones, 300_000, 1).unwrap();
+    let b = monte_carlo(&m, &inc, &cones, 300_000, 1).unwrap();
+    let c = monte_carlo(&m, &inc, &cones, 300_000, 2).unwrap();
     assert_eq!(a, b);
     assert_ne!(a, c);
     // Same answer with one thread as with the default pool.
@@ -140,6 +140,20 @@ fn monte_carlo_is_reproducible_and_seed_dependent() {
         .num_threads(1)
         .build()
         .unwrap();
-    let d = pool.install(|| monte_carlo(&m, &inc, &cones, 300_000, 1));
+    let d = pool.install(|| monte_carlo(&m, &inc, &cones, 300_000, 1).unwrap());
     assert_eq!(a, d);
+}
+
+#[test]
+fn zero_samples_is_an_error_not_a_nan() {
+    let o = Orientation::gaussian(GaussianWidth::Hwhm(5f64.to_radians())).unwrap();
+    let m = DistributionModel::new(o, 1.5, ModelOptions::default()).unwrap();
+    let inc = m.incidence(0.3).unwrap();
+    let cones = [Cone::in_plane(-0.3, 0.02).unwrap()];
+    assert_eq!(
+        monte_carlo(&m, &inc, &cones, 0, 1),
+        Err(flakescatter_gaussian::ModelError::Empty(
+            "Monte Carlo sample"
+        ))
+    );
 }

@@ -42,6 +42,14 @@ pub enum GaussianWidth {
     RmsTilt(f64),
 }
 
+/// The smallest Gaussian width accepted (as `hwhm`, `sigma` or `rms-tilt`), radians.
+///
+/// Below it a detector cone collects the all-flat (delta) value to double precision
+/// wherever it contains the specular direction with a margin; only cones whose edge
+/// passes within ~1e-9 rad of specular still see the width, and there the answer is
+/// set by the last bits of the detector geometry, not by the width.
+pub const MIN_GAUSSIAN_WIDTH: f64 = 1e-10;
+
 /// `sqrt(2 ln 2)`: `hwhm = s · HWHM_PER_SIGMA`.
 pub const HWHM_PER_SIGMA: f64 = 1.177_410_022_515_474_7;
 
@@ -84,8 +92,11 @@ impl GaussianWidth {
 /// Errors from building an [`Orientation`].
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum DistributionError {
-    /// A Gaussian width is not finite, not positive, or not below π/2.
-    #[error("Gaussian {kind} = {value} rad must be finite, > 0 and < π/2")]
+    /// A Gaussian width is not finite, below [`MIN_GAUSSIAN_WIDTH`], or not below π/2.
+    #[error(
+        "Gaussian {kind} = {value} rad ({} degrees) must be finite, at least 1e-10 rad (5.7e-9 degrees; a narrower distribution is the all-flat limit to double precision) and below pi/2 (90 degrees)",
+        .value.to_degrees()
+    )]
     BadWidth {
         /// `"hwhm"`, `"sigma"` or `"rms-tilt"`.
         kind: &'static str,
@@ -132,6 +143,19 @@ pub enum DistributionError {
     /// Every mass is zero.
     #[error("tabulated distribution has zero total area")]
     ZeroTotal,
+    /// A bin that carries area is so narrow that its solid angle underflows (its density
+    /// would be infinite).
+    #[error(
+        "bin {index} [{lo} rad, {hi} rad] carries area but is too narrow for double precision (its solid angle underflows)"
+    )]
+    BinTooNarrow {
+        /// Index of the bin.
+        index: usize,
+        /// Its lower edge, radians.
+        lo: f64,
+        /// Its upper edge, radians.
+        hi: f64,
+    },
 }
 
 /// Precomputed Gaussian member.
@@ -177,6 +201,18 @@ pub struct Orientation {
     kind: Kind,
 }
 
+/// `cos lo − cos hi` written as `2 sin((hi + lo)/2) sin((hi − lo)/2)`: no cancellation
+/// for narrow bins (the plain difference loses all digits for a bin of 1e-8 rad near 0).
+#[must_use]
+#[inline]
+pub fn cos_diff(lo: f64, hi: f64) -> f64 {
+    2.0 * (0.5 * (hi + lo)).sin() * (0.5 * (hi - lo)).sin()
+}
+
+/// `sqrt(2·745.2)`: `exp(-θ²/(2s²))` underflows to exactly 0 in `f64` beyond
+/// `θ = GAUSSIAN_ZERO_BEYOND · s` (`exp(x) = 0` for `x < −745.14`), rounded up.
+const GAUSSIAN_ZERO_BEYOND: f64 = 38.7;
+
 /// Panels for the Gaussian integrals: upper limit `min(π/2, 12 s)` (the tail beyond
 /// `12 s` is below `e^{-72}` of the peak), panel width at most `s/2`.
 fn gaussian_limits(sigma: f64) -> (f64, usize) {
@@ -189,10 +225,11 @@ impl Orientation {
     /// A Gaussian `p̃(θ) ∝ exp(-θ²/(2 s²))` on `[0, π/2)`, normalised exactly.
     ///
     /// # Errors
-    /// [`DistributionError::BadWidth`] unless the given value is finite, `> 0` and `< π/2`.
+    /// [`DistributionError::BadWidth`] unless the given value is finite, at least
+    /// [`MIN_GAUSSIAN_WIDTH`] and `< π/2`.
     pub fn gaussian(width: GaussianWidth) -> Result<Self, DistributionError> {
         let v = width.value();
-        if !(v.is_finite() && v > 0.0 && v < FRAC_PI_2) {
+        if !(MIN_GAUSSIAN_WIDTH..FRAC_PI_2).contains(&v) {
             return Err(DistributionError::BadWidth {
                 kind: width.name(),
                 value: v,
@@ -224,7 +261,7 @@ impl Orientation {
     /// # Errors
     /// [`DistributionError::BinCount`], [`DistributionError::EdgeOutOfRange`],
     /// [`DistributionError::EdgesNotIncreasing`], [`DistributionError::BadMass`],
-    /// [`DistributionError::ZeroTotal`].
+    /// [`DistributionError::ZeroTotal`], [`DistributionError::BinTooNarrow`].
     pub fn tabulated(
         edges_rad: Vec<f64>,
         area_fractions: Vec<f64>,
@@ -268,7 +305,19 @@ impl Orientation {
         let mut mean_cos = 0.0;
         for (i, m) in masses.iter().enumerate() {
             let (clo, chi) = (edges_rad[i].cos(), edges_rad[i + 1].cos());
-            p2.push(m / (2.0 * PI * (clo - chi)));
+            let density = if *m == 0.0 {
+                0.0
+            } else {
+                m / (2.0 * PI * cos_diff(edges_rad[i], edges_rad[i + 1]))
+            };
+            if !density.is_finite() {
+                return Err(DistributionError::BinTooNarrow {
+                    index: i,
+                    lo: edges_rad[i],
+                    hi: edges_rad[i + 1],
+                });
+            }
+            p2.push(density);
             // Within a bin p2 is constant, so cos θ is uniform on [cos hi, cos lo].
             mean_cos += m * 0.5 * (clo + chi);
         }
@@ -351,6 +400,57 @@ impl Orientation {
         matches!(self.kind, Kind::Flat)
     }
 
+    /// The narrowest angular feature that carries light, radians: what a quadrature over
+    /// exit directions must resolve. `s` for a Gaussian; 0 for flat. For a table, the
+    /// smaller of the width of its support (first to last bin with area) and the width
+    /// of its narrowest *isolated* bin, one with area whose `p2` exceeds twice that of
+    /// each neighbour (a spike or a thin ring). Steps between comparable neighbouring
+    /// bins are not features in this sense: they hold no concentrated light, and rules
+    /// that do not locate them resolve them to ~1e-3 with an error estimate that says so.
+    pub fn narrowest_feature(&self) -> f64 {
+        match &self.kind {
+            Kind::Gaussian(g) => g.sigma,
+            Kind::Tabulated(t) => {
+                let first = t.masses.iter().position(|m| *m > 0.0).unwrap_or(0);
+                let mut feature = self.support_end() - t.edges[first];
+                let n = t.masses.len();
+                for i in (0..n).filter(|&i| t.masses[i] > 0.0) {
+                    let left = if i > 0 { t.p2[i - 1] } else { 0.0 };
+                    let right = if i + 1 < n { t.p2[i + 1] } else { 0.0 };
+                    if t.p2[i] > 2.0 * left.max(right) {
+                        feature = feature.min(t.edges[i + 1] - t.edges[i]);
+                    }
+                }
+                feature
+            }
+            Kind::Flat => 0.0,
+        }
+    }
+
+    /// The polar angle beyond which [`Orientation::p2`] is exactly zero, radians: for a
+    /// Gaussian `min(π/2, 38.7 s)` (where `exp(−θ²/(2s²))` underflows in `f64`), for a
+    /// table the upper edge of the last bin that carries area, 0 for flat.
+    pub fn support_end(&self) -> f64 {
+        match &self.kind {
+            Kind::Gaussian(g) => FRAC_PI_2.min(GAUSSIAN_ZERO_BEYOND * g.sigma),
+            Kind::Tabulated(t) => t
+                .masses
+                .iter()
+                .rposition(|m| *m > 0.0)
+                .map_or(0.0, |i| t.edges[i + 1]),
+            Kind::Flat => 0.0,
+        }
+    }
+
+    /// The bin edges of a tabulated distribution (radians), where `p2` jumps; `None`
+    /// for the other kinds.
+    pub fn bin_edges(&self) -> Option<&[f64]> {
+        match &self.kind {
+            Kind::Tabulated(t) => Some(&t.edges),
+            _ => None,
+        }
+    }
+
     /// The Gaussian width as given, if this is a Gaussian.
     pub fn gaussian_width(&self) -> Option<GaussianWidth> {
         match &self.kind {
@@ -375,6 +475,12 @@ impl Orientation {
             }
             _ if hi.is_nan() || lo.is_nan() || hi <= lo => 0.0,
             Kind::Gaussian(g) => {
+                // The density is exactly zero in f64 beyond GAUSSIAN_ZERO_BEYOND · s, so
+                // the panels (at most s/2 wide) only cover where it is not.
+                let hi = hi.min(GAUSSIAN_ZERO_BEYOND * g.sigma);
+                if hi <= lo {
+                    return 0.0;
+                }
                 let n = ((hi - lo) / (0.5 * g.sigma)).ceil().clamp(1.0, 1e4) as usize;
                 let k = g.neg_half_inv_s2;
                 g.p_tilde_norm * quad::integrate(|t| (k * t * t).exp() * t.sin(), lo, hi, n)
@@ -386,7 +492,7 @@ impl Orientation {
                     let a = t.edges[i].max(lo);
                     let b = t.edges[i + 1].min(hi);
                     if b > a {
-                        m += t.p2[i] * 2.0 * PI * (a.cos() - b.cos());
+                        m += t.p2[i] * 2.0 * PI * cos_diff(a, b);
                     }
                 }
                 m
@@ -416,9 +522,13 @@ impl Orientation {
             Kind::Tabulated(t) => {
                 let u: f64 = rng.random();
                 let i = t.cdf.partition_point(|&c| c <= u).min(t.masses.len() - 1);
-                let (clo, chi) = (t.edges[i].cos(), t.edges[i + 1].cos());
+                // cos θ uniform within the bin, written with 1 − cos θ = 2 sin²(θ/2) so
+                // that narrow bins near the normal keep their digits.
+                let (lo, hi) = (t.edges[i], t.edges[i + 1]);
                 let v: f64 = rng.random();
-                (clo - v * (clo - chi)).clamp(-1.0, 1.0).acos()
+                let h_lo = (0.5 * lo).sin().powi(2);
+                let h = h_lo + v * 0.5 * cos_diff(lo, hi);
+                2.0 * h.clamp(0.0, 1.0).sqrt().asin()
             }
         };
         let phi = 2.0 * PI * rng.random::<f64>();

@@ -17,7 +17,7 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
 use thiserror::Error;
 
-use crate::distribution::{DistributionError, Orientation};
+use crate::distribution::{DistributionError, Orientation, cos_diff};
 use crate::flake::Flake;
 use crate::quad;
 
@@ -172,7 +172,7 @@ impl AreaHistogram {
                     theta_hi: hi,
                     area_fraction: m,
                     p_per_rad: m / (hi - lo),
-                    p_tilde: m / (lo.cos() - hi.cos()),
+                    p_tilde: m / cos_diff(lo, hi),
                 }
             })
             .collect()

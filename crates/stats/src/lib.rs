@@ -29,7 +29,9 @@ pub mod segment;
 pub use nalgebra;
 
 pub use distribution::{DistributionError, GaussianWidth, Orientation};
-pub use fit::{FitError, HistogramFit, WidthFit, fit_gaussian_histogram, fit_gaussian_ml};
+pub use fit::{
+    FitError, HistogramFit, IntervalMethod, WidthFit, fit_gaussian_histogram, fit_gaussian_ml,
+};
 pub use flake::{Flake, FlakeError, PlaneFit, UnitVec3, fit_plane};
 pub use heightmap::{HeightMap, HeightMapError};
 pub use histogram::{AreaHistogram, HistogramBin, HistogramError};

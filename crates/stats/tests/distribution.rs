@@ -96,7 +96,8 @@ fn tabulated_values_by_hand() {
     // p2 = (3/7) / (2π (cos 2° − cos 4°)).
     let (lo, hi) = (2f64.to_radians(), 4f64.to_radians());
     let expected = (3.0 / 7.0) / (2.0 * PI * (lo.cos() - hi.cos()));
-    assert!((d.p2(3f64.to_radians()) / expected - 1.0).abs() < 1e-14);
+    // The difference of cosines (0.0018) carries ~1e-16/0.0018 ≈ 6e-14 of rounding.
+    assert!((d.p2(3f64.to_radians()) / expected - 1.0).abs() < 3e-13);
     assert_eq!(d.p2(12f64.to_radians()), 0.0);
     assert_eq!(d.max_theta(), 12f64.to_radians());
     // ⟨cos θ⟩ from Simpson (piecewise: integrate each bin separately, the density jumps).
@@ -242,4 +243,135 @@ fn chi_square_detects_a_wrong_sampler() {
         .collect();
     let (stat, df) = chi_square(&observed, &expected);
     assert!(stat > chi_square_critical(df, 1e-3));
+}
+
+#[test]
+fn narrow_bins_keep_their_digits() {
+    // A bin [0, b] with b = 1e-7 rad: its solid angle is 2π(1 − cos b) = 4π sin²(b/2),
+    // which the plain difference of cosines gets wrong by ~2 % (1 − cos b ≈ 5e-15 is a
+    // few ulps of 1). p2 · 4π sin²(b/2) must be the whole mass.
+    let b = 1e-7;
+    let d = Orientation::tabulated(vec![0.0, b, 2.0 * b], vec![1.0, 0.0]).unwrap();
+    let cap = 4.0 * PI * (0.5 * b).sin().powi(2);
+    assert!(
+        (d.p2(0.5 * b) * cap - 1.0).abs() < 1e-12,
+        "{}",
+        d.p2(0.5 * b) * cap
+    );
+    assert!((d.mass_between(0.0, 0.5 * b) - 0.25).abs() < 1e-9);
+    // Samples: θ² is uniform on [0, b²] for a cap this small (cos θ uniform, 1 − cos θ ≈
+    // θ²/2), so the mean of θ²/b² is 1/2 (sd of the mean 0.29/sqrt(n)) and every sample
+    // lies in the bin.
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let n = 20_000;
+    let mut sum = 0.0;
+    for _ in 0..n {
+        let m = d.sample_normal(&mut rng);
+        let t = (m.x * m.x + m.y * m.y).sqrt().atan2(m.z);
+        assert!((0.0..=b * (1.0 + 1e-12)).contains(&t), "{t}");
+        sum += (t / b).powi(2);
+    }
+    let mean = sum / f64::from(n);
+    assert!(
+        (mean - 0.5).abs() < 5.0 * 0.29 / f64::from(n).sqrt(),
+        "{mean}"
+    );
+}
+
+#[test]
+fn narrow_gaussians_integrate_to_one() {
+    // mass_between over the whole support must be 1 for any width: with s = 1e-9 rad
+    // the panels once spread over [0, π/2] and missed the peak entirely.
+    for s in [1e-9, 1e-6, 1e-3, 0.3] {
+        let d = Orientation::gaussian(GaussianWidth::Sigma(s)).unwrap();
+        assert!(
+            (d.mass_between(0.0, FRAC_PI_2) - 1.0).abs() < 1e-12,
+            "s {s}"
+        );
+        // P(θ ≤ s) = 1 − e^{-1/2} for a Rayleigh tilt (small s).
+        if s < 1e-3 {
+            let want = 1.0 - (-0.5f64).exp();
+            assert!((d.mass_between(0.0, s) - want).abs() < 1e-9, "s {s}");
+        }
+        assert_eq!(d.narrowest_feature(), s);
+        // exp(−θ²/(2s²)) is exactly 0 in f64 beyond 38.7 s (exp(x) = 0 below −745.2).
+        assert_eq!(d.p2(38.7 * s * 1.0001), 0.0);
+        assert!(d.p2(38.0 * s) > 0.0 || 38.0 * s >= FRAC_PI_2);
+        assert_eq!(d.support_end(), FRAC_PI_2.min(38.7 * s));
+    }
+}
+
+#[test]
+fn support_and_features_of_tables() {
+    let e = |x: f64| x.to_radians();
+    let d = Orientation::tabulated(
+        vec![0.0, e(0.5), e(1.0), e(3.0), e(9.0)],
+        vec![0.0, 1.0, 2.0, 0.0],
+    )
+    .unwrap();
+    // Support [0.5°, 3°] (first and last bins empty); the bin [0.5°, 1°] has p2 =
+    // (1/3)/(2π(cos 0.5° − cos 1°)) against (2/3)/(2π(cos 1° − cos 3°)) beside it: 5.3×
+    // as dense (solid angles 0.75 : 8 in units of 2π·(1°)²/2), isolated, so the feature is
+    // its 0.5°. The edges are returned as given.
+    assert!((d.narrowest_feature() - e(0.5)).abs() < 1e-15);
+    let even =
+        Orientation::tabulated(vec![0.0, e(0.5), e(1.0), e(3.0)], vec![0.0, 0.75, 8.0]).unwrap();
+    // Equal p2 in both bins: no isolated bin, the support's 2.5° it is.
+    assert!((even.narrowest_feature() - e(2.5)).abs() < 1e-15);
+    assert_eq!(d.support_end(), e(3.0));
+    assert_eq!(d.bin_edges().unwrap().len(), 5);
+    assert_eq!(Orientation::flat().support_end(), 0.0);
+    // A spike: half the area within 0.002° under a 3° bin (p2 ratio ~ (3/0.002)²/0.8).
+    let spike =
+        Orientation::tabulated(vec![0.0, e(0.002), e(3.0), e(8.0)], vec![0.5, 0.4, 0.1]).unwrap();
+    assert!((spike.narrowest_feature() - e(0.002)).abs() < 1e-18);
+    // A thin ring at 5°, 0.01° wide, on a faint background: isolated.
+    let ring =
+        Orientation::tabulated(vec![0.0, e(5.0), e(5.01), e(20.0)], vec![0.1, 0.5, 0.4]).unwrap();
+    assert!((ring.narrowest_feature() - e(0.01)).abs() < 1e-15);
+    // A smooth table of fine bins (a Gaussian of hwhm 3° on 0.25° bins): no isolated bin,
+    // the feature is its support.
+    let g = Orientation::gaussian(GaussianWidth::Hwhm(e(3.0))).unwrap();
+    let edges: Vec<f64> = (0..=120).map(|k| e(0.25 * f64::from(k))).collect();
+    let masses = edges
+        .windows(2)
+        .map(|w| g.mass_between(w[0], w[1]))
+        .collect();
+    let fine = Orientation::tabulated(edges, masses).unwrap();
+    assert!((fine.narrowest_feature() - e(30.0)).abs() < 1e-12);
+    assert!(
+        Orientation::gaussian(GaussianWidth::Hwhm(0.1))
+            .unwrap()
+            .bin_edges()
+            .is_none()
+    );
+}
+
+#[test]
+fn widths_below_the_resolvable_floor_are_refused() {
+    // Below 1e-10 rad a cone sees the delta limit to double precision (see
+    // MIN_GAUSSIAN_WIDTH); the error names the kind and gives degrees too.
+    let err = Orientation::gaussian(GaussianWidth::Hwhm(1e-11)).unwrap_err();
+    assert!(matches!(
+        err,
+        DistributionError::BadWidth { kind: "hwhm", .. }
+    ));
+    let msg = err.to_string();
+    assert!(msg.contains("degrees") && msg.contains("1e-10"), "{msg}");
+    assert!(Orientation::gaussian(GaussianWidth::Sigma(1e-10)).is_ok());
+}
+
+#[test]
+fn bins_too_narrow_for_double_precision_are_refused_or_harmless() {
+    // [0, 1e-200] rad has a solid angle of ~π·1e-400, which underflows: with area in it
+    // the density would be infinite, so it is refused; empty, it is just a zero bin (it
+    // once gave p2 = 0/0 = NaN).
+    let e = Orientation::tabulated(vec![0.0, 1e-200, 0.1], vec![1.0, 1.0]).unwrap_err();
+    assert!(
+        matches!(e, DistributionError::BinTooNarrow { index: 0, .. }),
+        "{e:?}"
+    );
+    let d = Orientation::tabulated(vec![0.0, 1e-200, 0.1], vec![0.0, 1.0]).unwrap();
+    assert_eq!(d.p2(1e-201), 0.0);
+    assert!(d.p2(0.05).is_finite() && d.p2(0.05) > 0.0);
 }

@@ -7,8 +7,11 @@
 //!
 //! Steps, each with its own random stream (so that changing one effect does not reshuffle
 //! the others, and no result depends on the thread count):
-//! 1. Flakes (sequential stream): for each, diameter, centre `x`, centre `y`, mid-plane
-//!    height `z` (uniform in `[0, film]`), normal (from the orientation distribution).
+//! 1. Flakes (sequential stream): for each, diameter, centre `x`, centre `y`, a uniform
+//!    number `u` for the height, normal (from the orientation distribution). The
+//!    mid-plane height is `h + u (film − 2h)`, `h` the flake's half height at its tilt, so
+//!    that it lies inside the film; a flake that cannot (`2h > film`) draws a new
+//!    diameter and normal until it can (the film rule of the `params` module).
 //! 2. Render the top faces with a z-buffer (`disc` module): label map and face heights.
 //! 3. Flake pixels: face height + roughness field. Background pixels: a height uniform in
 //!    `[0, film]` (stray light from anywhere in the film); they are meant to be masked out
@@ -28,7 +31,7 @@ use rayon::prelude::*;
 use crate::SynthError;
 use crate::disc::{Disc, render};
 use crate::field::{Stream, correlated_field, gaussian_blur, stream_rng};
-use crate::params::{DiameterDistribution, FlakeAmount, LayerParams};
+use crate::params::{DiameterDistribution, FlakeAmount, LayerParams, half_height};
 
 /// Ground truth of one generated flake.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,6 +77,11 @@ pub struct SyntheticLayer {
     /// Every placed flake, in id order (`truth[k].id == k + 1`), including flakes that are
     /// hidden or outside the map (`visible_pixels == 0`).
     pub truth: Vec<TruthFlake>,
+    /// Flakes whose first diameter and normal could not lie inside the film and were
+    /// drawn again (the film rule); at most about
+    /// [`MAX_REDRAWN_FRACTION`](crate::MAX_REDRAWN_FRACTION) of them for validated
+    /// parameters. 0 for [`generate_from_discs`].
+    pub redrawn_flakes: usize,
 }
 
 impl SyntheticLayer {
@@ -94,12 +102,42 @@ impl SyntheticLayer {
 /// [`SynthError::HeightMap`] only if the map cannot be built (not expected for validated
 /// parameters).
 pub fn generate(params: &LayerParams) -> Result<SyntheticLayer, SynthError> {
-    let discs = place_flakes(params);
-    generate_from_discs(params, &discs)
+    let (discs, redrawn) = place(params);
+    let mut layer = generate_from_discs(params, &discs)?;
+    layer.redrawn_flakes = redrawn;
+    Ok(layer)
 }
 
 /// The flakes [`generate`] would place for `params` (step 1 of the module docs).
 pub fn place_flakes(params: &LayerParams) -> Vec<Disc> {
+    place(params).0
+}
+
+/// Draws a diameter, µm.
+fn draw_diameter<R: rand::Rng>(
+    d: DiameterDistribution,
+    lognormal: Option<&LogNormal<f64>>,
+    rng: &mut R,
+) -> f64 {
+    match (d, lognormal) {
+        (DiameterDistribution::LogNormal { mean_um, .. }, Some(ln)) => loop {
+            let d: f64 = ln.sample(rng);
+            if (0.25 * mean_um..=3.0 * mean_um).contains(&d) {
+                break d;
+            }
+        },
+        (DiameterDistribution::LogNormal { mean_um, .. }, None) => mean_um,
+        (DiameterDistribution::Fixed(d), _) => d,
+    }
+}
+
+/// Redraws of one flake before it is laid flat (which always fits: validated parameters
+/// have `thickness ≤ film`). With at most 0.1 % of flakes needing a redraw this is never
+/// reached in practice.
+const MAX_REDRAWS: usize = 10_000;
+
+/// Step 1 of the module docs: the flakes and how many needed a new draw.
+fn place(params: &LayerParams) -> (Vec<Disc>, usize) {
     let s = params.spec();
     let mut rng = stream_rng(s.seed, Stream::Flakes, 0);
     let margin = 0.5 * s.diameter.max_um();
@@ -116,38 +154,46 @@ pub fn place_flakes(params: &LayerParams) -> Vec<Disc> {
     };
     let mut discs = Vec::new();
     let mut area = 0.0;
+    let mut redrawn = 0;
+    let (film, t) = (s.film_um, s.thickness_um);
     loop {
         match s.amount {
             FlakeAmount::Count(n) if discs.len() >= n => break,
             FlakeAmount::Coverage(c) if area >= c * wx * wy => break,
             _ => {}
         }
-        let diameter_um = match (s.diameter, &lognormal) {
-            (DiameterDistribution::LogNormal { mean_um, .. }, Some(ln)) => loop {
-                let d: f64 = ln.sample(&mut rng);
-                if (0.25 * mean_um..=3.0 * mean_um).contains(&d) {
-                    break d;
-                }
-            },
-            (DiameterDistribution::LogNormal { mean_um, .. }, None) => mean_um,
-            (DiameterDistribution::Fixed(d), _) => d,
-        };
+        let mut diameter_um = draw_diameter(s.diameter, lognormal.as_ref(), &mut rng);
         let centre_x_um = x0 + wx * rng.random::<f64>();
         let centre_y_um = y0 + wy * rng.random::<f64>();
-        let centre_z_um = s.film_um * rng.random::<f64>();
-        let normal = s.orientation.sample_normal(&mut rng);
+        let u: f64 = rng.random();
+        let mut normal = s.orientation.sample_normal(&mut rng);
+        // The film rule: a new diameter and normal until the flake fits.
+        if 2.0 * half_height(diameter_um, t, normal.z) > film {
+            redrawn += 1;
+            let mut tries = 0;
+            while 2.0 * half_height(diameter_um, t, normal.z) > film {
+                tries += 1;
+                if tries > MAX_REDRAWS {
+                    normal = Unit::new_unchecked(Vector3::z());
+                    break;
+                }
+                diameter_um = draw_diameter(s.diameter, lognormal.as_ref(), &mut rng);
+                normal = s.orientation.sample_normal(&mut rng);
+            }
+        }
+        let h = half_height(diameter_um, t, normal.z);
         let disc = Disc {
             centre_x_um,
             centre_y_um,
-            centre_z_um,
+            centre_z_um: h + u * (film - 2.0 * h).max(0.0),
             diameter_um,
-            thickness_um: s.thickness_um,
+            thickness_um: t,
             normal,
         };
         area += disc.true_area_um2();
         discs.push(disc);
     }
-    discs
+    (discs, redrawn)
 }
 
 /// Runs steps 2–6 of the module docs on given flakes: the grid, film, roughness,
@@ -156,7 +202,8 @@ pub fn place_flakes(params: &LayerParams) -> Vec<Disc> {
 ///
 /// # Errors
 /// [`SynthError::InvalidDisc`] for a disc with non-finite fields, a diameter ≤ 0, a
-/// negative thickness or a normal that is not a unit vector with `z > 0`;
+/// negative thickness, a normal that is not a unit vector with `z > 0`, or a disc that
+/// does not lie inside the film `[0, film_um]` of `params`;
 /// [`SynthError::TooManyFlakes`] for more than `u32::MAX - 1` discs.
 pub fn generate_from_discs(
     params: &LayerParams,
@@ -168,6 +215,15 @@ pub fn generate_from_discs(
     }
     for (i, d) in discs.iter().enumerate() {
         d.validate(i)?;
+        // Inside the film, up to rounding of the placement above.
+        let h = half_height(d.diameter_um, d.thickness_um, d.normal.z);
+        let slack = 1e-9 * s.film_um.max(1.0);
+        if d.centre_z_um - h < -slack || d.centre_z_um + h > s.film_um + slack {
+            return Err(SynthError::InvalidDisc {
+                index: i,
+                reason: "does not lie inside the film: its centre height must be within half its height span (t cos θ + d sin θ)/2 of [0, film_um]",
+            });
+        }
     }
     let (nx, ny, dx, dy) = (s.nx, s.ny, s.dx_um, s.dy_um);
     let (mut z, labels) = render(nx, ny, dx, dy, discs);
@@ -245,7 +301,7 @@ pub fn generate_from_discs(
             TruthFlake {
                 id: (i + 1) as u32,
                 normal: m,
-                theta_n: m.z.clamp(-1.0, 1.0).acos(),
+                theta_n: m.x.hypot(m.y).atan2(m.z),
                 phi_n: m.y.atan2(m.x).rem_euclid(2.0 * PI),
                 centre_x_um: d.centre_x_um,
                 centre_y_um: d.centre_y_um,
@@ -277,6 +333,7 @@ pub fn generate_from_discs(
         intensity: inten,
         labels,
         truth,
+        redrawn_flakes: 0,
     })
 }
 

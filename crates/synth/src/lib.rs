@@ -45,6 +45,6 @@ pub use generate::{
 };
 pub use params::{
     Confocal, DiameterDistribution, FlakeAmount, IntensityLevels, LayerParams, LayerSpec,
-    MAX_PIXELS, Roughness,
+    MAX_FLAKES, MAX_PIXELS, MAX_REDRAWN_FRACTION, Param, Roughness,
 };
 pub use stack::{AxialResponse, BitDepth, StackSpec, SyntheticStack};

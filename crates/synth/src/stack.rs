@@ -42,7 +42,7 @@ use rayon::prelude::*;
 use crate::SynthError;
 use crate::field::{Stream, stream_rng};
 use crate::generate::SyntheticLayer;
-use crate::params::LayerParams;
+use crate::params::{LayerParams, Param};
 
 /// `sinc²(x) = ½` at `x = 1.391557…` (the root of `sin x = x / √2`).
 const SINC2_HALF: f64 = 1.391_557_378_251_51;
@@ -179,9 +179,9 @@ pub struct SyntheticStack {
     amplitude: Vec<f64>,
 }
 
-fn invalid(field: &'static str, value: f64, expected: &'static str) -> SynthError {
+fn invalid(param: Param, value: f64, expected: &'static str) -> SynthError {
     SynthError::InvalidParameter {
-        field,
+        param,
         value,
         expected,
     }
@@ -203,40 +203,44 @@ impl SyntheticStack {
         let c = params.spec().confocal;
         if c.z_step_um != 0.0 {
             return Err(invalid(
-                "z_step_um",
+                Param::ZStepUm,
                 c.z_step_um,
                 "0 in the layer rendered as a stack (the stack samples z itself)",
             ));
         }
         if c.noise_sd_um != 0.0 {
             return Err(invalid(
-                "height_noise_sd_um",
+                Param::HeightNoiseSdUm,
                 c.noise_sd_um,
                 "0 in the layer rendered as a stack (the stack adds its own noise)",
             ));
         }
         let s = spec;
         if !(s.z_step_um.is_finite() && s.z_step_um > 0.0) {
-            return Err(invalid("stack_z_step_um", s.z_step_um, "finite and > 0"));
+            return Err(invalid(Param::StackZStepUm, s.z_step_um, "finite and > 0"));
         }
         if s.slices < 3 || s.slices > 100_000 {
-            return Err(invalid("stack_slices", s.slices as f64, "in 3..=100000"));
+            return Err(invalid(
+                Param::StackSlices,
+                s.slices as f64,
+                "in 3..=100000",
+            ));
         }
         if !s.z_first_um.is_finite() {
-            return Err(invalid("stack_z_first_um", s.z_first_um, "finite"));
+            return Err(invalid(Param::StackZFirstUm, s.z_first_um, "finite"));
         }
         let w = s.axial.fwhm_um();
         if !(w.is_finite() && w > 0.0) {
-            return Err(invalid("axial_fwhm_um", w, "finite and > 0"));
+            return Err(invalid(Param::AxialFwhmUm, w, "finite and > 0"));
         }
         if !(s.photons.is_finite() && s.photons > 0.0) {
-            return Err(invalid("photons", s.photons, "finite and > 0"));
+            return Err(invalid(Param::Photons, s.photons, "finite and > 0"));
         }
         if !(s.read_noise.is_finite() && s.read_noise >= 0.0) {
-            return Err(invalid("read_noise", s.read_noise, "finite and >= 0"));
+            return Err(invalid(Param::ReadNoise, s.read_noise, "finite and >= 0"));
         }
         if !(s.aperture_sin > 0.0 && s.aperture_sin <= 1.0) {
-            return Err(invalid("aperture_sin", s.aperture_sin, "in (0, 1]"));
+            return Err(invalid(Param::ApertureSin, s.aperture_sin, "in (0, 1]"));
         }
         let map = &layer.height;
         let levels = params.spec().intensity;
@@ -300,7 +304,11 @@ impl SyntheticStack {
     /// [`SynthError::InvalidParameter`] for `k ≥ slices`.
     pub fn slice(&self, k: usize) -> Result<Vec<u16>, SynthError> {
         if k >= self.spec.slices {
-            return Err(invalid("slice", k as f64, "below the number of slices"));
+            return Err(invalid(
+                Param::Slice,
+                k as f64,
+                "below the number of slices",
+            ));
         }
         let s = self.spec;
         let z = self.slice_z_um(k);

@@ -60,7 +60,7 @@ fn err(f: impl FnOnce(&mut LayerSpec)) -> SynthError {
 
 fn field_of(e: &SynthError) -> &'static str {
     match e {
-        SynthError::InvalidParameter { field, .. } => field,
+        SynthError::InvalidParameter { param, .. } => param.name(),
         other => panic!("expected InvalidParameter, got {other:?}"),
     }
 }

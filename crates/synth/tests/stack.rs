@@ -10,7 +10,7 @@
 use flakescatter_stats::distribution::{GaussianWidth, Orientation};
 use flakescatter_synth::stack::tilt_factor;
 use flakescatter_synth::{
-    AxialResponse, BitDepth, DiameterDistribution, Disc, LayerParams, LayerSpec, StackSpec,
+    AxialResponse, BitDepth, DiameterDistribution, Disc, LayerParams, LayerSpec, Param, StackSpec,
     SynthError, SyntheticStack, generate, generate_from_discs,
 };
 use nalgebra::{Unit, Vector3};
@@ -54,7 +54,7 @@ fn tilt_factor_is_the_pupil_overlap() {
     assert_eq!(tilt_factor(46f64.to_radians(), 1.0), 0.0);
 }
 
-/// A map fully covered by one flat disc at height 2 µm (tilted by `theta`).
+/// A map fully covered by one flat disc centred at height 2 µm (tilted by `theta`).
 fn flat(theta: f64, n: usize) -> (LayerParams, flakescatter_synth::SyntheticLayer) {
     let o = Orientation::gaussian(GaussianWidth::Hwhm(0.05)).unwrap();
     let mut spec = LayerSpec::new(n, n, o, 1);
@@ -67,7 +67,9 @@ fn flat(theta: f64, n: usize) -> (LayerParams, flakescatter_synth::SyntheticLaye
         centre_x_um: c,
         centre_y_um: c,
         centre_z_um: 2.0,
-        diameter_um: 1000.0,
+        // Twice the map's diagonal: the disc covers every pixel and, tilted, still lies
+        // inside the film (the generator refuses a disc poking out of it).
+        diameter_um: 2.0 * (2.0 * c) * std::f64::consts::SQRT_2,
         thickness_um: 0.0,
         normal,
     };
@@ -138,7 +140,10 @@ fn stacks_are_reproducible_and_bad_input_is_refused() {
     assert_ne!(stack.slice(8).unwrap(), a);
     assert!(matches!(
         stack.slice(20),
-        Err(SynthError::InvalidParameter { field: "slice", .. })
+        Err(SynthError::InvalidParameter {
+            param: Param::Slice,
+            ..
+        })
     ));
     // A quantised or noisy layer is not an exact surface.
     for (z, noise, field) in [(0.3, 0.0, "z_step_um"), (0.0, 0.01, "height_noise_sd_um")] {
@@ -149,7 +154,7 @@ fn stacks_are_reproducible_and_bad_input_is_refused() {
         let l = generate(&p).unwrap();
         let e = SyntheticStack::new(&spec, &p, &l).unwrap_err();
         assert!(
-            matches!(e, SynthError::InvalidParameter { field: f, .. } if f == field),
+            matches!(e, SynthError::InvalidParameter { param: p, .. } if p.name() == field),
             "{e}"
         );
     }
@@ -186,7 +191,7 @@ fn stacks_are_reproducible_and_bad_input_is_refused() {
     ] {
         let e = SyntheticStack::new(&bad, &params, &layer).unwrap_err();
         assert!(
-            matches!(e, SynthError::InvalidParameter { field: f, .. } if f == field),
+            matches!(e, SynthError::InvalidParameter { param: p, .. } if p.name() == field),
             "{e}"
         );
     }

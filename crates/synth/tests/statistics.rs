@@ -68,13 +68,30 @@ fn area_weighted_normals_follow_the_requested_gaussian() {
     let (d, n) = ks_distance(phis, |p| p / (2.0 * PI));
     assert!(d < 1.95 / n.sqrt(), "phi: D = {d}");
     // Positions uniform over the placement region (map plus half the largest diameter,
-    // 3 × 16 / 2 = 24 µm, on each side), heights uniform in the 38 µm film.
+    // 3 × 16 / 2 = 24 µm, on each side); heights uniform over where each flake fits in
+    // the 38 µm film (the film rule): a disc tilted by θ spans t cos θ + d sin θ, half of
+    // it h above and below its centre, so (z − h)/(38 − 2h) is uniform on [0, 1] and
+    // every flake lies inside [0, 38].
     let (lo, w) = (-0.09 - 24.0, 64.0 * 0.18 + 48.0);
     let xs: Vec<(f64, f64)> = discs.iter().map(|d| (d.centre_x_um, 1.0)).collect();
     let (d, n) = ks_distance(xs, |x| ((x - lo) / w).clamp(0.0, 1.0));
     assert!(d < 1.95 / n.sqrt(), "x: D = {d}");
-    let zs: Vec<(f64, f64)> = discs.iter().map(|d| (d.centre_z_um, 1.0)).collect();
-    let (d, n) = ks_distance(zs, |z| (z / 38.0).clamp(0.0, 1.0));
+    let half = |d: &Disc| {
+        let nz = d.normal.z;
+        0.5 * (d.thickness_um * nz + d.diameter_um * (1.0 - nz * nz).sqrt())
+    };
+    for d in &discs {
+        let h = half(d);
+        assert!(
+            d.centre_z_um - h >= -1e-9 && d.centre_z_um + h <= 38.0 + 1e-9,
+            "{d:?}"
+        );
+    }
+    let us: Vec<(f64, f64)> = discs
+        .iter()
+        .map(|d| ((d.centre_z_um - half(d)) / (38.0 - 2.0 * half(d)), 1.0))
+        .collect();
+    let (d, n) = ks_distance(us, |u| u.clamp(0.0, 1.0));
     assert!(d < 1.95 / n.sqrt(), "z: D = {d}");
 }
 

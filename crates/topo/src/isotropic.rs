@@ -133,7 +133,7 @@ use rayon::prelude::*;
 
 use crate::TopoError;
 use crate::index::ConeIndex;
-use crate::model::{TopoModel, TopoOptions, TopoPoint};
+use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning};
 use crate::normals::{Rect, Scratch, direct_slopes, tile_slopes};
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
@@ -198,6 +198,8 @@ pub struct IsotropicResult {
     pub node_spacing: f64,
     /// Table nodes evaluated, summed over incidences.
     pub nodes: usize,
+    /// What the tile count says about the standard errors (as [`crate::TopoResult::warnings`]).
+    pub warnings: Vec<TopoWarning>,
 }
 
 impl IsotropicResult {
@@ -1198,11 +1200,9 @@ impl TopoModel {
         }
         let inv_n = 1.0 / pixels as f64;
         let t = total_tiles as f64;
-        let se_factor = if total_tiles > 1 {
-            t / (t - 1.0)
-        } else {
-            f64::NAN
-        };
+        // No spread to estimate from with one tile, nor in a detector no ring reached
+        // (as in the plain model): None, not NaN.
+        let se_factor = (total_tiles > 1).then(|| t / (t - 1.0));
         let ncones = cones.len();
         let mut points = Vec::with_capacity(ninc * ncones);
         let mut interpolation_error = Vec::with_capacity(ninc * ncones);
@@ -1214,7 +1214,10 @@ impl TopoModel {
                 let s = ii * ndet + d;
                 let seen_cc = opts.clearcoat && inc.cones[d].contains(&specular);
                 let rho = sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
-                (rho, (se_factor * m2[s]).sqrt() * inv_n, seen_cc)
+                let se = se_factor
+                    .filter(|_| rays[s] > 0)
+                    .map(|f| (f * m2[s]).sqrt() * inv_n);
+                (rho, se, seen_cc)
             };
             for (j, cone) in cones.iter().enumerate() {
                 let (rho, se, seen_cc) = value(j);
@@ -1231,7 +1234,7 @@ impl TopoModel {
                     reflectance: rho,
                     reflectance_std_err: se,
                     brdf: rho / proj,
-                    brdf_std_err: se / proj,
+                    brdf_std_err: se.map(|e| e / proj),
                     rays: rays[s],
                     relative: if spec > 0.0 { rho / spec } else { f64::NAN },
                     clearcoat_seen: seen_cc,
@@ -1251,6 +1254,7 @@ impl TopoModel {
             tiles: total_tiles,
             block_um: self.block_um(),
             node_spacing: delta,
+            warnings: crate::model::tile_warnings(total_tiles),
             nodes,
         })
     }

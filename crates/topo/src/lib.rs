@@ -57,7 +57,9 @@ pub mod normals;
 pub mod pixels;
 
 pub use isotropic::{DEFAULT_NODES_PER_APERTURE, IsotropicOptions, IsotropicResult};
-pub use model::{DEFAULT_BLOCK_UM, TopoModel, TopoOptions, TopoPoint, TopoResult};
+pub use model::{
+    DEFAULT_BLOCK_UM, MIN_TILES, TopoModel, TopoOptions, TopoPoint, TopoResult, TopoWarning,
+};
 pub use normals::{Normals, normal_from_slopes};
 pub use pixels::{PixelTilts, TileTilts};
 

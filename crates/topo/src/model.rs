@@ -45,7 +45,20 @@
 //! (identical to the delete-one block jackknife for a sum). Flakes cut by tile edges
 //! make neighbouring tiles slightly correlated, which biases `se` low by a few per cent
 //! when flakes are much smaller than tiles, more when they are not; use tiles of a few
-//! flake diameters. With a single tile the standard error is NaN.
+//! flake diameters.
+//!
+//! When the standard error cannot be estimated it is `None`, never NaN or 0:
+//! * with fewer than 2 tiles (a map smaller than one tile, or a huge tile side) there is
+//!   no spread to estimate from: every row's error is `None` and
+//!   [`TopoResult::warnings`] holds [`TopoWarning::StdErrNotEstimable`];
+//! * a detector that received no ray has nothing to spread either (the between-tile
+//!   formula would give 0, a claim of certainty): its error is `None` and `rays = 0`
+//!   says why. An upper bound is not given: rays are not independent (one flake sends
+//!   hundreds into the same direction), so a Poisson bound on zero rays would need the
+//!   number of flakes the detector could have seen, which the map does not tell.
+//!
+//! With 2 to [`MIN_TILES`]` − 1` tiles the errors are estimated but rest on very few
+//! samples; [`TopoWarning::FewTiles`] says so.
 //!
 //! # Determinism
 //! Tiles are fixed by the map size and pitch, each tile is traced sequentially, and the
@@ -66,6 +79,52 @@ use crate::normals::{Normals, Rect, Scratch, tile_slopes};
 
 /// Side of the square statistics tiles, µm (see the module docs on uncertainty).
 pub const DEFAULT_BLOCK_UM: f64 = 32.0;
+
+/// Fewer statistics tiles than this earn a [`TopoWarning::FewTiles`].
+pub const MIN_TILES: u64 = 10;
+
+/// Why a result's uncertainties deserve caution.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TopoWarning {
+    /// Fewer than 2 statistics tiles: no standard error can be estimated (all `None`).
+    StdErrNotEstimable {
+        /// Tiles over all maps.
+        tiles: u64,
+    },
+    /// Between 2 and [`MIN_TILES`]` − 1` tiles: the standard errors rest on few samples.
+    FewTiles {
+        /// Tiles over all maps.
+        tiles: u64,
+    },
+}
+
+impl std::fmt::Display for TopoWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Self::StdErrNotEstimable { tiles } => write!(
+                f,
+                "standard errors not estimable: they come from the spread between map tiles and there is {tiles} tile; use smaller tiles or more or larger maps"
+            ),
+            Self::FewTiles { tiles } => write!(
+                f,
+                "standard errors rest on only {tiles} map tiles (fewer than {MIN_TILES}): they are themselves uncertain by about {:.0} % (1/sqrt(2(tiles - 1)))",
+                100.0 / (2.0 * (tiles as f64 - 1.0)).sqrt()
+            ),
+        }
+    }
+}
+
+/// What the number of statistics tiles says about the standard errors (shared by the
+/// plain and the isotropic model).
+pub(crate) fn tile_warnings(total_tiles: u64) -> Vec<TopoWarning> {
+    if total_tiles < 2 {
+        vec![TopoWarning::StdErrNotEstimable { tiles: total_tiles }]
+    } else if total_tiles < MIN_TILES {
+        vec![TopoWarning::FewTiles { tiles: total_tiles }]
+    } else {
+        Vec::new()
+    }
+}
 
 /// Tiles traced between two progress reports (and held in memory at once).
 const BATCH: usize = 256;
@@ -117,12 +176,13 @@ pub struct TopoPoint {
     /// Fraction of the incident beam power collected (including the clear coat when it
     /// is on and seen).
     pub reflectance: f64,
-    /// Standard error of `reflectance` from the spread between tiles.
-    pub reflectance_std_err: f64,
+    /// Standard error of `reflectance` from the spread between tiles; `None` when it
+    /// cannot be estimated (fewer than 2 tiles, or no ray in this detector; module docs).
+    pub reflectance_std_err: Option<f64>,
     /// BRDF averaged over the cone: `reflectance / (cos θj · π sin²α)`, sr⁻¹.
     pub brdf: f64,
-    /// Standard error of `brdf`, sr⁻¹.
-    pub brdf_std_err: f64,
+    /// Standard error of `brdf`, sr⁻¹; `None` as for `reflectance_std_err`.
+    pub brdf_std_err: Option<f64>,
     /// Number of rays counted in the detector.
     pub rays: u64,
     /// `reflectance` divided by that of a cone of the same aperture at the specular
@@ -156,6 +216,8 @@ pub struct TopoResult {
     pub tiles: u64,
     /// Tile side, µm.
     pub block_um: f64,
+    /// Cautions about the uncertainties (empty when none).
+    pub warnings: Vec<TopoWarning>,
 }
 
 impl TopoResult {
@@ -456,11 +518,9 @@ impl TopoModel {
         }
         let inv_n = 1.0 / pixels as f64;
         let t = total_tiles as f64;
-        let se_factor = if total_tiles > 1 {
-            t / (t - 1.0)
-        } else {
-            f64::NAN
-        };
+        // No spread to estimate from with one tile (module docs): None, not NaN.
+        let se_factor = (total_tiles > 1).then(|| t / (t - 1.0));
+        let warnings = tile_warnings(total_tiles);
         let ncones = cones.len();
         let mut points = Vec::with_capacity(theta_i.len() * ncones);
         for (ii, &ti) in theta_i.iter().enumerate() {
@@ -473,7 +533,11 @@ impl TopoModel {
                 let s = ii * ndet + d;
                 let seen_cc = self.options.clearcoat && all[d].contains(&specular);
                 let rho = sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
-                (rho, (se_factor * m2[s]).sqrt() * inv_n, seen_cc)
+                // A detector without rays has no spread either (module docs).
+                let se = se_factor
+                    .filter(|_| rays[s] > 0)
+                    .map(|f| (f * m2[s]).sqrt() * inv_n);
+                (rho, se, seen_cc)
             };
             for (j, cone) in cones.iter().enumerate() {
                 let (rho, se, seen_cc) = value(j);
@@ -489,7 +553,7 @@ impl TopoModel {
                     reflectance: rho,
                     reflectance_std_err: se,
                     brdf: rho / proj,
-                    brdf_std_err: se / proj,
+                    brdf_std_err: se.map(|e| e / proj),
                     rays: rays[ii * ndet + j],
                     relative: if spec > 0.0 { rho / spec } else { f64::NAN },
                     clearcoat_seen: seen_cc,
@@ -506,6 +570,7 @@ impl TopoModel {
             rays_lost_down: lost_down,
             tiles: total_tiles,
             block_um: self.block_um,
+            warnings,
         })
     }
 }

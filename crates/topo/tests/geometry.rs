@@ -310,7 +310,7 @@ fn result_is_bit_identical_for_any_thread_count() {
             .flat_map(|p| {
                 [
                     p.reflectance.to_bits(),
-                    p.reflectance_std_err.to_bits(),
+                    p.reflectance_std_err.map_or(0, f64::to_bits),
                     p.brdf.to_bits(),
                     p.relative.to_bits(),
                     p.rays,

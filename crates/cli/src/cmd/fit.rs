@@ -10,7 +10,7 @@ use flakescatter::io::flakes::write_histogram_bins;
 use serde_json::{Value, json};
 
 use crate::flags::MeasuredArgs;
-use crate::output::{Kind, Plan, print, print_json};
+use crate::output::{Kind, Plan, print, print_json, warn};
 use crate::parse::{angles, deg, deg_num, fixed, shortest};
 
 /// Fit the flake orientation distribution to a measured curve.
@@ -211,6 +211,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let fit = fit_gaussian(&measured, &setup, args.hwhm_start.to_radians(), args.fit_n)
         .with_context(|| format!("Gaussian fit of {}", measured.file))?;
+    for w in &fit.warnings {
+        warn(&format!("{}: {w}", measured.file));
+    }
     plan.finish()?;
     if args.json {
         print_json(&gaussian_json(&fit, inputs))
@@ -256,7 +259,9 @@ fn gaussian_json(fit: &GaussianFit, inputs: Value) -> Value {
         "dof": fit.dof,
         "points": fit.points,
         "iterations": fit.iterations,
-        "uncertainty_basis": if fit.uncertainties_given { "the file's uncertainties" } else { "residual scatter (no uncertainty column)" },
+        "uncertainty_basis": fit.uncertainty_basis.describe(),
+        "uncertainty_scale": fit.uncertainty_scale,
+        "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
         "default_region_deg": [deg_num(SPECULAR_REGION), deg_num(FAR_REGION)],
     })
 }

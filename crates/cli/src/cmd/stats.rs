@@ -142,6 +142,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "fit": "maximum likelihood, Gaussian p_tilde ∝ exp(-θ²/(2 sigma²)) on [0, 90°), area-weighted",
             "hwhm_deg": fit.hwhm().to_degrees(),
             "hwhm_ci95_deg": [finite(lo.to_degrees()), finite(hi.to_degrees())],
+            "hwhm_ci95_method": fit.ci_method.describe(),
             "sigma_deg": fit.sigma.to_degrees(),
             "effective_flakes": fit.effective_n,
             "histogram_bins": hist.bins().len(),

@@ -7,7 +7,8 @@ use flakescatter::io::{MapFormat, write_intensity, write_map};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::synth::{
-    DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, SynthError, generate, truth_csv,
+    DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, Param, SynthError, generate,
+    truth_csv,
 };
 
 use crate::output::{Kind, Plan, print_json};
@@ -150,44 +151,6 @@ pub struct Args {
     pub json: bool,
 }
 
-/// The flag of a generator parameter (for messages in the user's terms).
-fn flag_of(field: &str) -> &'static str {
-    match field {
-        "dx_um" | "dy_um" => "--pixel-um",
-        "film_um" => "--film-um",
-        "thickness_um" => "--thickness-um",
-        "diameter_um" | "diameter_mean_um" => "--diameter-um",
-        "diameter_rel_sd" => "--diameter-rel-sd",
-        "coverage" => "--coverage",
-        "count" => "--count",
-        "roughness_rms_um" => "--roughness-um",
-        "roughness_correlation_um" => "--correlation-um",
-        "psf_sd_um" => "--psf-sd-um",
-        "z_step_um" => "--z-step-um",
-        "height_noise_sd_um" => "--height-noise-um",
-        _ => "a parameter",
-    }
-}
-
-/// A generator error in terms of the flags.
-fn explain(e: SynthError) -> anyhow::Error {
-    match e {
-        SynthError::InvalidParameter {
-            field,
-            value,
-            expected,
-        } => anyhow::anyhow!(
-            "{} {value}: expected {expected}{}",
-            flag_of(field),
-            if field.ends_with("_um") { " (µm)" } else { "" }
-        ),
-        SynthError::EmptyMap { .. } | SynthError::TooLarge { .. } => {
-            anyhow::anyhow!("--size: {e}")
-        }
-        other => anyhow::Error::new(other).context("invalid synth parameters (see --help)"),
-    }
-}
-
 /// Writes a map output through the output layer (X3P, or text for `.txt`).
 fn write_out(plan: &mut Plan, map: &HeightMap, path: &Path, intensity: bool) -> anyhow::Result<()> {
     let is_txt = path
@@ -260,7 +223,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     spec.confocal.psf_sd_um = args.psf_sd_um;
     spec.confocal.z_step_um = args.z_step_um;
     spec.confocal.noise_sd_um = args.height_noise_um;
-    let params = LayerParams::new(spec).map_err(explain)?;
+    let params = LayerParams::new(spec).map_err(|e| invalid(&e))?;
     plan.check()?;
     let layer = generate(&params).context("generating the layer")?;
 
@@ -316,6 +279,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "height_um": s.ny as f64 * s.dy_um,
             "flakes_placed": layer.truth.len(),
             "flakes_visible": layer.visible_flakes().count(),
+            "flakes_redrawn_to_fit_the_film": layer.redrawn_flakes,
             "covered_fraction": layer.covered_fraction(),
             "suggested_cutoff": s.intensity.midpoint(),
             "height_file": show(&args.out),
@@ -324,4 +288,65 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }))?;
     }
     Ok(())
+}
+
+/// The flag a library parameter comes from, if it has one.
+fn flag(param: Param) -> Option<&'static str> {
+    Some(match param {
+        Param::DxUm | Param::DyUm => "--pixel-um",
+        Param::FilmUm => "--film-um",
+        Param::ThicknessUm => "--thickness-um",
+        Param::DiameterMeanUm => "--diameter-um",
+        Param::DiameterRelSd => "--diameter-rel-sd",
+        Param::Coverage => "--coverage",
+        Param::Count => "--count",
+        Param::RoughnessRmsUm => "--roughness-um",
+        Param::RoughnessCorrelationUm => "--correlation-um",
+        Param::PsfSdUm => "--psf-sd-um",
+        Param::ZStepUm => "--z-step-um",
+        Param::HeightNoiseSdUm => "--height-noise-um",
+        _ => return None,
+    })
+}
+
+/// A refused specification, in the flags and units the user typed (µm for lengths).
+fn invalid(e: &SynthError) -> anyhow::Error {
+    match *e {
+        SynthError::InvalidParameter {
+            param,
+            value,
+            expected,
+        } => match flag(param) {
+            Some(f) => anyhow::anyhow!(
+                "{f} {value}: expected {expected}{}",
+                if param.name().ends_with("_um") {
+                    " (µm)"
+                } else {
+                    ""
+                }
+            ),
+            None => anyhow::anyhow!("invalid synth parameters (see --help): {e}"),
+        },
+        SynthError::FilmThinnerThanFlakes {
+            film_um,
+            thickness_um,
+        } => anyhow::anyhow!(
+            "--film-um {film_um}: the film is thinner than the flakes (--thickness-um {thickness_um}); every flake must lie inside the film"
+        ),
+        SynthError::FlakesDoNotFit {
+            film_um,
+            diameter_um,
+            max_diameter_um,
+            thickness_um,
+            fraction,
+        } => anyhow::anyhow!(
+            "--film-um {film_um}: flakes of --diameter-um {diameter_um} (up to {max_diameter_um} um) and --thickness-um {thickness_um} do not fit: {:.2} % of them are tilted too far to lie inside the film (at most {:.1} % may be drawn again); use a thicker --film-um, a smaller --diameter-um or a narrower --hwhm",
+            100.0 * fraction,
+            100.0 * flakescatter::synth::MAX_REDRAWN_FRACTION
+        ),
+        SynthError::EmptyMap { .. } | SynthError::TooLarge { .. } => {
+            anyhow::anyhow!("--size: {e}")
+        }
+        _ => anyhow::anyhow!("invalid synth parameters (see --help): {e}"),
+    }
 }

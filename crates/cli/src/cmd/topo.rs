@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::chart::topographic_chart;
 use flakescatter::stats::heightmap::HeightMap;
-use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult};
+use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult, TopoWarning};
 use flakescatter::{Curves, TopoSettings, topographic_curves};
 use serde_json::{Value, json};
 
@@ -23,7 +23,7 @@ use crate::tables::{curve_warnings, rows_json, units_json, write_curves};
 /// aperture_deg, brdf_per_sr, reflectance (fraction of the beam over all pixels of all
 /// maps), relative (to the same detector at the specular direction), rays (rays counted
 /// in the detector) and std_err (standard error of brdf_per_sr, from the spread between
-/// map tiles of --tile-um; empty when it cannot be estimated).
+/// map tiles of --tile-um; empty when not estimable: fewer than 2 tiles, or no ray).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Height maps (X3P, SDF or plain text, recognised from the content); all are traced
@@ -171,7 +171,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let warnings = curve_warnings(&curves, true);
+    let mut warnings: Vec<String> = result
+        .warnings
+        .iter()
+        .map(|w| format!("{w} (--tile-um {})", args.tile_um))
+        .collect();
+    // Rows without a standard error are counted unless the model already said that none
+    // can be estimated.
+    let all_missing = result
+        .warnings
+        .iter()
+        .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
+    warnings.extend(curve_warnings(&curves, !all_missing));
     for w in &warnings {
         warn(w);
     }
@@ -248,10 +259,11 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
             "rays_lost_down": r.rays_lost_down,
             "tiles": r.tiles,
         },
+        "warnings": r.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
         "units": {
             "columns": units_json(),
             "rays": "number of rays counted in the detector",
-            "std_err": "1/sr, standard error of brdf_per_sr from the spread between map tiles (null when it cannot be estimated)",
+            "std_err": "1/sr, standard error of brdf_per_sr from the spread between map tiles; null (empty in the CSV) when not estimable: fewer than 2 tiles, or no ray in the detector",
             "reflectance_normalisation": "fraction of the incident beam over all pixels of all maps (invalid pixels are black substrate)",
         },
         "out": args.out.as_ref().map(|p| p.display().to_string()),

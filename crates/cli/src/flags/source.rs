@@ -44,10 +44,12 @@ pub struct OrientationArgs {
     pub distribution: Option<PathBuf>,
 }
 
-/// Validate a width flag (degrees) and convert it.
+/// Validate a width flag (degrees) and convert it: finite, at least the library's
+/// smallest Gaussian width, below 90°.
 pub fn width(flag: &str, deg: f64) -> anyhow::Result<f64> {
-    if !(deg.is_finite() && deg > 0.0 && deg < 90.0) {
-        bail!("{flag} {deg}: the width must be > 0 and < 90 degrees");
+    let min_deg = flakescatter::stats::distribution::MIN_GAUSSIAN_WIDTH.to_degrees();
+    if !(deg.is_finite() && deg >= min_deg && deg < 90.0) {
+        bail!("{flag} {deg}: the width must be at least {min_deg:.1e} and below 90 degrees");
     }
     Ok(deg.to_radians())
 }

@@ -14,7 +14,9 @@ use super::{
 };
 use crate::PipelineError;
 use crate::chart::{Chart, Series, Style, THETA_S_LABEL};
-use crate::compare::{IncidenceComparison, MeasuredKind, ModelPoint, compare, distribution_points};
+use crate::compare::{
+    IncidenceComparison, MeasuredKind, ModelPoint, Region, compare, distribution_points,
+};
 use crate::pipeline::{Coating, TopoSettings, topographic_curves};
 
 /// The measured curve in the `compare --measured` format.
@@ -197,7 +199,7 @@ pub(super) fn fig10(
                     && (ctx.theta_s_deg[r.detector].to_radians() - ts).abs() < 1e-9
             })
         };
-        let kept = MeasuredCurve {
+        let mut kept = MeasuredCurve {
             file: measured.file.clone(),
             points: measured
                 .points
@@ -206,6 +208,25 @@ pub(super) fn fig10(
                 .copied()
                 .collect(),
         };
+        // With ~70 flakes a map may send no ray at all 5°–40° from specular at some
+        // incidence (the smooth fixture's terraces send light to specular or far from
+        // it): there is no scale to fit, so that incidence is not shown for this map.
+        for ti in kept.incidences() {
+            let fittable = kept
+                .points
+                .iter()
+                .any(|p| p.theta_i == ti && Region::of(ti, p.theta_s) == Region::NearSpecular);
+            if !fittable {
+                kept.points.retain(|p| p.theta_i != ti);
+                notes.push(format!(
+                    "`{stem}` at θi = {}°: no ray 5°–40° from specular, so no scale to fit; not shown",
+                    deg(ti)
+                ));
+            }
+        }
+        if kept.points.is_empty() {
+            continue;
+        }
         let model = |ti: f64, ts: &[f64]| -> Result<Vec<ModelPoint>, PipelineError> {
             ts.iter()
                 .map(|&t| {
@@ -246,15 +267,17 @@ pub(super) fn fig10(
             json_rows.push(comparison_json(&format!("topographic, {stem}"), r, dropped));
             for p in &r.points {
                 let row = lookup(p.theta_i, p.theta_s).copied();
-                let se = row.and_then(|x| x.std_err).unwrap_or(0.0) * r.scale;
+                // Empty when the map's tiles cannot give a standard error.
+                let se = row
+                    .and_then(|x| x.std_err)
+                    .map_or_else(String::new, |e| format!("{:.3e}", e * r.scale));
                 let _ = writeln!(
                     csv,
-                    "{stem},{ti},{},{},{:.9e},{:.9e},{:.3e},{},{:.6e}",
+                    "{stem},{ti},{},{},{:.9e},{:.9e},{se},{},{:.6e}",
                     deg(p.theta_s),
                     p.region.name(),
                     p.measured,
                     p.model,
-                    se,
                     row.and_then(|x| x.rays).unwrap_or(0),
                     r.scale
                 );
