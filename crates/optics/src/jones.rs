@@ -1,0 +1,248 @@
+//! Jones calculus of one ray through the coating: refraction in, reflection by a flake
+//! in the flake's own plane of incidence, refraction out (physics.md §8).
+//!
+//! # Conventions (SCATMECH's, so that results compare element by element)
+//! * Jones vectors are field components `(E_s, E_p)` in a right-handed basis
+//!   `{s, p, k}` of the propagation direction `k`: `s = (z × k)/|z × k|` (horizontal,
+//!   perpendicular to the plane that contains `k` and the coating normal `z`) and
+//!   `p = k × s`. For a direction along `±z` exactly, `s = y`. For the incident
+//!   direction `k_in = (sin θi, 0, −cos θi)` this gives `s = y`,
+//!   `p = (cos θi, 0, sin θi)`; for an exit direction `(θr, φr)`,
+//!   `s = (−sin φr, cos φr, 0)`, `p = (−cos θr cos φr, −cos θr sin φr, sin θr)`.
+//! * Time dependence `exp(−iωt)`: an absorbing index is `n + ik` with `k ≥ 0`.
+//! * A [`JonesMatrix`] `J` maps the incident field to the outgoing one,
+//!   `E_out = J E_in`; `J[(a, b)]` with index 0 = s, 1 = p, row = outgoing basis,
+//!   column = incident basis. (SCATMECH stores the same four numbers as
+//!   `{pp, ss, ps, sp}` with `ps` = p→s.)
+//! * At each interface the Fresnel amplitudes of physics.md §2 hold in the local basis
+//!   `{s, p = k × s}` shared by the incoming and outgoing wave (`s` perpendicular to
+//!   the local plane of incidence): `rs = (n1 c1 − n2 c2)/(n1 c1 + n2 c2)`,
+//!   `rp = (n2 c1 − n1 c2)/(n2 c1 + n1 c2)`, `ts = 2 n1 c1/(n1 c1 + n2 c2)`,
+//!   `tp = 2 n1 c1/(n2 c1 + n1 c2)`. A perfect conductor has `rs = −1`, `rp = +1`.
+//! * The frame rotations between the planes of incidence (clear coat → flake → clear
+//!   coat) are the dot products of the basis vectors: both bases of a direction are
+//!   right-handed about it, so each rotation is `[[c, d], [−d, c]]`.
+//!
+//! [`RayPath::transfer`] gives the amplitude matrix of the whole path and the power
+//! factor `(cos θt/cos θi)(cos θo/cos θ2)` that turns amplitudes into fractions of the
+//! incident beam power (the beam cross-section and index changes at the two crossings).
+//! Its Mueller matrix ([`Transfer::mueller`]) generalises the scalar Fresnel product of
+//! [`crate::polarization::Transmission::path_factor`]: in the plane of incidence its
+//! `m00` is `½(Ts Rs Ts' + Tp Rp Tp')` exactly.
+
+use nalgebra::Complex;
+
+use crate::Vec3;
+use crate::mueller::Mueller;
+
+/// A complex amplitude.
+pub type C64 = Complex<f64>;
+
+/// A 2 × 2 Jones matrix in the `(s, p)` bases of the module docs: row = outgoing
+/// component, column = incident component.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JonesMatrix(pub [[C64; 2]; 2]);
+
+impl JonesMatrix {
+    /// The zero matrix (no light).
+    pub const ZERO: Self = Self([[C64::new(0.0, 0.0); 2]; 2]);
+
+    /// The diagonal matrix `diag(s, p)`: an interface in its own plane of incidence.
+    #[must_use]
+    pub fn diagonal(s: C64, p: C64) -> Self {
+        let z = C64::new(0.0, 0.0);
+        Self([[s, z], [z, p]])
+    }
+
+    /// Element `(row, column)`, 0 = s, 1 = p.
+    #[must_use]
+    pub fn get(&self, row: usize, col: usize) -> C64 {
+        self.0[row][col]
+    }
+
+    /// The matrix product `self · other` (apply `other` first).
+    #[must_use]
+    pub fn mul(&self, other: &Self) -> Self {
+        let a = &self.0;
+        let b = &other.0;
+        Self([
+            [
+                a[0][0] * b[0][0] + a[0][1] * b[1][0],
+                a[0][0] * b[0][1] + a[0][1] * b[1][1],
+            ],
+            [
+                a[1][0] * b[0][0] + a[1][1] * b[1][0],
+                a[1][0] * b[0][1] + a[1][1] * b[1][1],
+            ],
+        ])
+    }
+
+    /// `k · self` for a real `k`.
+    #[must_use]
+    pub fn scale(&self, k: f64) -> Self {
+        let a = &self.0;
+        Self([[a[0][0] * k, a[0][1] * k], [a[1][0] * k, a[1][1] * k]])
+    }
+
+    /// The Mueller matrix of this Jones matrix (Stokes convention of [`crate::mueller`]).
+    #[must_use]
+    pub fn mueller(&self) -> Mueller {
+        Mueller::from_jones(self)
+    }
+}
+
+/// The `s` basis vector of the direction `k` (module docs): `(z × k)/|z × k|`, or `y`
+/// when `k` is along `±z`.
+#[must_use]
+#[inline]
+pub fn s_vector(k: &Vec3) -> Vec3 {
+    let rho = k.x.hypot(k.y);
+    if rho > 0.0 {
+        Vec3::new(-k.y / rho, k.x / rho, 0.0)
+    } else {
+        Vec3::y()
+    }
+}
+
+/// The `(s, p)` basis of the direction `k` (module docs): `p = k × s`.
+#[must_use]
+pub fn sp_basis(k: &Vec3) -> (Vec3, Vec3) {
+    let s = s_vector(k);
+    (s, k.cross(&s))
+}
+
+/// Amplitude transmission coefficients `(ts, tp)` of the crossing from the coating
+/// (index `n`, inside cosine `cos_inside`) out into air (cosine `cos_outside`),
+/// Snell-related: `ts = 2n c2/(n c2 + co)`, `tp = 2n c2/(c2 + n co)` (module docs with
+/// `n1 = n`, `n2 = 1`).
+#[must_use]
+#[inline]
+pub fn exit_amplitudes(cos_outside: f64, cos_inside: f64, n: f64) -> (f64, f64) {
+    let a = 2.0 * n * cos_inside;
+    (
+        a / (n * cos_inside + cos_outside),
+        a / (cos_inside + n * cos_outside),
+    )
+}
+
+/// The exit amplitudes of an ideal, reflection-free crossing that transmits all the
+/// power in both polarisations: `t = sqrt(n cos θ2 / cos θo)` (so that the power
+/// transmittance `(cos θo / (n cos θ2)) |t|²` is 1). Used where the exit Fresnel loss
+/// is switched off.
+#[must_use]
+#[inline]
+pub fn lossless_exit_amplitude(cos_outside: f64, cos_inside: f64, n: f64) -> f64 {
+    (n * cos_inside / cos_outside).sqrt()
+}
+
+/// The amplitude coefficients met along one ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathAmplitudes {
+    /// Entry crossing, air → coating, `(ts, tp)` at `θi` (real for a lossless coat).
+    pub entry: (f64, f64),
+    /// Flake reflection `(rs, rp)` at the local angle (complex for a metal).
+    pub flake: (C64, C64),
+    /// Exit crossing, coating → air, `(ts, tp)` ([`exit_amplitudes`]).
+    pub exit: (f64, f64),
+}
+
+/// The four directions of a ray through the coating (unit propagation vectors, frame of
+/// physics.md §1) and the flake normal that links them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayPath {
+    /// Incident direction in air, `k_in.z < 0`.
+    pub k_in: Vec3,
+    /// Refracted into the coating, `k1.z < 0`.
+    pub k1: Vec3,
+    /// Flake normal on its lit side (`k2 = k1 − 2 (k1·m) m`).
+    pub m: Vec3,
+    /// Reflected by the flake, `k2.z > 0`.
+    pub k2: Vec3,
+    /// Refracted out into air, `k_out.z > 0`.
+    pub k_out: Vec3,
+}
+
+/// The amplitude matrix of a path with the factor that turns it into power.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transfer {
+    /// Jones matrix of the path (amplitudes), incident basis of `k_in` to outgoing
+    /// basis of `k_out`.
+    pub jones: JonesMatrix,
+    /// `(cos θt / cos θi)(cos θo / cos θ2)`: the outgoing power is this times
+    /// `|J E|²` for a unit incident beam (module docs).
+    pub power_scale: f64,
+}
+
+impl Transfer {
+    /// The Mueller matrix of the path as a fraction of the incident beam power (no
+    /// unit): `power_scale · M(J)`.
+    #[must_use]
+    pub fn mueller(&self) -> Mueller {
+        self.jones.mueller() * self.power_scale
+    }
+
+    /// `(m00, m01)` of [`Transfer::mueller`], without the other 14 elements: the
+    /// fraction of an unpolarised beam that leaves (`m00`), and what an s (`m00 + m01`)
+    /// or p (`m00 − m01`) polarised beam gives with every polarisation detected.
+    #[must_use]
+    #[inline]
+    pub fn first_row(&self) -> (f64, f64) {
+        let j = &self.jones.0;
+        let ss = j[0][0].norm_sqr();
+        let sp = j[0][1].norm_sqr();
+        let ps = j[1][0].norm_sqr();
+        let pp = j[1][1].norm_sqr();
+        let h = 0.5 * self.power_scale;
+        // Column 0 is the s input, column 1 the p input.
+        (h * (ss + sp + ps + pp), h * (ss + ps - sp - pp))
+    }
+}
+
+impl RayPath {
+    /// The Jones matrix of the path and its power factor (module docs).
+    ///
+    /// The local basis on the flake has `s_f = (k1 × m)/|k1 × m|`; at normal local
+    /// incidence (`k1 ∥ m`, where every basis gives the same result) the incident `s`
+    /// is used. Non-finite or zero `k_in.z`, `k2.z` make the power factor meaningless;
+    /// callers pass rays that reach the flake and leave the coating.
+    #[must_use]
+    #[inline]
+    pub fn transfer(&self, amps: &PathAmplitudes) -> Transfer {
+        let s0 = s_vector(&self.k_in);
+        let p1 = self.k1.cross(&s0);
+        let c = self.k1.cross(&self.m);
+        let cn = c.norm();
+        let sf = if cn > 0.0 { c / cn } else { s0 };
+        let so = s_vector(&self.k_out);
+        let pfo = self.k2.cross(&sf);
+        // Rotation from the coat's entry basis (s0, p1) to the flake's (sf, k1 × sf),
+        // and from the flake's outgoing basis (sf, k2 × sf) to the exit basis
+        // (so, k2 × so).
+        let (c1, d1) = (sf.dot(&s0), sf.dot(&p1));
+        let (c2, d2) = (so.dot(&sf), so.dot(&pfo));
+        let (rs, rp) = amps.flake;
+        let (ts, tp) = amps.entry;
+        let (us, up) = amps.exit;
+        // B = R2 · diag(rs, rp) · R1 with R = [[c, d], [−d, c]].
+        let b00 = rs * (c2 * c1) - rp * (d2 * d1);
+        let b01 = rs * (c2 * d1) + rp * (d2 * c1);
+        let b10 = -(rs * (d2 * c1) + rp * (c2 * d1));
+        let b11 = rp * (c2 * c1) - rs * (d2 * d1);
+        let jones = JonesMatrix([
+            [b00 * (us * ts), b01 * (us * tp)],
+            [b10 * (up * ts), b11 * (up * tp)],
+        ]);
+        let power_scale = (self.k1.z / self.k_in.z) * (self.k_out.z / self.k2.z);
+        Transfer { jones, power_scale }
+    }
+}
+
+/// The Jones matrix of the clear coat's specular reflection at the top surface,
+/// `diag(rs, rp)` with the air → coating amplitudes of physics.md §2, from the incident
+/// basis to the basis of the specular direction (module docs). The reflected beam has
+/// the incident cross-section, so its Mueller matrix is directly a fraction of the
+/// beam power (`m00 = R_av`).
+#[must_use]
+pub fn clearcoat_jones(rs: f64, rp: f64) -> JonesMatrix {
+    JonesMatrix::diagonal(C64::new(rs, 0.0), C64::new(rp, 0.0))
+}
