@@ -84,6 +84,18 @@ impl JonesMatrix {
         Self([[a[0][0] * k, a[0][1] * k], [a[1][0] * k, a[1][1] * k]])
     }
 
+    /// `R · self` with the frame rotation `R = [[c, d], [−d, c]]` on the outgoing side
+    /// ([`exit_frame`]).
+    #[must_use]
+    #[inline]
+    pub fn rotate_out(&self, (c, d): (f64, f64)) -> Self {
+        let a = &self.0;
+        Self([
+            [a[0][0] * c + a[1][0] * d, a[0][1] * c + a[1][1] * d],
+            [a[1][0] * c - a[0][0] * d, a[1][1] * c - a[0][1] * d],
+        ])
+    }
+
     /// The Mueller matrix of this Jones matrix (Stokes convention of [`crate::mueller`]).
     #[must_use]
     pub fn mueller(&self) -> Mueller {
@@ -109,6 +121,22 @@ pub fn s_vector(k: &Vec3) -> Vec3 {
 pub fn sp_basis(k: &Vec3) -> (Vec3, Vec3) {
     let s = s_vector(k);
     (s, k.cross(&s))
+}
+
+/// The frame rotation `(c, d)` that re-expresses a field of direction `k`, given in the
+/// basis `(s, p)` of [`sp_basis`], in the basis `(s', k × s')` with
+/// `s' = (u − (u·k) k)/|u − (u·k) k|` the unit vector `reference = u` projected
+/// perpendicular to `k`: `c = s'·s`, `d = s'·p`, the rotation `[[c, d], [−d, c]]`
+/// ([`JonesMatrix::rotate_out`]). Used to give everything a detector cone collects in
+/// the basis of its axis (`u` = the axis's `s`); `reference` must not be parallel to
+/// `k`.
+#[must_use]
+#[inline]
+pub fn exit_frame(k: &Vec3, reference: &Vec3) -> (f64, f64) {
+    let (s, p) = sp_basis(k);
+    let v = reference - k * reference.dot(k);
+    let inv = 1.0 / v.norm();
+    (v.dot(&s) * inv, v.dot(&p) * inv)
 }
 
 /// Amplitude transmission coefficients `(ts, tp)` of the crossing from the coating
