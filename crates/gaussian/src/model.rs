@@ -205,9 +205,8 @@ impl DistributionModel {
         if p2 == 0.0 {
             return 0.0;
         }
-        let m = h / h.norm();
         let k2 = Vec3::new(r.x / n, r.y / n, c2);
-        let factor = self.path_factor(inc, &m, &k2, &r);
+        let factor = self.path_factor(inc, &h, self.obliquity(inc, &h), &k2, &r);
         let mut f = factor * p2 * self.inv_mean_cos / (4.0 * n * n * inc.cos_t * c2);
         if self.options.weighting == Weighting::PaperPrinted {
             f *= c2 / r.z;
@@ -251,15 +250,28 @@ impl DistributionModel {
         Some((h.x * h.x + h.y * h.y).sqrt().atan2(h.z))
     }
 
-    /// `F · R` for the ray reflected by the flake of unit normal `m` into the inside
-    /// direction `k2`, leaving along `k_out`: from the ray's Jones matrix for
-    /// `exact-unpolarized`, `s`, `p` (module docs), the product of averages for `paper`.
+    /// The obliquity `γ = −k1·m/|m|` of the flake normal `m` (any positive multiple of
+    /// the unit normal) where the flake reflectance depends on it; 1 for the perfect
+    /// conductor, which does not use it.
     #[inline]
-    fn path_factor(&self, inc: &Incidence, m: &Vec3, k2: &Vec3, k_out: &Vec3) -> f64 {
-        let gamma = -inc.k1.dot(m);
+    pub(crate) fn obliquity(&self, inc: &Incidence, m: &Vec3) -> f64 {
+        if self.options.flake.is_perfect() {
+            1.0
+        } else {
+            -inc.k1.dot(m) / m.norm()
+        }
+    }
+
+    /// `F · R` for the ray reflected by the flake of normal `m` (any positive multiple
+    /// of the unit normal; obliquity `gamma`) into the inside direction `k2`, leaving
+    /// along `k_out`: from the ray's Jones matrix for `exact-unpolarized`, `s`, `p`
+    /// (module docs), the product of averages for `paper`.
+    #[inline]
+    fn path_factor(&self, inc: &Incidence, m: &Vec3, gamma: f64, k2: &Vec3, k_out: &Vec3) -> f64 {
         let t = self.options.transmission;
         if t != Transmission::Paper {
-            let row = self.transfer(inc, m, k2, k_out, gamma).first_row();
+            let amps = self.amplitudes(inc, gamma, k2, k_out);
+            let row = ray_path(inc, m, k2, k_out).first_row(&amps);
             return t.from_first_row(row).unwrap_or(row.0);
         }
         let flake = self.options.flake.power(gamma, self.n);
@@ -277,11 +289,9 @@ impl DistributionModel {
         }
     }
 
-    /// The Jones matrix and power factor of the ray through the flake of unit normal
-    /// `m` (obliquity `gamma`) into `k2`, leaving along `k_out`
-    /// ([`flakescatter_optics::jones`]). Without the exit Fresnel factor
-    /// (`exit_fresnel == false`) the exit crossing transmits all the power in both
-    /// polarisations ([`jones::lossless_exit_amplitude`]).
+    /// The Jones matrix and power factor of the ray through the flake of normal `m`
+    /// (any positive multiple of the unit normal; obliquity `gamma`) into `k2`, leaving
+    /// along `k_out` ([`flakescatter_optics::jones`]).
     #[inline]
     pub(crate) fn transfer(
         &self,
@@ -291,6 +301,15 @@ impl DistributionModel {
         k_out: &Vec3,
         gamma: f64,
     ) -> Transfer {
+        ray_path(inc, m, k2, k_out).transfer(&self.amplitudes(inc, gamma, k2, k_out))
+    }
+
+    /// The amplitudes met by the ray with obliquity `gamma` into `k2`, leaving along
+    /// `k_out`. Without the exit Fresnel factor (`exit_fresnel == false`) the exit
+    /// crossing transmits all the power in both polarisations
+    /// ([`jones::lossless_exit_amplitude`]).
+    #[inline]
+    fn amplitudes(&self, inc: &Incidence, gamma: f64, k2: &Vec3, k_out: &Vec3) -> PathAmplitudes {
         let n = self.n;
         let exit = if self.options.exit_fresnel {
             jones::exit_amplitudes(k_out.z, k2.z, n)
@@ -298,19 +317,11 @@ impl DistributionModel {
             let t = jones::lossless_exit_amplitude(k_out.z, k2.z, n);
             (t, t)
         };
-        let amps = PathAmplitudes {
+        PathAmplitudes {
             entry: (inc.amplitudes[2], inc.amplitudes[3]),
             flake: self.options.flake.amplitudes(gamma, n),
             exit,
-        };
-        RayPath {
-            k_in: inc.k_in,
-            k1: inc.k1,
-            m: *m,
-            k2: *k2,
-            k_out: *k_out,
         }
-        .transfer(&amps)
     }
 
     /// What the ray reflected by a flake of normal `m` carries out of the coating,
@@ -329,7 +340,7 @@ impl DistributionModel {
             return None;
         }
         let out = refraction::out_of_coating(&k2, self.n)?;
-        let mut w = self.path_factor(inc, m, &k2, &out) * gamma / inc.cos_t;
+        let mut w = self.path_factor(inc, m, gamma, &k2, &out) * gamma / inc.cos_t;
         if self.options.weighting == Weighting::PaperPrinted {
             w *= k2.z / out.z;
         }
@@ -344,5 +355,18 @@ impl DistributionModel {
         let (w, out) = self.ray_weight(inc, m)?;
         let theta_n = (m.x * m.x + m.y * m.y).sqrt().atan2(m.z);
         Some((w * self.orientation.p2(theta_n) * self.inv_mean_cos, out))
+    }
+}
+
+/// The ray path of the incidence `inc` through the flake of normal `m` into `k2`,
+/// leaving along `k_out`.
+#[inline]
+fn ray_path(inc: &Incidence, m: &Vec3, k2: &Vec3, k_out: &Vec3) -> RayPath {
+    RayPath {
+        k_in: inc.k_in,
+        k1: inc.k1,
+        m: *m,
+        k2: *k2,
+        k_out: *k_out,
     }
 }

@@ -169,9 +169,8 @@ impl DistributionModel {
         if p2 == 0.0 {
             return Mueller::ZERO;
         }
-        let m = h / h.norm();
         let k2 = Vec3::new(r.x / n, r.y / n, c2);
-        let t = self.transfer(inc, &m, &k2, &r, -inc.k1.dot(&m));
+        let t = self.transfer(inc, &h, &k2, &r, self.obliquity(inc, &h));
         let mut k = t.power_scale * p2 * self.inv_mean_cos() / (4.0 * n * n * inc.cos_t * c2);
         if self.options().weighting == Weighting::PaperPrinted {
             k *= c2 / r.z;

@@ -108,9 +108,11 @@ impl JonesMatrix {
 #[must_use]
 #[inline]
 pub fn s_vector(k: &Vec3) -> Vec3 {
-    let rho = k.x.hypot(k.y);
-    if rho > 0.0 {
-        Vec3::new(-k.y / rho, k.x / rho, 0.0)
+    // |k| = 1, so x² + y² neither overflows nor underflows to a wrong zero here.
+    let rho2 = k.x * k.x + k.y * k.y;
+    if rho2 > 0.0 {
+        let inv = 1.0 / rho2.sqrt();
+        Vec3::new(-k.y * inv, k.x * inv, 0.0)
     } else {
         Vec3::y()
     }
@@ -175,14 +177,15 @@ pub struct PathAmplitudes {
 }
 
 /// The four directions of a ray through the coating (unit propagation vectors, frame of
-/// physics.md §1) and the flake normal that links them.
+/// physics.md §1) and the flake normal that links them (any positive multiple of it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RayPath {
     /// Incident direction in air, `k_in.z < 0`.
     pub k_in: Vec3,
     /// Refracted into the coating, `k1.z < 0`.
     pub k1: Vec3,
-    /// Flake normal on its lit side (`k2 = k1 − 2 (k1·m) m`).
+    /// Flake normal on its lit side (`k2 = k1 − 2 (k1·m) m` for the unit normal), or
+    /// any positive multiple of it (the internal half vector `k2 − k1`).
     pub m: Vec3,
     /// Reflected by the flake, `k2.z > 0`.
     pub k2: Vec3,
@@ -229,39 +232,112 @@ impl Transfer {
 impl RayPath {
     /// The Jones matrix of the path and its power factor (module docs).
     ///
-    /// The local basis on the flake has `s_f = (k1 × m)/|k1 × m|`; at normal local
-    /// incidence (`k1 ∥ m`, where every basis gives the same result) the incident `s`
-    /// is used. Non-finite or zero `k_in.z`, `k2.z` make the power factor meaningless;
-    /// callers pass rays that reach the flake and leave the coating.
+    /// The local basis on the flake has `s_f = (k1 × m)/|k1 × m|` (so `m` may be any
+    /// positive multiple of the unit normal); at normal local incidence (`k1 ∥ m`,
+    /// where every basis gives the same result) the incident `s` is used. Zero `k_in.z`
+    /// or `k2.z` make the power factor meaningless; callers pass rays that reach the
+    /// flake and leave the coating.
     #[must_use]
     #[inline]
     pub fn transfer(&self, amps: &PathAmplitudes) -> Transfer {
-        let s0 = s_vector(&self.k_in);
-        let p1 = self.k1.cross(&s0);
-        let c = self.k1.cross(&self.m);
-        let cn = c.norm();
-        let sf = if cn > 0.0 { c / cn } else { s0 };
-        let so = s_vector(&self.k_out);
-        let pfo = self.k2.cross(&sf);
-        // Rotation from the coat's entry basis (s0, p1) to the flake's (sf, k1 × sf),
-        // and from the flake's outgoing basis (sf, k2 × sf) to the exit basis
-        // (so, k2 × so).
-        let (c1, d1) = (sf.dot(&s0), sf.dot(&p1));
-        let (c2, d2) = (so.dot(&sf), so.dot(&pfo));
+        let ([a, b, g, d], k2) = self.rotations();
+        let k = k2.sqrt();
         let (rs, rp) = amps.flake;
         let (ts, tp) = amps.entry;
         let (us, up) = amps.exit;
-        // B = R2 · diag(rs, rp) · R1 with R = [[c, d], [−d, c]].
-        let b00 = rs * (c2 * c1) - rp * (d2 * d1);
-        let b01 = rs * (c2 * d1) + rp * (d2 * c1);
-        let b10 = -(rs * (d2 * c1) + rp * (c2 * d1));
-        let b11 = rp * (c2 * c1) - rs * (d2 * d1);
+        // B = R2 · diag(rs, rp) · R1 with R = [[c, d], [−d, c]]:
+        // a = c2 c1, b = d2 d1, g = c2 d1, d = d2 c1.
+        let b00 = rs * a - rp * b;
+        let b01 = rs * g + rp * d;
+        let b10 = -(rs * d + rp * g);
+        let b11 = rp * a - rs * b;
         let jones = JonesMatrix([
-            [b00 * (us * ts), b01 * (us * tp)],
-            [b10 * (up * ts), b11 * (up * tp)],
+            [b00 * (k * us * ts), b01 * (k * us * tp)],
+            [b10 * (k * up * ts), b11 * (k * up * tp)],
         ]);
-        let power_scale = (self.k1.z / self.k_in.z) * (self.k_out.z / self.k2.z);
-        Transfer { jones, power_scale }
+        Transfer {
+            jones,
+            power_scale: self.power_scale(),
+        }
+    }
+
+    /// [`Transfer::first_row`] of [`RayPath::transfer`], `(m00, m01)` of the path's
+    /// Mueller matrix, in real arithmetic: with `Rs = |rs|²`, `Rp = |rp|²`,
+    /// `X = Re(rs rp*)` and the rotation products of [`RayPath::transfer`],
+    /// `|B00|² = Rs a² + Rp b² − 2X ab`, `|B11|² = Rp a² + Rs b² − 2X ab`,
+    /// `|B01|² = Rs g² + Rp d² + 2X gd`, `|B10|² = Rs d² + Rp g² + 2X gd`. What the
+    /// scalar models need.
+    #[must_use]
+    #[inline]
+    pub fn first_row(&self, amps: &PathAmplitudes) -> (f64, f64) {
+        let ([a, b, g, d], k2) = self.rotations();
+        let (rs, rp) = amps.flake;
+        let (big_rs, big_rp) = (rs.norm_sqr(), rp.norm_sqr());
+        let x2 = 2.0 * (rs.re * rp.re + rs.im * rp.im);
+        let (ab, gd) = (x2 * a * b, x2 * g * d);
+        let (aa, bb, gg, dd) = (a * a, b * b, g * g, d * d);
+        let b00 = big_rs * aa + big_rp * bb - ab;
+        let b11 = big_rp * aa + big_rs * bb - ab;
+        let b01 = big_rs * gg + big_rp * dd + gd;
+        let b10 = big_rs * dd + big_rp * gg + gd;
+        let (ts, tp) = amps.entry;
+        let (us, up) = amps.exit;
+        let (ts2, tp2, us2, up2) = (ts * ts, tp * tp, us * us, up * up);
+        // |J_ab|² = u_a² |B_ab|² t_b²; column 0 is the s input, column 1 the p input.
+        let ss = us2 * ts2 * b00;
+        let sp = us2 * tp2 * b01;
+        let ps = up2 * ts2 * b10;
+        let pp = up2 * tp2 * b11;
+        let h = 0.5 * self.power_scale() * k2;
+        (h * (ss + sp + ps + pp), h * (ss + ps - sp - pp))
+    }
+
+    /// `(cos θt / cos θi)(cos θo / cos θ2)`.
+    #[inline]
+    fn power_scale(&self) -> f64 {
+        (self.k1.z * self.k_out.z) / (self.k_in.z * self.k2.z)
+    }
+
+    /// The products `[c2 c1, d2 d1, c2 d1, d2 c1]` of the two frame rotations (entry
+    /// basis `(s0, p1)` to the flake's `(sf, k1 × sf)`, flake's outgoing `(sf, k2 × sf)`
+    /// to the exit basis `(so, k2 × so)`, each `[[c, d], [−d, c]]`), built from the
+    /// unnormalised vectors `z × k_in`, `z × k_out`, `k1 × m`, with the factor
+    /// `K² = 1/(|z × k_in|² |z × k_out|² |k1 × m|⁴)` that normalises their squares.
+    #[inline]
+    fn rotations(&self) -> ([f64; 4], f64) {
+        let (ki, k1, m, k2, ko) = (&self.k_in, &self.k1, &self.m, &self.k2, &self.k_out);
+        // Horizontal s vectors z × k = (−k.y, k.x, 0) and their squared lengths
+        // (y and 1 for a direction along ±z). Written out in scalars: this is the inner
+        // loop of both models.
+        let (mut s0x, mut s0y, mut rho_in2) = (-ki.y, ki.x, ki.x * ki.x + ki.y * ki.y);
+        if rho_in2 == 0.0 {
+            (s0x, s0y, rho_in2) = (0.0, 1.0, 1.0);
+        }
+        let (mut sox, mut soy, mut rho_out2) = (-ko.y, ko.x, ko.x * ko.x + ko.y * ko.y);
+        if rho_out2 == 0.0 {
+            (sox, soy, rho_out2) = (0.0, 1.0, 1.0);
+        }
+        // c = k1 × m (|c| = sin ι); s0 itself at normal local incidence.
+        let (mut cx, mut cy, mut cz) = (
+            k1.y * m.z - k1.z * m.y,
+            k1.z * m.x - k1.x * m.z,
+            k1.x * m.y - k1.y * m.x,
+        );
+        let mut c2n = cx * cx + cy * cy + cz * cz;
+        if c2n == 0.0 {
+            (cx, cy, cz, c2n) = (s0x, s0y, 0.0, rho_in2);
+        }
+        // p1 = k1 × s0 (|p1| = |s0|, s0 ⟂ k1) and k2 × c (|k2 × c| = |c|, c ⟂ k2).
+        let (p1x, p1y, p1z) = (-k1.z * s0y, k1.z * s0x, k1.x * s0y - k1.y * s0x);
+        let (qx, qy) = (k2.y * cz - k2.z * cy, k2.z * cx - k2.x * cz);
+        let c1 = cx * s0x + cy * s0y;
+        let d1 = cx * p1x + cy * p1y + cz * p1z;
+        let c2 = sox * cx + soy * cy;
+        let d2 = sox * qx + soy * qy;
+        (
+            [c2 * c1, d2 * d1, c2 * d1, d2 * c1],
+            1.0 / (rho_in2 * rho_out2 * c2n * c2n),
+        )
     }
 }
 
