@@ -122,6 +122,24 @@ impl Mueller {
         ))
     }
 
+    /// The same matrix with the outgoing Stokes vector expressed in a basis turned by
+    /// `χ` about the direction of propagation, `s' = cos χ s + sin χ p`, given as
+    /// `(c, d) = (cos χ, sin χ)` ([`crate::jones::exit_frame`]): `S1' = cos 2χ S1 +
+    /// sin 2χ S2`, `S2' = −sin 2χ S1 + cos 2χ S2` (rows 1 and 2), the Mueller form of
+    /// [`crate::jones::JonesMatrix::rotate_out`].
+    #[must_use]
+    #[inline]
+    pub fn rotate_out(&self, (c, d): (f64, f64)) -> Self {
+        let (c2, s2) = (c * c - d * d, 2.0 * c * d);
+        let mut m = self.0;
+        for k in 0..4 {
+            let (a, b) = (m[(1, k)], m[(2, k)]);
+            m[(1, k)] = c2 * a + s2 * b;
+            m[(2, k)] = c2 * b - s2 * a;
+        }
+        Self(m)
+    }
+
     /// The Stokes vector leaving for the incident Stokes vector `s`: `M s`.
     #[must_use]
     pub fn apply(&self, s: &Stokes) -> [f64; 4] {

@@ -112,6 +112,26 @@ proptest! {
     }
 
     #[test]
+    fn rotating_the_outgoing_basis_commutes_with_the_mueller_matrix(
+        a in complex(), b in complex(), c in complex(), d in complex(), chi in 0.0..6.3f64
+    ) {
+        // M(R J) = R_M M(J): the Jones frame rotation and its Mueller form agree.
+        let j = JonesMatrix([[a, b], [c, d]]);
+        let rot = (chi.cos(), chi.sin());
+        let lhs = Mueller::from_jones(&j.rotate_out(rot));
+        let rhs = Mueller::from_jones(&j).rotate_out(rot);
+        for i in 0..4 {
+            for k in 0..4 {
+                prop_assert!((lhs.get(i, k) - rhs.get(i, k)).abs() < 1e-12);
+            }
+        }
+        // Turning the basis by χ = π/4 toward p (s' = (s + p)/√2, p' = (p − s)/√2) puts
+        // s light along s' − p': S2' = 2 Re(E's* E'p) = −1.
+        let s = Mueller::identity().rotate_out(((0.25 * PI).cos(), (0.25 * PI).sin())).apply(&Stokes::S);
+        prop_assert!((s[2] + 1.0).abs() < 1e-15 && s[1].abs() < 1e-15);
+    }
+
+    #[test]
     fn every_path_mueller_matrix_is_non_depolarising_and_realisable(
         n in 1.0..2.0f64, ti in 0.0..80f64, tilt in 0.0..30f64, az in 0.0..360f64, kind in 0u8..3
     ) {

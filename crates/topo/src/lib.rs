@@ -7,7 +7,8 @@
 //! incidence is refracted into the coating, mirror-reflected by the local plane,
 //! refracted out, and its weight is added to every detector cone that contains it
 //! ([`model`]). Several maps accumulate into one result, with per-detector ray counts
-//! and a standard error from the spread between map tiles.
+//! and a standard error from the spread between map tiles. [`TopoModel::run_mueller`]
+//! accumulates the Mueller matrix of every ray instead ([`mueller`], physics.md §8).
 //!
 //! # Conventions
 //! * Frame of physics.md §1: `z` is the coating normal pointing into the air, `x` lies in
@@ -47,9 +48,11 @@
 
 mod index;
 pub mod model;
+pub mod mueller;
 pub mod normals;
 
 pub use model::{DEFAULT_BLOCK_UM, TopoModel, TopoOptions, TopoPoint, TopoResult};
+pub use mueller::{TopoMuellerPoint, TopoMuellerResult};
 pub use normals::{Normals, normal_from_slopes};
 
 /// Errors of the topographic model.
