@@ -10,7 +10,8 @@
 //! or a flake table) turned into [`Curves`] by [`distribution_curves`], or height maps
 //! turned into curves by [`topographic_curves`] ([`topo`] is the topographic layer);
 //! measurement against model in [`compare`], fitting of the orientation distribution in
-//! [`fit`], multi-angle readouts in [`multiangle`].
+//! [`fit`], multi-angle readouts in [`multiangle`], Mueller matrices, polariser/analyser
+//! readings and the degree of polarisation in [`polarimetry`].
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
@@ -72,6 +73,7 @@ pub mod instrument;
 pub mod multiangle;
 mod nnls;
 pub mod pipeline;
+pub mod polarimetry;
 pub mod reproduce;
 
 pub use flakescatter_gaussian as gaussian;
@@ -85,6 +87,9 @@ pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
     p_tilde_about_specular, topographic_curves,
+};
+pub use polarimetry::{
+    MuellerCurves, MuellerRow, Polarimetry, distribution_mueller, topographic_mueller,
 };
 
 /// Errors of the pipeline.
@@ -108,4 +113,7 @@ pub enum PipelineError {
     /// The topographic model rejected its input.
     #[error("topographic model: {0}")]
     Topo(#[from] flakescatter_topo::TopoError),
+    /// A polarisation setting that cannot be honoured.
+    #[error("polarisation: {0}")]
+    Polarization(String),
 }

@@ -257,6 +257,13 @@ const STOKES_TOL: f64 = 1e-9;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stokes([f64; 4]);
 
+impl Default for Stokes {
+    /// Unpolarised light.
+    fn default() -> Self {
+        Self::UNPOLARIZED
+    }
+}
+
 impl Stokes {
     /// Unpolarised light, `(1, 0, 0, 0)`.
     pub const UNPOLARIZED: Self = Self([1.0, 0.0, 0.0, 0.0]);
