@@ -36,6 +36,25 @@
 //! ([`flakescatter_optics::jones::clearcoat_jones`]), re-expressed in the cone's basis,
 //! to every cone that contains the specular direction.
 
+//!
+//! # Example
+//! The Mueller BRDF out of the plane of incidence: its `m00` is the scalar model's
+//! unpolarised BRDF, and it is non-depolarising at a point:
+//! ```
+//! use flakescatter_gaussian::{DistributionModel, ModelOptions};
+//! use flakescatter_optics::detector::out_of_plane_direction;
+//! use flakescatter_stats::{GaussianWidth, Orientation};
+//!
+//! let o = Orientation::gaussian(GaussianWidth::RmsTilt(12f64.to_radians()))?;
+//! let model = DistributionModel::new(o, 1.5, ModelOptions::default())?;
+//! let inc = model.incidence(45f64.to_radians())?;
+//! let r = out_of_plane_direction(40f64.to_radians(), 60f64.to_radians()).into_inner();
+//! let f = model.brdf_mueller(&inc, &r);
+//! assert!((f.m00() / model.brdf(&inc, &r) - 1.0).abs() < 1e-12);
+//! assert!((f.gil_bernabeu_ratio() - 1.0).abs() < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
 use flakescatter_optics::detector::Cone;
 use flakescatter_optics::jones::{clearcoat_jones, exit_frame, s_vector};
 use flakescatter_optics::mueller::Mueller;

@@ -30,6 +30,27 @@
 //! [`crate::polarization::Transmission::path_factor`]: in the plane of incidence its
 //! `m00` is `½(Ts Rs Ts' + Tp Rp Tp')` exactly.
 
+//!
+//! # Example
+//! A flat perfect mirror under a coat of index 1.5 at 60° incidence: s and p do not
+//! mix, and the unpolarised fraction leaving is `½(Ts² + Tp²)`:
+//! ```
+//! use flakescatter_optics::jones::{PathAmplitudes, RayPath, exit_amplitudes};
+//! use flakescatter_optics::{Vec3, detector, fresnel, refraction};
+//!
+//! let (n, ti) = (1.5, 60f64.to_radians());
+//! let k_in = detector::incident_direction(ti);
+//! let k1 = refraction::into_coating(&k_in, n);
+//! let k2 = Vec3::new(k1.x, k1.y, -k1.z);
+//! let path = RayPath { k_in: k_in.into_inner(), k1: k1.into_inner(), m: Vec3::z(), k2, k_out: detector::specular_direction(ti).into_inner() };
+//! let [_, _, ts, tp] = fresnel::amplitudes_air_to_coating(ti, n);
+//! let amps = PathAmplitudes { entry: (ts, tp), flake: flakescatter_optics::flake::FlakeReflectance::PerfectConductor.amplitudes(1.0, n), exit: exit_amplitudes(ti.cos(), k2.z, n) };
+//! let m = path.transfer(&amps).mueller();
+//! let p = fresnel::air_to_coating(ti, n);
+//! assert!((m.m00() - 0.5 * (p.ts * p.ts + p.tp * p.tp)).abs() < 1e-14);
+//! assert!(m.get(0, 2).abs() < 1e-15);
+//! ```
+
 use nalgebra::Complex;
 
 use crate::Vec3;
