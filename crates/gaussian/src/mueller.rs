@@ -35,7 +35,6 @@
 //! adds the Mueller matrix of `diag(rs, rp)`
 //! ([`flakescatter_optics::jones::clearcoat_jones`]), re-expressed in the cone's basis,
 //! to every cone that contains the specular direction.
-
 //!
 //! # Example
 //! The Mueller BRDF out of the plane of incidence: its `m00` is the scalar model's

@@ -29,7 +29,6 @@
 //! Its Mueller matrix ([`Transfer::mueller`]) generalises the scalar Fresnel product of
 //! [`crate::polarization::Transmission::path_factor`]: in the plane of incidence its
 //! `m00` is `½(Ts Rs Ts' + Tp Rp Tp')` exactly.
-
 //!
 //! # Example
 //! A flat perfect mirror under a coat of index 1.5 at 60° incidence: s and p do not

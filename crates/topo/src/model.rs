@@ -175,9 +175,13 @@ impl TopoResult {
 pub(crate) struct Inc {
     /// Incident direction in air, `(sin θi, 0, −cos θi)`.
     pub k_in: Vec3,
+    /// Refracted direction `k1 = (k1x, 0, k1z)`, `k1z < 0`.
     pub k1x: f64,
+    /// See `k1x`.
     pub k1z: f64,
+    /// `cos θt = −k1z`.
     pub cos_t: f64,
+    /// Fresnel powers of the entry crossing.
     pub entry: FresnelPower,
     /// Fresnel amplitudes `[rs, rp, ts, tp]` of the entry crossing.
     pub amplitudes: [f64; 4],
