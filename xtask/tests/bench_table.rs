@@ -126,6 +126,7 @@ fn rows_pair_floors_compute_throughput_and_decide_targets() {
     write_estimate(&dir, "g/brdf_fast", 5e4); // 50 µs per 1000
     write_estimate(&dir, "g/brdf_slow", 2e5); // 200 µs per 1000
     write_estimate(&dir, "g/read", 5e8); // 0.5 s
+    write_estimate(&dir, "g/mueller", 1.6e5); // 160 µs per 1000
 
     let specs = [
         RowSpec {
@@ -155,6 +156,30 @@ fn rows_pair_floors_compute_throughput_and_decide_targets() {
             Unit::Bytes,
         ),
         spec("g/not_run", Some("g/floor_4096"), 1.0, Unit::Pixels),
+        RowSpec {
+            target: Some(Target::MaxTimes {
+                of: "g/brdf_fast",
+                times: 3.0,
+            }),
+            target_note: "≤ 3×",
+            ..spec("g/mueller", None, 1000.0, Unit::Evaluations)
+        },
+        RowSpec {
+            target: Some(Target::MaxTimes {
+                of: "g/brdf_slow",
+                times: 3.0,
+            }),
+            target_note: "≤ 3×",
+            ..spec("g/mueller", None, 1000.0, Unit::Evaluations)
+        },
+        RowSpec {
+            target: Some(Target::MaxTimes {
+                of: "g/not_run",
+                times: 3.0,
+            }),
+            target_note: "≤ 3×",
+            ..spec("g/mueller", None, 1000.0, Unit::Evaluations)
+        },
     ];
     let rows = build_rows(&dir, &specs, None);
 
@@ -178,6 +203,12 @@ fn rows_pair_floors_compute_throughput_and_decide_targets() {
     assert_eq!(rows[5].per_second(), None);
     assert_eq!(rows[5].met(), None);
     assert_eq!(rows[5].ratio(), None);
+    // Relative targets: 160 µs > 3 × 50 µs: not met; 160 µs ≤ 3 × 200 µs: met; the
+    // reference not measured: no decision.
+    assert_eq!(rows[6].met(), Some(false));
+    assert_eq!(rows[7].met(), Some(true));
+    assert_eq!(rows[8].met(), None);
+    assert!(matches!(rows[8].reference_s, Some(Err(_))));
 
     let table = render_table(&rows);
     let lines: Vec<&str> = table.lines().collect();
@@ -284,6 +315,19 @@ fn the_real_table_is_consistent() {
         target("generate/2048_default"),
         Some(Target::MaxSeconds(2.0))
     );
+    assert_eq!(
+        target("gaussian/point_mueller_x1000"),
+        Some(Target::MaxTimes {
+            of: "gaussian/point_brdf_x1000",
+            times: 3.0
+        })
+    );
+    // A relative target refers to a row of the table.
+    for r in ROWS {
+        if let Some(Target::MaxTimes { of, .. }) = r.target {
+            assert!(ROWS.iter().any(|o| o.id == of), "{}: {of}", r.id);
+        }
+    }
     // Rays of the 4096² topographic bench: (4096 − 4)² usable pixels × 5 incidences.
     let rays = ROWS
         .iter()

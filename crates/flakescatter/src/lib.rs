@@ -12,9 +12,11 @@
 //! [`isotropic_curves`] ([`topo`] is the topographic layer); the pixel-level
 //! distribution of normals and the flake- against pixel-level width in [`pixels`];
 //! measurement against model in [`compare`], fitting of the orientation distribution in
-//! [`fit`], multi-angle readouts in [`multiangle`], the three-dimensional layer with
-//! multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is its crate),
-//! what a plot shows in [`chart`], and the paper's figures in kind in [`figures`].
+//! [`fit`], multi-angle readouts in [`multiangle`], Mueller matrices, polariser/analyser
+//! readings and the degree of polarisation in [`polarimetry`], the three-dimensional
+//! layer with multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is
+//! its crate), what a plot shows in [`chart`], and the paper's figures in kind in
+//! [`figures`].
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
@@ -79,6 +81,7 @@ pub mod multiangle;
 mod nnls;
 pub mod pipeline;
 pub mod pixels;
+pub mod polarimetry;
 pub mod reproduce;
 pub mod stack;
 pub mod volume;
@@ -99,6 +102,9 @@ pub use pipeline::{
     isotropic_curves, p_tilde_about_specular, topographic_curves,
 };
 pub use pixels::{PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources};
+pub use polarimetry::{
+    MuellerCurves, MuellerRow, Polarimetry, distribution_mueller, topographic_mueller,
+};
 pub use volume::{VolumeCurves, VolumeRow, VolumeSettings, volume_curves};
 
 /// Errors of the pipeline.
@@ -125,4 +131,7 @@ pub enum PipelineError {
     /// The volume model rejected its input.
     #[error("volume model: {0}")]
     Volume(#[from] flakescatter_volume::VolumeError),
+    /// A polarisation setting that cannot be honoured.
+    #[error("polarisation: {0}")]
+    Polarization(String),
 }

@@ -380,7 +380,7 @@ pub fn p_tilde_about_specular(orientation: &Orientation, theta_i: f64, theta_s: 
 }
 
 /// A short description of a distribution for metadata (radians).
-fn describe(o: &Orientation) -> String {
+pub(crate) fn describe(o: &Orientation) -> String {
     if o.is_delta() {
         return "flat (all flake normals along z)".into();
     }

@@ -1,6 +1,8 @@
 //! Benchmarks of the distribution model (issue targets: the default set of 5 incidences ×
 //! 281 in-plane detectors with exact cone integration at α = 1.5° in under 20 ms on one
-//! thread; the point BRDF at more than 10⁷ evaluations per second).
+//! thread; the point BRDF at more than 10⁷ evaluations per second; the point Mueller
+//! BRDF at most 3× the cost of the unpolarised point BRDF on the same 1000 directions,
+//! issue 18).
 
 use std::hint::black_box;
 
@@ -8,6 +10,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions, curve};
 use flakescatter_optics::Vec3;
 use flakescatter_optics::detector::{Cone, in_plane_direction};
+use flakescatter_optics::mueller::Mueller;
 use flakescatter_stats::{GaussianWidth, Orientation};
 
 fn model() -> DistributionModel {
@@ -44,6 +47,13 @@ fn point_brdf(c: &mut Criterion) {
     g.throughput(Throughput::Elements(dirs.len() as u64));
     g.bench_function("point_brdf_x1000", |b| {
         b.iter(|| dirs.iter().map(|r| m.brdf(&inc, black_box(r))).sum::<f64>());
+    });
+    g.bench_function("point_mueller_x1000", |b| {
+        b.iter(|| {
+            dirs.iter()
+                .map(|r| m.brdf_mueller(&inc, black_box(r)))
+                .fold(Mueller::ZERO, |a, x| a + x)
+        });
     });
     g.finish();
 }

@@ -44,7 +44,7 @@ use flakescatter_optics::detector::{Cone, orthonormal_frame};
 
 use crate::ModelError;
 use crate::model::{DistributionModel, Incidence};
-use crate::quad::{adaptive, adaptive_nested, gk7_nodes, gk15_nodes};
+use crate::quad::{QuadValue, adaptive, adaptive_nested, gk7_nodes, gk15_nodes};
 
 /// How a detector's cone is integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -136,26 +136,61 @@ impl DistributionModel {
     /// `(∫ f cos θr dΩ, ∫ max(cos θr, 0) dΩ, error of the first)` over the cone, by the
     /// rule the module docs describe.
     fn cone_integral(&self, inc: &Incidence, cone: &Cone) -> (f64, f64, f64) {
+        self.cone_integral_of(
+            inc,
+            cone,
+            |r: &Vec3| self.brdf(inc, r),
+            |p: &Vec3, o: &Vec3| self.brdf_about(inc, p, o),
+        )
+    }
+
+    /// As [`DistributionModel::cone_integral`] for any integrand value: `point(r)` is
+    /// the BRDF at the exit direction `r`, `about(p, o)` the same at `p + o` with the
+    /// offset's digits kept (the specular-centred rule). Errors are in
+    /// [`QuadValue::distance`], tolerances relative to [`QuadValue::size`].
+    pub(crate) fn cone_integral_of<V: QuadValue>(
+        &self,
+        inc: &Incidence,
+        cone: &Cone,
+        point: impl Fn(&Vec3) -> V,
+        about: impl Fn(&Vec3, &Vec3) -> V,
+    ) -> (V, f64, f64) {
         if self.is_narrow(inc, cone.half_angle()) {
             let proj = self
-                .cone_rule(inc, cone, &gk15_nodes(0.0, cone.half_angle()), 48, false)
+                .cone_rule_of(
+                    cone,
+                    &gk15_nodes(0.0, cone.half_angle()),
+                    48,
+                    None::<&fn(&Vec3) -> f64>,
+                )
                 .1;
-            let (rho, err) = self.specular_rule(inc, cone);
+            let (rho, err) = self.specular_rule_of(inc, cone, about);
             return (rho, proj, err);
         }
-        self.axis_rule(inc, cone)
+        self.axis_rule_of(cone, &point)
     }
 
     /// The axis-centred rule. First a light rule, Kronrod 7 in `β` × 16-point trapezoid
     /// in `ψ` (error from the embedded Gauss 3 and 8-point rules); when its error
     /// estimate exceeds [`LIGHT_RULE_TOLERANCE`] of the value, the full Kronrod 15 × 48
     /// rule is used.
+    #[cfg(test)]
     fn axis_rule(&self, inc: &Incidence, cone: &Cone) -> (f64, f64, f64) {
-        let light = self.cone_rule(inc, cone, &gk7_nodes(0.0, cone.half_angle()), 16, true);
-        if light.2 <= LIGHT_RULE_TOLERANCE * light.0.abs() {
+        self.axis_rule_of(cone, &|r: &Vec3| self.brdf(inc, r))
+    }
+
+    /// [`DistributionModel::axis_rule`] for the integrand `point` (see
+    /// [`DistributionModel::cone_integral_of`]).
+    fn axis_rule_of<V: QuadValue>(
+        &self,
+        cone: &Cone,
+        point: &impl Fn(&Vec3) -> V,
+    ) -> (V, f64, f64) {
+        let light = self.cone_rule_of(cone, &gk7_nodes(0.0, cone.half_angle()), 16, Some(point));
+        if light.2 <= LIGHT_RULE_TOLERANCE * light.0.size() {
             return light;
         }
-        self.cone_rule(inc, cone, &gk15_nodes(0.0, cone.half_angle()), 48, true)
+        self.cone_rule_of(cone, &gk15_nodes(0.0, cone.half_angle()), 48, Some(point))
     }
 
     /// The narrowest angular width of the flake light in exit directions at this
@@ -226,13 +261,25 @@ impl DistributionModel {
     }
 
     /// The specular-centred rule (module docs): `(∫_cone f cos θr dΩ, error estimate)`.
+    #[cfg(test)]
     fn specular_rule(&self, inc: &Incidence, cone: &Cone) -> (f64, f64) {
+        self.specular_rule_of(inc, cone, |p: &Vec3, o: &Vec3| self.brdf_about(inc, p, o))
+    }
+
+    /// [`DistributionModel::specular_rule`] for the integrand `about` (see
+    /// [`DistributionModel::cone_integral_of`]).
+    fn specular_rule_of<V: QuadValue>(
+        &self,
+        inc: &Incidence,
+        cone: &Cone,
+        about: impl Fn(&Vec3, &Vec3) -> V,
+    ) -> (V, f64) {
         let alpha = cone.half_angle();
         let axis = cone.axis().into_inner();
         let p = inc.specular.into_inner();
         let d = axis.cross(&p).norm().atan2(axis.dot(&p));
         if d >= alpha + self.light_reach(inc) {
-            return (0.0, 0.0);
+            return (V::zero(), 0.0);
         }
         // Frame about p: u in the plane of incidence, v = y; ψ′ from u toward v.
         let (si, ci) = inc.theta_i.sin_cos();
@@ -251,7 +298,7 @@ impl DistributionModel {
             .map(|e| e.iter().copied().filter(|&x| x > 0.0).collect())
             .unwrap_or_default();
         // ∫ f cos θr sin β′ dβ′ along ψ′, with its error.
-        let radial = |psi: f64| -> (f64, f64) {
+        let radial = |psi: f64| -> (V, f64) {
             let (sp, cp) = psi.sin_cos();
             let side = u * cp + v * sp;
             // The edge: A cos β′ + B sin β′ = cos α with A = p·r_j, B = side·r_j, i.e.
@@ -259,13 +306,13 @@ impl DistributionModel {
             let b = au * cp + av * sp;
             let disc = b * b + amc * apc;
             if disc <= 0.0 {
-                return (0.0, 0.0);
+                return (V::zero(), 0.0);
             }
             let delta = b.atan2(ap);
             let eta = disc.sqrt().atan2(ca);
             let (lo, hi) = ((delta - eta).max(0.0), (delta + eta).min(PI));
             if hi <= lo {
-                return (0.0, 0.0);
+                return (V::zero(), 0.0);
             }
             // Offset of r(β′) from p, kept exact: r − p = −2 sin²(β′/2) p + sin β′ side.
             let offset = |beta: f64| {
@@ -284,7 +331,7 @@ impl DistributionModel {
             adaptive(
                 |beta: f64| {
                     let o = offset(beta);
-                    self.brdf_about(inc, &p, &o) * (p.z + o.z).max(0.0) * beta.sin()
+                    about(&p, &o).times((p.z + o.z).max(0.0)).times(beta.sin())
                 },
                 lo,
                 hi,
@@ -294,7 +341,8 @@ impl DistributionModel {
                 PEAK_INNER_PANELS,
             )
         };
-        // Mirror symmetry y → −y for an axis in the plane of incidence: ψ′ → −ψ′.
+        // Mirror symmetry y → −y for an axis in the plane of incidence: ψ′ → −ψ′, the
+        // value there being `mirrored`.
         let in_plane = axis.y == 0.0;
         let (value, error) = if amc > 0.0 {
             // p inside the cone: every ψ′ meets the edge once.
@@ -309,7 +357,7 @@ impl DistributionModel {
                     PEAK_OUTER_REL,
                     PEAK_OUTER_PANELS,
                 );
-                (2.0 * x, 2.0 * e)
+                (x.plus(x.mirrored()), 2.0 * e)
             } else {
                 adaptive_nested(
                     radial,
@@ -331,7 +379,7 @@ impl DistributionModel {
             let g = |t: f64| {
                 let (st, ct) = t.sin_cos();
                 let (x, e) = radial(psi_j + h * st);
-                (x * h * ct, e * h * ct)
+                (x.times(h).times(ct), e * h * ct)
             };
             if in_plane {
                 let (x, e) = adaptive_nested(
@@ -343,7 +391,7 @@ impl DistributionModel {
                     PEAK_OUTER_REL,
                     PEAK_OUTER_PANELS,
                 );
-                (2.0 * x, 2.0 * e)
+                (x.plus(x.mirrored()), 2.0 * e)
             } else {
                 adaptive_nested(
                     g,
@@ -409,16 +457,17 @@ impl DistributionModel {
     /// One product rule: `nodes` (Kronrod nodes with Kronrod and Gauss weights) in `β`,
     /// `n_psi`-point trapezoid in `ψ`. In-plane detectors use the mirror symmetry
     /// `y → −y` of the problem (isotropic flakes, incidence in the xz-plane): only
-    /// `ψ ∈ [0, π]` is evaluated, with the frame chosen so that `ψ → −ψ` is that mirror.
-    /// With `with_brdf == false` only the projected solid angle is computed.
-    fn cone_rule(
+    /// `ψ ∈ [0, π]` is evaluated, with the frame chosen so that `ψ → −ψ` is that mirror,
+    /// and the value at the mirror image is [`QuadValue::mirrored`].
+    /// Without an integrand (`point == None`) only the projected solid angle is
+    /// computed.
+    fn cone_rule_of<V: QuadValue, F: Fn(&Vec3) -> V>(
         &self,
-        inc: &Incidence,
         cone: &Cone,
         nodes: &[(f64, f64, f64)],
         n_psi: usize,
-        with_brdf: bool,
-    ) -> (f64, f64, f64) {
+        point: Option<&F>,
+    ) -> (V, f64, f64) {
         let axis = cone.axis().into_inner();
         let in_plane = axis.y == 0.0;
         let (u, v) = if in_plane {
@@ -444,33 +493,33 @@ impl DistributionModel {
             })
             .collect();
         let dpsi = 2.0 * PI / n_psi as f64;
-        let (mut k_rho, mut g_rho, mut half_rho, mut proj) = (0.0, 0.0, 0.0, 0.0);
+        let (mut k_rho, mut g_rho, mut half_rho, mut proj) = (V::zero(), V::zero(), V::zero(), 0.0);
         for &(beta, wk, wg) in nodes {
             let (sb, cb) = beta.sin_cos();
-            let (mut ring, mut ring_half, mut ring_proj) = (0.0, 0.0, 0.0);
+            let (mut ring, mut ring_half, mut ring_proj) = (V::zero(), V::zero(), 0.0);
             for &(sp, cp, w, even) in &psi {
                 let r: Vec3 = axis * cb + (u * cp + v * sp) * sb;
                 if r.z <= 0.0 {
                     continue;
                 }
-                let g = if with_brdf {
-                    w * self.brdf(inc, &r) * r.z
-                } else {
-                    0.0
-                };
-                ring += g;
-                ring_proj += w * r.z;
-                if even {
-                    ring_half += g;
+                if let Some(f) = point {
+                    // Weight 2: this node and its mirror image y → −y.
+                    let v = f(&r);
+                    let g = if w == 2.0 { v.plus(v.mirrored()) } else { v }.times(r.z);
+                    ring = ring.plus(g);
+                    if even {
+                        ring_half = ring_half.plus(g);
+                    }
                 }
+                ring_proj += w * r.z;
             }
             let s = sb * dpsi;
-            k_rho += wk * ring * s;
-            g_rho += wg * ring * s;
-            half_rho += wk * ring_half * 2.0 * s;
+            k_rho = k_rho.plus(ring.times(wk).times(s));
+            g_rho = g_rho.plus(ring.times(wg).times(s));
+            half_rho = half_rho.plus(ring_half.times(wk).times(2.0).times(s));
             proj += wk * ring_proj * s;
         }
-        let error = (k_rho - g_rho).abs() + (k_rho - half_rho).abs();
+        let error = k_rho.distance(&g_rho) + k_rho.distance(&half_rho);
         (k_rho, proj, error)
     }
 }

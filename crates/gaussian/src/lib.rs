@@ -12,6 +12,9 @@
 //!   limit, about the specular direction) or in the paper's constant-integrand
 //!   approximation ([`DistributionModel::collect`], module [`cone`]), and whole curves
 //!   with the `relative` normalisation to the specular detector ([`curve`]);
+//! * the point Mueller BRDF and the Mueller matrix a cone collects, element by element,
+//!   in SCATMECH's `(s, p)` bases ([`DistributionModel::brdf_mueller`],
+//!   [`DistributionModel::collect_mueller`], [`curve_mueller`], module [`mueller`]);
 //! * the hemispherical total computed in detector space and in normal space, which must
 //!   agree (module [`hemisphere`]);
 //! * an independent Monte Carlo estimator (module [`montecarlo`]).
@@ -45,6 +48,7 @@ pub mod cone;
 pub mod hemisphere;
 pub mod model;
 pub mod montecarlo;
+pub mod mueller;
 pub mod quad;
 
 use flakescatter_optics::detector::{Cone, in_plane_angle};
@@ -53,6 +57,7 @@ use rayon::prelude::*;
 pub use cone::{Collected, ConeMethod};
 pub use model::{DistributionModel, Incidence, ModelOptions};
 pub use montecarlo::{McEstimate, monte_carlo};
+pub use mueller::{CollectedMueller, MuellerCurvePoint, curve_mueller};
 
 /// Errors of the distribution model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

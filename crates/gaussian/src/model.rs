@@ -10,14 +10,20 @@
 //! 2. `m = (k2 − k1)/|k2 − k1|`, `θn = acos m.z`; no light if `m.z ≤ 0`;
 //! 3. `f(θi, r) = F · R(ι) · D(m) / (4 n² cos θt cos θ2)` (sr⁻¹),
 //!
-//! with `F·R` the Fresnel and flake factors of [`Transmission::path_factor`],
-//! `cos ι = γ = −k1·m`, `cos θ2 = k2.z`. The obliquity `γ` cancels against the reflection
+//! with `F·R` the Fresnel and flake factors along the ray, `cos ι = γ = −k1·m`,
+//! `cos θ2 = k2.z`. For `exact-unpolarized`, `s` and `p` the factor is exact in every
+//! direction: `m00`, `m00 + m01`, `m00 − m01` of the ray's Mueller matrix
+//! ([`flakescatter_optics::jones`], physics.md §11; in the plane of incidence these are
+//! the power products of [`Transmission::path_factor`]); `paper` is the product of
+//! averages `T_av R_av T_av'`. The obliquity `γ` cancels against the reflection
 //! Jacobian `dΩ(k2) = 4γ dΩ(m)`; the refraction Jacobian `n² cos θ2/cos θo` supplies the
 //! rest. With [`Weighting::PaperPrinted`] `f` is multiplied by `cos θ2 / cos θo`, the
-//! printed eq. 9/13 weight, which breaks energy conservation (physics.md §4).
+//! printed eq. 9/13 weight, which breaks energy conservation (physics.md §4). The full
+//! Mueller matrix of the point BRDF is in [`crate::mueller`].
 
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel::{self, FresnelPower};
+use flakescatter_optics::jones::{self, PathAmplitudes, RayPath, Transfer};
 use flakescatter_optics::polarization::{Transmission, Weighting};
 use flakescatter_optics::{UnitVec3, Vec3, detector, refraction};
 use flakescatter_stats::Orientation;
@@ -71,12 +77,16 @@ pub struct DistributionModel {
 pub struct Incidence {
     /// Incidence angle in air, radians.
     pub theta_i: f64,
+    /// Incident direction in air, `(sin θi, 0, −cos θi)`.
+    pub k_in: Vec3,
     /// Refracted direction inside the coating (`k1.z < 0`).
     pub k1: Vec3,
     /// Cosine of the inside angle `θt`.
     pub cos_t: f64,
     /// Fresnel powers of the entry crossing.
     pub entry: FresnelPower,
+    /// Fresnel amplitudes `[rs, rp, ts, tp]` of the entry crossing (physics.md §2).
+    pub amplitudes: [f64; 4],
     /// Fraction of the beam that enters, `T_in`.
     pub t_in: f64,
     /// Fraction reflected specularly by the clear coat's top surface.
@@ -152,9 +162,11 @@ impl DistributionModel {
         let entry = fresnel::air_to_coating(theta_i, self.n);
         Ok(Incidence {
             theta_i,
+            k_in: k_in.into_inner(),
             k1: k1.into_inner(),
             cos_t: -k1.z,
             entry,
+            amplitudes: fresnel::amplitudes_air_to_coating(theta_i, self.n),
             t_in: self.options.transmission.entry_factor(&entry),
             clearcoat: self.options.transmission.clearcoat_reflectance(&entry),
             specular: detector::specular_direction(theta_i),
@@ -193,8 +205,8 @@ impl DistributionModel {
         if p2 == 0.0 {
             return 0.0;
         }
-        let hn = h.norm();
-        let factor = self.path_factor(inc, -inc.k1.dot(&h) / hn, r.z, c2);
+        let k2 = Vec3::new(r.x / n, r.y / n, c2);
+        let factor = self.path_factor(inc, &h, self.obliquity(inc, &h), &k2, &r);
         let mut f = factor * p2 * self.inv_mean_cos / (4.0 * n * n * inc.cos_t * c2);
         if self.options.weighting == Weighting::PaperPrinted {
             f *= c2 / r.z;
@@ -206,7 +218,7 @@ impl DistributionModel {
     /// direction `base + offset` with air cosine `rz > 0`; `None` when the half vector's
     /// `z` is not positive (no flake normal sends light there).
     #[inline]
-    fn half_vector(
+    pub(crate) fn half_vector(
         &self,
         inc: &Incidence,
         base: &Vec3,
@@ -238,16 +250,34 @@ impl DistributionModel {
         Some((h.x * h.x + h.y * h.y).sqrt().atan2(h.z))
     }
 
-    /// `F · R` for a ray with obliquity `gamma` leaving at air cosine `cos_o` from inside
-    /// cosine `cos_2`.
+    /// The obliquity `γ = −k1·m/|m|` of the flake normal `m` (any positive multiple of
+    /// the unit normal) where the flake reflectance depends on it; 1 for the perfect
+    /// conductor, which does not use it.
     #[inline]
-    fn path_factor(&self, inc: &Incidence, gamma: f64, cos_o: f64, cos_2: f64) -> f64 {
+    pub(crate) fn obliquity(&self, inc: &Incidence, m: &Vec3) -> f64 {
+        if self.options.flake.is_perfect() {
+            1.0
+        } else {
+            -inc.k1.dot(m) / m.norm()
+        }
+    }
+
+    /// `F · R` for the ray reflected by the flake of normal `m` (any positive multiple
+    /// of the unit normal; obliquity `gamma`) into the inside direction `k2`, leaving
+    /// along `k_out`: from the ray's Jones matrix for `exact-unpolarized`, `s`, `p`
+    /// (module docs), the product of averages for `paper`.
+    #[inline]
+    fn path_factor(&self, inc: &Incidence, m: &Vec3, gamma: f64, k2: &Vec3, k_out: &Vec3) -> f64 {
+        let t = self.options.transmission;
+        if t != Transmission::Paper {
+            let amps = self.amplitudes(inc, gamma, k2, k_out);
+            let row = ray_path(inc, m, k2, k_out).first_row(&amps);
+            return t.from_first_row(row).unwrap_or(row.0);
+        }
         let flake = self.options.flake.power(gamma, self.n);
         if self.options.exit_fresnel {
-            let exit = fresnel::power_from_cosines(cos_o, cos_2, self.n);
-            self.options
-                .transmission
-                .path_factor(&inc.entry, flake, &exit)
+            let exit = fresnel::power_from_cosines(k_out.z, k2.z, self.n);
+            t.path_factor(&inc.entry, flake, &exit)
         } else {
             let unit = FresnelPower {
                 rs: 0.0,
@@ -255,9 +285,42 @@ impl DistributionModel {
                 ts: 1.0,
                 tp: 1.0,
             };
-            self.options
-                .transmission
-                .path_factor(&inc.entry, flake, &unit)
+            t.path_factor(&inc.entry, flake, &unit)
+        }
+    }
+
+    /// The Jones matrix and power factor of the ray through the flake of normal `m`
+    /// (any positive multiple of the unit normal; obliquity `gamma`) into `k2`, leaving
+    /// along `k_out` ([`flakescatter_optics::jones`]).
+    #[inline]
+    pub(crate) fn transfer(
+        &self,
+        inc: &Incidence,
+        m: &Vec3,
+        k2: &Vec3,
+        k_out: &Vec3,
+        gamma: f64,
+    ) -> Transfer {
+        ray_path(inc, m, k2, k_out).transfer(&self.amplitudes(inc, gamma, k2, k_out))
+    }
+
+    /// The amplitudes met by the ray with obliquity `gamma` into `k2`, leaving along
+    /// `k_out`. Without the exit Fresnel factor (`exit_fresnel == false`) the exit
+    /// crossing transmits all the power in both polarisations
+    /// ([`jones::lossless_exit_amplitude`]).
+    #[inline]
+    fn amplitudes(&self, inc: &Incidence, gamma: f64, k2: &Vec3, k_out: &Vec3) -> PathAmplitudes {
+        let n = self.n;
+        let exit = if self.options.exit_fresnel {
+            jones::exit_amplitudes(k_out.z, k2.z, n)
+        } else {
+            let t = jones::lossless_exit_amplitude(k_out.z, k2.z, n);
+            (t, t)
+        };
+        PathAmplitudes {
+            entry: (inc.amplitudes[2], inc.amplitudes[3]),
+            flake: self.options.flake.amplitudes(gamma, n),
+            exit,
         }
     }
 
@@ -277,7 +340,7 @@ impl DistributionModel {
             return None;
         }
         let out = refraction::out_of_coating(&k2, self.n)?;
-        let mut w = self.path_factor(inc, gamma, out.z, k2.z) * gamma / inc.cos_t;
+        let mut w = self.path_factor(inc, m, gamma, &k2, &out) * gamma / inc.cos_t;
         if self.options.weighting == Weighting::PaperPrinted {
             w *= k2.z / out.z;
         }
@@ -292,5 +355,18 @@ impl DistributionModel {
         let (w, out) = self.ray_weight(inc, m)?;
         let theta_n = (m.x * m.x + m.y * m.y).sqrt().atan2(m.z);
         Some((w * self.orientation.p2(theta_n) * self.inv_mean_cos, out))
+    }
+}
+
+/// The ray path of the incidence `inc` through the flake of normal `m` into `k2`,
+/// leaving along `k_out`.
+#[inline]
+fn ray_path(inc: &Incidence, m: &Vec3, k2: &Vec3, k_out: &Vec3) -> RayPath {
+    RayPath {
+        k_in: inc.k_in,
+        k1: inc.k1,
+        m: *m,
+        k2: *k2,
+        k_out: *k_out,
     }
 }

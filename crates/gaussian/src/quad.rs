@@ -1,7 +1,64 @@
 //! Quadrature rules: Gauss–Kronrod 15 (with its embedded Gauss 7) and an adaptive
-//! integrator built on it.
+//! integrator built on it, for any [`QuadValue`] (a number, or the 16 elements of a
+//! Mueller matrix integrated on the same nodes).
 //!
 //! Nodes and weights are those of QUADPACK's `qk15` (Piessens et al. 1983).
+
+/// A value the rules can integrate: `f64`, or a fixed-size vector of numbers integrated
+/// element by element on the same nodes.
+pub trait QuadValue: Copy {
+    /// The zero value.
+    fn zero() -> Self;
+    /// `self + other`.
+    #[must_use]
+    fn plus(self, other: Self) -> Self;
+    /// `self · k`.
+    #[must_use]
+    fn times(self, k: f64) -> Self;
+    /// The size that relative tolerances refer to (`|x|` for a number).
+    fn size(&self) -> f64;
+    /// The distance between two estimates, the unit of error estimates (`|x − y|` for
+    /// a number; the largest element difference for a vector).
+    fn distance(&self, other: &Self) -> f64;
+    /// The integrand's value at the mirror image `y → −y` of a direction, given its
+    /// value there (the integrands are mirror-symmetric problems: isotropic flakes, the
+    /// incidence in the xz-plane). A number is its own mirror image; a Mueller matrix in
+    /// the `(s, p)` bases becomes `D M D`, `D = diag(1, 1, −1, −1)`.
+    #[must_use]
+    fn mirrored(self) -> Self;
+}
+
+impl QuadValue for f64 {
+    #[inline]
+    fn zero() -> Self {
+        0.0
+    }
+    #[inline]
+    fn plus(self, other: Self) -> Self {
+        self + other
+    }
+    #[inline]
+    fn times(self, k: f64) -> Self {
+        self * k
+    }
+    #[inline]
+    fn size(&self) -> f64 {
+        self.abs()
+    }
+    #[inline]
+    fn distance(&self, other: &Self) -> f64 {
+        (self - other).abs()
+    }
+    #[inline]
+    fn mirrored(self) -> Self {
+        self
+    }
+}
+
+/// The sum of the values of an iterator.
+fn total<V: QuadValue>(values: impl Iterator<Item = V>) -> V {
+    values.fold(V::zero(), V::plus)
+}
 
 /// Positive Kronrod abscissae on `[-1, 1]`, largest first; the last is 0.
 const XGK: [f64; 8] = [
@@ -92,23 +149,24 @@ pub fn gk15_nodes(a: f64, b: f64) -> [(f64, f64, f64); 15] {
     out
 }
 
-/// One GK15 panel: `(kronrod, |kronrod − gauss|)`.
-pub fn gk15<F: FnMut(f64) -> f64>(f: &mut F, a: f64, b: f64) -> (f64, f64) {
-    let mut k = 0.0;
-    let mut g = 0.0;
+/// One GK15 panel: `(kronrod, distance(kronrod, gauss))`.
+pub fn gk15<V: QuadValue, F: FnMut(f64) -> V>(f: &mut F, a: f64, b: f64) -> (V, f64) {
+    let mut k = V::zero();
+    let mut g = V::zero();
     for (x, wk, wg) in gk15_nodes(a, b) {
         let y = f(x);
-        k += wk * y;
-        g += wg * y;
+        k = k.plus(y.times(wk));
+        g = g.plus(y.times(wg));
     }
-    (k, (k - g).abs())
+    (k, k.distance(&g))
 }
 
 /// Adaptive GK15 over `[a, b]` split first at `breaks` (any order; points outside
 /// `(a, b)` are ignored). Panels are bisected, largest error first, until the summed
 /// error estimate is below `max(abs_tol, rel_tol·|I|)` or `max_panels` is reached.
-/// Returns `(integral, error estimate)`.
-pub fn adaptive<F: FnMut(f64) -> f64>(
+/// Returns `(integral, error estimate)`; for a vector value the tolerance refers to
+/// [`QuadValue::size`] and the error to [`QuadValue::distance`].
+pub fn adaptive<V: QuadValue, F: FnMut(f64) -> V>(
     mut f: F,
     a: f64,
     b: f64,
@@ -116,16 +174,16 @@ pub fn adaptive<F: FnMut(f64) -> f64>(
     abs_tol: f64,
     rel_tol: f64,
     max_panels: usize,
-) -> (f64, f64) {
+) -> (V, f64) {
     if b <= a {
-        return (0.0, 0.0);
+        return (V::zero(), 0.0);
     }
     let mut pts: Vec<f64> = breaks.iter().copied().filter(|&x| x > a && x < b).collect();
     pts.push(a);
     pts.push(b);
     pts.sort_by(f64::total_cmp);
     pts.dedup();
-    let mut panels: Vec<(f64, f64, f64, f64)> = pts
+    let mut panels: Vec<(f64, f64, V, f64)> = pts
         .windows(2)
         .map(|w| {
             let (v, e) = gk15(&mut f, w[0], w[1]);
@@ -133,9 +191,9 @@ pub fn adaptive<F: FnMut(f64) -> f64>(
         })
         .collect();
     loop {
-        let total: f64 = panels.iter().map(|p| p.2).sum();
+        let total = total(panels.iter().map(|p| p.2));
         let err: f64 = panels.iter().map(|p| p.3).sum();
-        if err <= abs_tol.max(rel_tol * total.abs()) || panels.len() >= max_panels {
+        if err <= abs_tol.max(rel_tol * total.size()) || panels.len() >= max_panels {
             return (total, err);
         }
         let (worst, _) = panels
@@ -162,7 +220,7 @@ pub fn adaptive<F: FnMut(f64) -> f64>(
 /// (an inner integral with its own error estimate): a panel's error is the Kronrod–Gauss
 /// difference plus the Kronrod-weighted integral of the inner errors, so the returned
 /// estimate bounds both levels. Returns `(integral, error estimate)`.
-pub fn adaptive_nested<F: FnMut(f64) -> (f64, f64)>(
+pub fn adaptive_nested<V: QuadValue, F: FnMut(f64) -> (V, f64)>(
     mut f: F,
     a: f64,
     b: f64,
@@ -170,26 +228,26 @@ pub fn adaptive_nested<F: FnMut(f64) -> (f64, f64)>(
     abs_tol: f64,
     rel_tol: f64,
     max_panels: usize,
-) -> (f64, f64) {
+) -> (V, f64) {
     if b <= a {
-        return (0.0, 0.0);
+        return (V::zero(), 0.0);
     }
     let mut panel = |lo: f64, hi: f64| {
-        let (mut k, mut g, mut inner) = (0.0, 0.0, 0.0);
+        let (mut k, mut g, mut inner) = (V::zero(), V::zero(), 0.0);
         for (x, wk, wg) in gk15_nodes(lo, hi) {
             let (y, e) = f(x);
-            k += wk * y;
-            g += wg * y;
+            k = k.plus(y.times(wk));
+            g = g.plus(y.times(wg));
             inner += wk * e.abs();
         }
-        (k, (k - g).abs() + inner)
+        (k, k.distance(&g) + inner)
     };
     let mut pts: Vec<f64> = breaks.iter().copied().filter(|&x| x > a && x < b).collect();
     pts.push(a);
     pts.push(b);
     pts.sort_by(f64::total_cmp);
     pts.dedup();
-    let mut panels: Vec<(f64, f64, f64, f64)> = pts
+    let mut panels: Vec<(f64, f64, V, f64)> = pts
         .windows(2)
         .map(|w| {
             let (v, e) = panel(w[0], w[1]);
@@ -197,9 +255,9 @@ pub fn adaptive_nested<F: FnMut(f64) -> (f64, f64)>(
         })
         .collect();
     loop {
-        let total: f64 = panels.iter().map(|p| p.2).sum();
+        let total = total(panels.iter().map(|p| p.2));
         let err: f64 = panels.iter().map(|p| p.3).sum();
-        if err <= abs_tol.max(rel_tol * total.abs()) || panels.len() >= max_panels {
+        if err <= abs_tol.max(rel_tol * total.size()) || panels.len() >= max_panels {
             return (total, err);
         }
         let (worst, _) = panels

@@ -50,9 +50,27 @@ impl FlakeReflectance {
     /// Power reflectances `(Rs, Rp)` at local incidence cosine `cos_iota ∈ [0, 1]`
     /// inside a medium of real index `n_medium`.
     #[must_use]
+    #[inline]
     pub fn power(&self, cos_iota: f64, n_medium: f64) -> (f64, f64) {
         match *self {
             Self::PerfectConductor => (1.0, 1.0),
+            Self::Complex { .. } => {
+                let (rs, rp) = self.amplitudes(cos_iota, n_medium);
+                (rs.norm_sqr(), rp.norm_sqr())
+            }
+        }
+    }
+
+    /// Amplitude reflection coefficients `(rs, rp)` at local incidence cosine
+    /// `cos_iota ∈ [0, 1]` inside a medium of real index `n_medium`, in the convention
+    /// of [`crate::jones`] (`p = k × s` for the incoming and the reflected wave, time
+    /// dependence `exp(−iωt)`): `(−1, +1)` for the perfect conductor, the module-doc
+    /// formulas for a complex index.
+    #[must_use]
+    #[inline]
+    pub fn amplitudes(&self, cos_iota: f64, n_medium: f64) -> (Complex<f64>, Complex<f64>) {
+        match *self {
+            Self::PerfectConductor => (Complex::new(-1.0, 0.0), Complex::new(1.0, 0.0)),
             Self::Complex { n, k } => {
                 let c = cos_iota.clamp(0.0, 1.0);
                 let sin2 = 1.0 - c * c;
@@ -62,7 +80,7 @@ impl FlakeReflectance {
                 let cc = Complex::new(c, 0.0);
                 let rs = (cc - w) / (cc + w);
                 let rp = (n2 * cc - w) / (n2 * cc + w);
-                (rs.norm_sqr(), rp.norm_sqr())
+                (rs, rp)
             }
         }
     }

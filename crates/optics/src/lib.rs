@@ -15,7 +15,12 @@
 //!   aluminium tables, user tables);
 //! * [`polarization`]: how Fresnel factors combine (`exact-unpolarized`, `paper`, `s`,
 //!   `p`), the `physical` vs `paper-printed` weighting, and the clear coat's own
-//!   specular reflectance (physics.md §6).
+//!   specular reflectance (physics.md §6);
+//! * [`jones`]: the Jones matrix of a ray's whole path (entry, flake, exit, with the
+//!   frame rotations between the planes of incidence) in SCATMECH's `(s, p)` bases, and
+//!   of the clear coat's specular reflection (physics.md §11);
+//! * [`mueller`]: Stokes vectors, Mueller matrices, analysers, and the
+//!   non-depolarisation and realisability checks.
 //!
 //! # Conventions (physics.md §1)
 //! * Right-handed frame, `z` = macroscopic coating normal pointing into the air, `x` in
@@ -50,7 +55,9 @@
 pub mod detector;
 pub mod flake;
 pub mod fresnel;
+pub mod jones;
 pub mod material;
+pub mod mueller;
 pub mod polarization;
 pub mod reflection;
 pub mod refraction;
@@ -77,6 +84,14 @@ pub enum OpticsError {
         n: f64,
         /// Imaginary part (extinction coefficient).
         k: f64,
+    },
+    /// A Stokes vector that no beam (or no ideal analyser) has.
+    #[error("Stokes vector ({}, {}, {}, {}) is not valid: expected {expected}", .s[0], .s[1], .s[2], .s[3])]
+    InvalidStokes {
+        /// The parameters given, `(S0, S1, S2, S3)`.
+        s: [f64; 4],
+        /// What a valid one looks like, in words.
+        expected: &'static str,
     },
     /// An angle outside the range where it has a meaning.
     #[error("{name} = {value} rad is out of range: expected {expected}")]

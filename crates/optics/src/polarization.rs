@@ -1,14 +1,18 @@
 //! How Fresnel factors combine along a ray, and how rays are weighted
-//! (physics.md §4, §5, §6).
+//! (physics.md §4, §5, §6, §11).
 //!
 //! A ray crosses the coating surface twice (entry at `θi`, exit at `θo`) and reflects
-//! once from a flake. In the plane of incidence s and p do not mix for a conducting
-//! flake, so the exact unpolarised factor is the average of the two polarisation
-//! channels: `½[Ts,i Rs Ts,o + Tp,i Rp Tp,o]`. The paper instead applies eq. 10 at each
-//! crossing, `T_av,i · T_av,o · R_av`, which is lower by `(Ts,i − Tp,i)(Ts,o − Tp,o)/4`
-//! for a perfect conductor (up to 2.9 % at θi = 75°, n = 1.5). The `s`/`p` options are a
-//! polarised beam. Out of the plane of incidence s and p mix; these factors are then
-//! approximations (a full Jones/Mueller treatment would be exact).
+//! once from a flake. `exact-unpolarized`, `s` and `p` are exact in every direction:
+//! the models take them from the first row `(m00, m01)` of the ray's Mueller matrix
+//! ([`crate::jones`], [`Transmission::from_first_row`]), because out of the plane of
+//! incidence the tilted flake rotates the polarisation frame and s and p mix. In the
+//! plane of incidence they do not mix for a conducting flake, and the same factors are
+//! the products of powers of [`Transmission::path_factor`]:
+//! `½[Ts,i Rs Ts,o + Tp,i Rp Tp,o]`, `Ts,i Rs Ts,o`, `Tp,i Rp Tp,o`. The paper instead
+//! applies eq. 10 at each crossing, `T_av,i · T_av,o · R_av` (`paper`, a product of
+//! averages in every direction), which in the plane is lower than `exact-unpolarized`
+//! by `(Ts,i − Tp,i)(Ts,o − Tp,o)/4` for a perfect conductor (up to 2.9 % at θi = 75°,
+//! n = 1.5).
 
 use std::fmt;
 use std::str::FromStr;
@@ -18,14 +22,17 @@ use crate::fresnel::FresnelPower;
 /// Which polarisation bookkeeping to use for the Fresnel factors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub enum Transmission {
-    /// Unpolarised beam, s and p channels kept apart: `½[Ts Rs Ts' + Tp Rp Tp']` (default).
+    /// Unpolarised beam, exact: `m00` of the ray's Mueller matrix; in the plane of
+    /// incidence `½[Ts Rs Ts' + Tp Rp Tp']` (default).
     #[default]
     ExactUnpolarized,
     /// The paper: eq. 10 average at each crossing, `T_av T_av' R_av`.
     Paper,
-    /// s-polarised beam: `Ts Rs Ts'`.
+    /// s-polarised beam, every polarisation detected: `m00 + m01`; in the plane
+    /// `Ts Rs Ts'`.
     S,
-    /// p-polarised beam: `Tp Rp Tp'`.
+    /// p-polarised beam, every polarisation detected: `m00 − m01`; in the plane
+    /// `Tp Rp Tp'`.
     P,
 }
 
@@ -44,7 +51,10 @@ impl Transmission {
         }
     }
 
-    /// Fraction of the beam that survives entry, flake reflection `(Rs, Rp)` and exit.
+    /// Fraction of the beam that survives entry, flake reflection `(Rs, Rp)` and exit,
+    /// as a product of powers: exact in the plane of incidence, and the definition of
+    /// `paper` everywhere. Out of the plane the models use
+    /// [`Transmission::from_first_row`] for the other three.
     #[must_use]
     pub fn path_factor(self, entry: &FresnelPower, flake: (f64, f64), exit: &FresnelPower) -> f64 {
         let (rs, rp) = flake;
@@ -53,6 +63,22 @@ impl Transmission {
             Self::Paper => entry.t_av() * 0.5 * (rs + rp) * exit.t_av(),
             Self::S => entry.ts * rs * exit.ts,
             Self::P => entry.tp * rp * exit.tp,
+        }
+    }
+
+    /// The exact path factor from the first row `(m00, m01)` of the ray's Mueller
+    /// matrix ([`crate::jones::Transfer::first_row`]): `m00` for an unpolarised beam,
+    /// `m00 + m01` for s, `m00 − m01` for p (every polarisation detected); `None` for
+    /// `paper`, which is its own approximation ([`Transmission::path_factor`]).
+    #[must_use]
+    #[inline]
+    pub fn from_first_row(self, first_row: (f64, f64)) -> Option<f64> {
+        let (m00, m01) = first_row;
+        match self {
+            Self::ExactUnpolarized => Some(m00),
+            Self::S => Some(m00 + m01),
+            Self::P => Some(m00 - m01),
+            Self::Paper => None,
         }
     }
 

@@ -125,15 +125,16 @@ use std::f64::consts::{PI, TAU};
 
 use flakescatter_optics::detector::{self, Cone};
 use flakescatter_optics::fresnel::{self, FresnelPower};
+use flakescatter_optics::jones::RayPath;
 use flakescatter_optics::polarization::Weighting;
-use flakescatter_optics::refraction;
+use flakescatter_optics::{Vec3, refraction};
 use flakescatter_stats::HeightMap;
 use gauss_quad::legendre::GaussLegendre;
 use rayon::prelude::*;
 
 use crate::TopoError;
 use crate::index::ConeIndex;
-use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning};
+use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of};
 use crate::normals::{Rect, Scratch, direct_slopes, tile_slopes};
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
@@ -370,6 +371,9 @@ struct IsoInc {
     st: f64,
     ct: f64,
     entry: FresnelPower,
+    /// Entry amplitudes `(ts, tp)` and the incident direction, for the Jones path.
+    entry_t: (f64, f64),
+    k_in: Vec3,
     /// Internal detectors of this incidence: the user's cones, then one specular cone
     /// per distinct aperture.
     cones: Vec<Cone>,
@@ -611,9 +615,22 @@ impl IsoSetup<'_> {
                 if q.k2z <= 0.0 || q.o[2] <= 0.0 {
                     continue;
                 }
-                let exit = fresnel::power_from_cosines(q.o[2], q.k2z, n);
-                let flake = opts.flake.power(q.gamma, n);
-                s += wt * jac * opts.transmission.path_factor(&inc.entry, flake, &exit) * q.gamma;
+                // The same exact path factor as the plain model's ray (its Jones path
+                // out of the plane of incidence), at this azimuth of the normal.
+                let (sp, cp) = phi.sin_cos();
+                let m = Vec3::new(ring.s * cp, ring.s * sp, ring.c);
+                let k1 = Vec3::new(inc.st, 0.0, -inc.ct);
+                let path = RayPath {
+                    k_in: inc.k_in,
+                    k1,
+                    m,
+                    k2: Vec3::new(q.o[0] / n, q.o[1] / n, q.k2z),
+                    k_out: Vec3::new(q.o[0], q.o[1], q.o[2]),
+                };
+                s += wt
+                    * jac
+                    * path_factor_of(opts, &inc.entry, inc.entry_t, &path, q.gamma)
+                    * q.gamma;
             }
             total += 0.5 * h * s;
         }
@@ -1025,10 +1042,13 @@ impl TopoModel {
                     }
                 })
                 .collect();
+            let amps = fresnel::amplitudes_air_to_coating(t, n);
             incs.push(IsoInc {
                 st: k1.x,
                 ct,
                 entry: fresnel::air_to_coating(t, n),
+                entry_t: (amps[2], amps[3]),
+                k_in: *detector::incident_direction(t),
                 axes: all.iter().map(Axis::new).collect(),
                 index: ConeIndex::with_margin(&all, margin),
                 scale,
@@ -1442,6 +1462,11 @@ mod tests {
                 st: k1.x,
                 ct: -k1.z,
                 entry: fresnel::air_to_coating(theta_i, n),
+                entry_t: {
+                    let a = fresnel::amplitudes_air_to_coating(theta_i, n);
+                    (a[2], a[3])
+                },
+                k_in: *detector::incident_direction(theta_i),
                 axes: cones.iter().map(Axis::new).collect(),
                 index: ConeIndex::with_margin(cones, 0.6 * alpha_min),
                 scale: vec![1.0; cones.len()],
@@ -1471,12 +1496,8 @@ mod tests {
         let mut checked = 0;
         for ti in [0.0f64, 0.5, 1.0, 1.3] {
             let st = ti.sin() / options.n;
-            let inc = IsoInc {
-                st,
-                ct: (1.0 - st * st).sqrt(),
-                entry: fresnel::air_to_coating(ti, options.n),
-                ..setup_for(&options, ti, &cones).incs.remove(0)
-            };
+            let inc = setup_for(&options, ti, &cones).incs.remove(0);
+            assert!((inc.st - st).abs() < 1e-15);
             for theta in [0.01f64, 0.1, 0.3, 0.6, 0.9] {
                 let ring = Ring::new(options.n, inc.st, inc.ct, theta);
                 let arc = match ring.arc(setup.kappa) {

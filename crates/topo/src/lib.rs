@@ -7,7 +7,8 @@
 //! incidence is refracted into the coating, mirror-reflected by the local plane,
 //! refracted out, and its weight is added to every detector cone that contains it
 //! ([`model`]). Several maps accumulate into one result, with per-detector ray counts
-//! and a standard error from the spread between map tiles.
+//! and a standard error from the spread between map tiles. [`TopoModel::run_mueller`]
+//! accumulates the Mueller matrix of every ray instead ([`mueller`], physics.md §11).
 //!
 //! [`isotropic`] averages the model exactly over the sample's rotation about its normal
 //! (each pixel's ray becomes a ring of exit directions; [`TopoModel::run_isotropic`]),
@@ -53,6 +54,7 @@
 mod index;
 pub mod isotropic;
 pub mod model;
+pub mod mueller;
 pub mod normals;
 pub mod pixels;
 
@@ -60,6 +62,7 @@ pub use isotropic::{DEFAULT_NODES_PER_APERTURE, IsotropicOptions, IsotropicResul
 pub use model::{
     DEFAULT_BLOCK_UM, MIN_TILES, TopoModel, TopoOptions, TopoPoint, TopoResult, TopoWarning,
 };
+pub use mueller::{TopoMuellerPoint, TopoMuellerResult};
 pub use normals::{Normals, normal_from_slopes};
 pub use pixels::{PixelTilts, TileTilts};
 

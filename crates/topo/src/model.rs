@@ -10,9 +10,12 @@
 //!    `n² (k2.x² + k2.y²) ≥ 1` are lost to total internal reflection.
 //! 2. `k_out = (n k2.x, n k2.y, sqrt(1 − n²(k2.x² + k2.y²)))`.
 //! 3. Weight, a fraction of the beam power (`physical`, the default):
-//!    `w = F · γ / (m.z · cos θt) / N_pixels`, where `F` is
-//!    [`Transmission::path_factor`] (entry Fresnel at `θi`, flake reflectance at
-//!    `cos ι = γ`, exit Fresnel from the cosines `k_out.z`, `k2.z`, no trigonometry) and
+//!    `w = F · γ / (m.z · cos θt) / N_pixels`, where `F` is the path factor of the ray
+//!    (entry Fresnel at `θi`, flake reflectance at `cos ι = γ`, exit Fresnel from the
+//!    cosines `k_out.z`, `k2.z`, no trigonometry): for `exact-unpolarized`, `s`, `p` the
+//!    exact `m00`, `m00 ± m01` of the ray's Jones matrix
+//!    ([`flakescatter_optics::jones`], physics.md §11), for `paper` the product of
+//!    averages of [`Transmission::path_factor`]; and
 //!    `N_pixels` counts every pixel of every map, valid or not (dark pixels are black
 //!    substrate). `γ / m.z` is the pixel's flake area projected onto the beam per unit of
 //!    map area; dividing by `cos θt` makes the beam's footprint the unit.
@@ -68,8 +71,9 @@
 use flakescatter_optics::detector::{self, Cone};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel::{self, FresnelPower};
+use flakescatter_optics::jones::{self, PathAmplitudes, RayPath};
 use flakescatter_optics::polarization::{Transmission, Weighting};
-use flakescatter_optics::refraction;
+use flakescatter_optics::{Vec3, refraction};
 use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
@@ -230,11 +234,133 @@ impl TopoResult {
 
 /// Per-incidence constants.
 #[derive(Debug, Clone, Copy)]
-struct Inc {
-    k1x: f64,
-    k1z: f64,
-    cos_t: f64,
-    entry: FresnelPower,
+pub(crate) struct Inc {
+    /// Incident direction in air, `(sin θi, 0, −cos θi)`.
+    pub k_in: Vec3,
+    /// Refracted direction `k1 = (k1x, 0, k1z)`, `k1z < 0`.
+    pub k1x: f64,
+    /// See `k1x`.
+    pub k1z: f64,
+    /// `cos θt = −k1z`.
+    pub cos_t: f64,
+    /// Fresnel powers of the entry crossing.
+    pub entry: FresnelPower,
+    /// Fresnel amplitudes `[rs, rp, ts, tp]` of the entry crossing.
+    pub amplitudes: [f64; 4],
+}
+
+/// One ray that leaves the coating, as the accumulators see it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Ray {
+    /// Unit flake normal `(m.x, m.y, m.z)` and `1/m.z`.
+    pub m: [f64; 4],
+    /// Obliquity `γ = −k1·m > 0`.
+    pub gamma: f64,
+    /// Inside direction after the flake, `k2.z > 0`.
+    pub k2: Vec3,
+    /// Exit direction in air.
+    pub k_out: Vec3,
+}
+
+/// What a ray adds to the detectors it enters: `channels()` sums per detector.
+/// `weigh` runs once per ray that enters at least one detector, `add` once per
+/// detector entered, in a fixed order (the result does not depend on threads).
+pub(crate) trait Accumulator: Sync {
+    /// What `weigh` computes once per ray.
+    type Weight;
+    /// Sums per detector.
+    fn channels(&self) -> usize;
+    /// The ray's contribution before the detector's own factors.
+    fn weigh(&self, options: &TopoOptions, inc: &Inc, ray: &Ray) -> Self::Weight;
+    /// Adds `weight` to the `channels()` sums of detector `cone` (whose paper-printed
+    /// factor is `scale`).
+    fn add(&self, weight: &Self::Weight, ray: &Ray, cone: &Cone, scale: f64, sums: &mut [f64]);
+}
+
+/// The scalar model: one sum per detector, `w = F γ/(m.z cos θt)` (module docs).
+struct Scalar;
+
+impl Accumulator for Scalar {
+    type Weight = f64;
+
+    fn channels(&self) -> usize {
+        1
+    }
+
+    #[inline]
+    fn weigh(&self, opts: &TopoOptions, inc: &Inc, ray: &Ray) -> f64 {
+        let f = path_factor(opts, inc, ray);
+        if opts.weighting == Weighting::Physical {
+            f * ray.gamma * ray.m[3] * (1.0 / inc.cos_t)
+        } else {
+            f * ray.gamma
+        }
+    }
+
+    #[inline]
+    fn add(&self, w: &f64, _: &Ray, _: &Cone, scale: f64, sums: &mut [f64]) {
+        sums[0] += w * scale;
+    }
+}
+
+/// The Jones path of a ray ([`flakescatter_optics::jones`]) with its amplitudes.
+#[inline]
+pub(crate) fn ray_path(opts: &TopoOptions, inc: &Inc, ray: &Ray) -> (RayPath, PathAmplitudes) {
+    let n = opts.n;
+    let path = RayPath {
+        k_in: inc.k_in,
+        k1: Vec3::new(inc.k1x, 0.0, inc.k1z),
+        m: Vec3::new(ray.m[0], ray.m[1], ray.m[2]),
+        k2: ray.k2,
+        k_out: ray.k_out,
+    };
+    let amps = PathAmplitudes {
+        entry: (inc.amplitudes[2], inc.amplitudes[3]),
+        flake: opts.flake.amplitudes(ray.gamma, n),
+        exit: jones::exit_amplitudes(ray.k_out.z, ray.k2.z, n),
+    };
+    (path, amps)
+}
+
+/// The path factor `F` of a ray (module docs, step 3).
+#[inline]
+fn path_factor(opts: &TopoOptions, inc: &Inc, ray: &Ray) -> f64 {
+    let (path, _) = ray_path(opts, inc, ray);
+    path_factor_of(
+        opts,
+        &inc.entry,
+        (inc.amplitudes[2], inc.amplitudes[3]),
+        &path,
+        ray.gamma,
+    )
+}
+
+/// The path factor `F` of a ray given by its directions (module docs, step 3), shared
+/// by the plain and the isotropic model: for `paper` the product of averaged powers
+/// at each crossing; otherwise the exact first row of the ray's Mueller matrix
+/// ([`flakescatter_optics::jones`]), `m00` for an unpolarised beam, `m00 ± m01` for s
+/// or p. `entry_t` are the entry amplitudes `(ts, tp)`, `gamma = −k1·m`.
+#[inline]
+pub(crate) fn path_factor_of(
+    opts: &TopoOptions,
+    entry: &FresnelPower,
+    entry_t: (f64, f64),
+    path: &RayPath,
+    gamma: f64,
+) -> f64 {
+    let (t, n) = (opts.transmission, opts.n);
+    if t == Transmission::Paper {
+        let exit = fresnel::power_from_cosines(path.k_out.z, path.k2.z, n);
+        let flake = opts.flake.power(gamma, n);
+        return t.path_factor(entry, flake, &exit);
+    }
+    let amps = PathAmplitudes {
+        entry: entry_t,
+        flake: opts.flake.amplitudes(gamma, n),
+        exit: jones::exit_amplitudes(path.k_out.z, path.k2.z, n),
+    };
+    let row = path.first_row(&amps);
+    t.from_first_row(row).unwrap_or(row.0)
 }
 
 /// Sums of one tile.
@@ -251,10 +377,36 @@ struct Partial {
 struct Setup<'a> {
     incs: Vec<Inc>,
     index: ConeIndex,
+    /// The internal detectors.
+    cones: &'a [Cone],
     /// Per internal detector: 1 (physical) or `cos ϑ'/cos ϑ` (paper-printed).
     scale: Vec<f64>,
     ndet: usize,
     options: &'a TopoOptions,
+}
+
+/// What the tiles of a run add up to, before the per-detector values are formed.
+pub(crate) struct Accumulated {
+    /// The user's cones, then one specular cone per incidence and distinct aperture.
+    pub all: Vec<Cone>,
+    /// The distinct apertures of the user's cones, in order of appearance.
+    pub apertures: Vec<f64>,
+    /// Internal detectors per incidence.
+    pub ndet: usize,
+    /// Sums per (incidence, internal detector, channel), unnormalised.
+    pub sum: Vec<f64>,
+    /// Welford M2 of the tile sums, same layout.
+    pub m2: Vec<f64>,
+    /// Rays per (incidence, internal detector).
+    pub rays: Vec<u64>,
+    /// Per-incidence constants.
+    pub incs: Vec<Inc>,
+    /// `1/N_pixels`.
+    pub inv_n: f64,
+    /// `T/(T − 1)` for `T` tiles (`None` for one tile: no spread to estimate from).
+    pub se_factor: Option<f64>,
+    /// The totals of the run (with `points` empty).
+    pub totals: TopoResult,
 }
 
 impl TopoModel {
@@ -401,6 +553,65 @@ impl TopoModel {
         cones: &[Cone],
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<TopoResult, TopoError> {
+        let acc = self.accumulate(maps, theta_i, cones, progress, &Scalar)?;
+        let (inv_n, ndet, all, apertures) = (acc.inv_n, acc.ndet, &acc.all, &acc.apertures);
+        let ncones = cones.len();
+        let mut points = Vec::with_capacity(theta_i.len() * ncones);
+        for (ii, &ti) in theta_i.iter().enumerate() {
+            let specular = detector::specular_direction(ti);
+            let cc = self
+                .options
+                .transmission
+                .clearcoat_reflectance(&acc.incs[ii].entry);
+            let value = |d: usize| {
+                let s = ii * ndet + d;
+                let seen_cc = self.options.clearcoat && all[d].contains(&specular);
+                let rho = acc.sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
+                // A detector without rays has no spread either (module docs).
+                let se = acc
+                    .se_factor
+                    .filter(|_| acc.rays[s] > 0)
+                    .map(|f| (f * acc.m2[s]).sqrt() * inv_n);
+                (rho, se, seen_cc)
+            };
+            for (j, cone) in cones.iter().enumerate() {
+                let (rho, se, seen_cc) = value(j);
+                let (spec, _, _) =
+                    value(ncones + ii * apertures.len() + aperture_index(apertures, cone));
+                let proj = cone.projected_solid_angle();
+                points.push(TopoPoint {
+                    theta_i: ti,
+                    cone: *cone,
+                    reflectance: rho,
+                    reflectance_std_err: se,
+                    brdf: rho / proj,
+                    brdf_std_err: se.map(|e| e / proj),
+                    rays: acc.rays[ii * ndet + j],
+                    relative: if spec > 0.0 { rho / spec } else { f64::NAN },
+                    clearcoat_seen: seen_cc,
+                });
+            }
+        }
+        Ok(TopoResult {
+            points,
+            ..acc.totals
+        })
+    }
+
+    /// Validates the input, builds the internal detectors (the user's cones, then one
+    /// specular cone per incidence and distinct aperture, for `relative`), traces every
+    /// tile with `acc` and reduces the tile sums in tile order (module docs).
+    ///
+    /// # Errors
+    /// As [`TopoModel::run`].
+    pub(crate) fn accumulate<A: Accumulator>(
+        &self,
+        maps: &[&HeightMap],
+        theta_i: &[f64],
+        cones: &[Cone],
+        progress: &(dyn Fn(u64, u64) + Sync),
+        acc: &A,
+    ) -> Result<Accumulated, TopoError> {
         if maps.is_empty() {
             return Err(TopoError::Empty("height map"));
         }
@@ -452,18 +663,22 @@ impl TopoModel {
         let incs: Vec<Inc> = theta_i
             .iter()
             .map(|&t| {
-                let k1 = refraction::into_coating(&detector::incident_direction(t), n);
+                let k_in = detector::incident_direction(t);
+                let k1 = refraction::into_coating(&k_in, n);
                 Inc {
+                    k_in: k_in.into_inner(),
                     k1x: k1.x,
                     k1z: k1.z,
                     cos_t: -k1.z,
                     entry: fresnel::air_to_coating(t, n),
+                    amplitudes: fresnel::amplitudes_air_to_coating(t, n),
                 }
             })
             .collect();
         let setup = Setup {
             incs,
             index: ConeIndex::new(&all),
+            cones: &all,
             scale,
             ndet,
             options: &self.options,
@@ -475,19 +690,20 @@ impl TopoModel {
             .flat_map(|(i, m)| self.tiles(m).into_iter().map(move |r| (i, r)))
             .collect();
         let total_tiles = jobs.len() as u64;
-        let nslots = theta_i.len() * ndet;
+        let channels = acc.channels();
+        let nslots = theta_i.len() * ndet * channels;
         // Ordered reduction: plain sums, Welford mean/M2 of the tile sums, ray counts.
         let mut sum = vec![0.0; nslots];
         let mut mean = vec![0.0; nslots];
         let mut m2 = vec![0.0; nslots];
-        let mut rays = vec![0u64; nslots];
+        let mut rays = vec![0u64; theta_i.len() * ndet];
         let (mut usable, mut lost_tir, mut lost_down) = (0u64, 0u64, 0u64);
         let mut seen = 0u64;
         for batch in jobs.chunks(BATCH) {
             let partials: Vec<Partial> = batch
                 .par_iter()
                 .map_init(Scratch::default, |scratch, &(mi, rect)| {
-                    trace_tile(&setup, maps[mi], rect, scratch)
+                    trace_tile(&setup, maps[mi], rect, scratch, acc)
                 })
                 .collect();
             for p in partials {
@@ -502,7 +718,9 @@ impl TopoModel {
                     let delta = v - mean[s];
                     mean[s] += delta * inv_seen;
                     m2[s] += delta * (v - mean[s]);
-                    rays[s] += u64::from(p.counts[s]);
+                }
+                for (r, &c) in rays.iter_mut().zip(&p.counts) {
+                    *r += u64::from(c);
                 }
             }
             progress(seen, total_tiles);
@@ -516,71 +734,57 @@ impl TopoModel {
                 pixels: pixels as usize,
             });
         }
-        let inv_n = 1.0 / pixels as f64;
         let t = total_tiles as f64;
         // No spread to estimate from with one tile (module docs): None, not NaN.
         let se_factor = (total_tiles > 1).then(|| t / (t - 1.0));
-        let warnings = tile_warnings(total_tiles);
-        let ncones = cones.len();
-        let mut points = Vec::with_capacity(theta_i.len() * ncones);
-        for (ii, &ti) in theta_i.iter().enumerate() {
-            let specular = detector::specular_direction(ti);
-            let cc = self
-                .options
-                .transmission
-                .clearcoat_reflectance(&setup.incs[ii].entry);
-            let value = |d: usize| {
-                let s = ii * ndet + d;
-                let seen_cc = self.options.clearcoat && all[d].contains(&specular);
-                let rho = sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
-                // A detector without rays has no spread either (module docs).
-                let se = se_factor
-                    .filter(|_| rays[s] > 0)
-                    .map(|f| (f * m2[s]).sqrt() * inv_n);
-                (rho, se, seen_cc)
-            };
-            for (j, cone) in cones.iter().enumerate() {
-                let (rho, se, seen_cc) = value(j);
-                let a = apertures
-                    .iter()
-                    .position(|&a| a == cone.half_angle())
-                    .unwrap_or(0);
-                let (spec, _, _) = value(ncones + ii * apertures.len() + a);
-                let proj = cone.projected_solid_angle();
-                points.push(TopoPoint {
-                    theta_i: ti,
-                    cone: *cone,
-                    reflectance: rho,
-                    reflectance_std_err: se,
-                    brdf: rho / proj,
-                    brdf_std_err: se.map(|e| e / proj),
-                    rays: rays[ii * ndet + j],
-                    relative: if spec > 0.0 { rho / spec } else { f64::NAN },
-                    clearcoat_seen: seen_cc,
-                });
-            }
-        }
-        Ok(TopoResult {
-            points,
-            maps: maps.len(),
-            pixels,
-            usable_pixels: usable,
-            rays_traced: usable * theta_i.len() as u64,
-            rays_lost_tir: lost_tir,
-            rays_lost_down: lost_down,
-            tiles: total_tiles,
-            block_um: self.block_um,
-            warnings,
+        let incs = setup.incs;
+        Ok(Accumulated {
+            all,
+            apertures,
+            ndet,
+            sum,
+            m2,
+            rays,
+            incs,
+            inv_n: 1.0 / pixels as f64,
+            se_factor,
+            totals: TopoResult {
+                points: Vec::new(),
+                maps: maps.len(),
+                pixels,
+                usable_pixels: usable,
+                rays_traced: usable * theta_i.len() as u64,
+                rays_lost_tir: lost_tir,
+                rays_lost_down: lost_down,
+                tiles: total_tiles,
+                block_um: self.block_um,
+                warnings: tile_warnings(total_tiles),
+            },
         })
     }
 }
 
+/// Position of `cone`'s aperture among `apertures` (0 if absent, which cannot happen
+/// for the cones the apertures were collected from).
+pub(crate) fn aperture_index(apertures: &[f64], cone: &Cone) -> usize {
+    apertures
+        .iter()
+        .position(|&a| a == cone.half_angle())
+        .unwrap_or(0)
+}
+
 /// Normals of one tile, then one ray per usable pixel and incidence.
-fn trace_tile(setup: &Setup<'_>, map: &HeightMap, rect: Rect, scratch: &mut Scratch) -> Partial {
+fn trace_tile<A: Accumulator>(
+    setup: &Setup<'_>,
+    map: &HeightMap,
+    rect: Rect,
+    scratch: &mut Scratch,
+    acc: &A,
+) -> Partial {
     let opts = setup.options;
     let n = opts.n;
-    let physical = opts.weighting == Weighting::Physical;
     let ndet = setup.ndet;
+    let channels = acc.channels();
     // Normal components and 1/m.z of the usable pixels.
     let mut ms: Vec<[f64; 4]> = Vec::new();
     tile_slopes(map, opts.window / 2, rect, scratch, |_, _, a, b| {
@@ -589,7 +793,7 @@ fn trace_tile(setup: &Setup<'_>, map: &HeightMap, rect: Rect, scratch: &mut Scra
         ms.push([-a * inv, -b * inv, inv, q]);
     });
     let mut p = Partial {
-        sums: vec![0.0; setup.incs.len() * ndet],
+        sums: vec![0.0; setup.incs.len() * ndet * channels],
         counts: vec![0; setup.incs.len() * ndet],
         usable: ms.len() as u64,
         lost_tir: 0,
@@ -597,10 +801,10 @@ fn trace_tile(setup: &Setup<'_>, map: &HeightMap, rect: Rect, scratch: &mut Scra
     };
     for (ii, inc) in setup.incs.iter().enumerate() {
         let base = ii * ndet;
-        let sums = &mut p.sums[base..base + ndet];
+        let sums = &mut p.sums[base * channels..(base + ndet) * channels];
         let counts = &mut p.counts[base..base + ndet];
-        let inv_cos_t = 1.0 / inc.cos_t;
-        for &[mx, my, mz, inv_mz] in &ms {
+        for &m in &ms {
+            let [mx, my, mz, _] = m;
             let gamma = -(inc.k1x * mx + inc.k1z * mz);
             let g2 = 2.0 * gamma;
             let k2z = inc.k1z + g2 * mz;
@@ -609,8 +813,9 @@ fn trace_tile(setup: &Setup<'_>, map: &HeightMap, rect: Rect, scratch: &mut Scra
                 p.lost_down += 1;
                 continue;
             }
-            let ox = n * (inc.k1x + g2 * mx);
-            let oy = n * g2 * my;
+            let (k2x, k2y) = (inc.k1x + g2 * mx, g2 * my);
+            let ox = n * k2x;
+            let oy = n * k2y;
             let s2 = ox * ox + oy * oy;
             // Drop rays that are totally internally reflected.
             if s2 >= 1.0 {
@@ -618,21 +823,24 @@ fn trace_tile(setup: &Setup<'_>, map: &HeightMap, rect: Rect, scratch: &mut Scra
                 continue;
             }
             let oz = (1.0 - s2).sqrt();
-            let mut w = f64::NAN;
+            let mut weight = None;
             for e in setup.index.candidates(ox, oy) {
                 if e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha {
-                    if w.is_nan() {
-                        let exit = fresnel::power_from_cosines(oz, k2z, n);
-                        let flake = opts.flake.power(gamma, n);
-                        let f = opts.transmission.path_factor(&inc.entry, flake, &exit);
-                        w = if physical {
-                            f * gamma * inv_mz * inv_cos_t
-                        } else {
-                            f * gamma
-                        };
-                    }
+                    let ray = Ray {
+                        m,
+                        gamma,
+                        k2: Vec3::new(k2x, k2y, k2z),
+                        k_out: Vec3::new(ox, oy, oz),
+                    };
+                    let w = weight.get_or_insert_with(|| acc.weigh(opts, inc, &ray));
                     let d = e.index as usize;
-                    sums[d] += w * setup.scale[d];
+                    acc.add(
+                        w,
+                        &ray,
+                        &setup.cones[d],
+                        setup.scale[d],
+                        &mut sums[d * channels..(d + 1) * channels],
+                    );
                     counts[d] += 1;
                 }
             }

@@ -103,7 +103,7 @@ fn tilted_plane_at_normal_incidence_matches_the_closed_form_ring() {
 /// 24-point Gauss–Legendre rule (Golub–Welsch nodes from `statrs`-free code below).
 struct Brute {
     k1: Vec3,
-    entry: fresnel::FresnelPower,
+    cos_i: f64,
     cos_t: f64,
 }
 
@@ -112,7 +112,7 @@ impl Brute {
         let tt = (theta_i.sin() / N).asin();
         Self {
             k1: Vec3::new(tt.sin(), 0.0, -tt.cos()),
-            entry: fresnel::air_to_coating(theta_i, N),
+            cos_i: theta_i.cos(),
             cos_t: tt.cos(),
         }
     }
@@ -131,10 +131,36 @@ impl Brute {
             return None;
         }
         let out = UnitVec3::new_normalize(Vec3::new(N * k2.x, N * k2.y, (1.0 - h2).sqrt()));
-        // Exit Fresnel at the outside angle (reciprocity, physics.md §2).
-        let exit = fresnel::air_to_coating(out.z.acos(), N);
-        let f = 0.5 * (self.entry.ts * exit.ts + self.entry.tp * exit.tp);
+        let f = self.path_power(&mr, &k2, &out);
         Some((out, f * gamma / (m.z * self.cos_t)))
+    }
+
+    /// The unpolarised path factor of one ray by vector field calculus, written out here
+    /// (physics.md §11): for incident s and p fields, refract with the entry amplitudes
+    /// `ts, tp` (s stays s, p turns with the ray), reflect by a perfect-conductor flake
+    /// (`E' = 2 (m·E) m − E`), split the field into the exit plane's s and p and refract
+    /// out with the coating → air amplitudes; the power is the mean of `|E_out|²` over
+    /// the two inputs times the beam-section factors `(cos θt/cos θi)(cos θo/cos θ2)`.
+    fn path_power(&self, m: &Vec3, k2: &Vec3, out: &UnitVec3) -> f64 {
+        let (ci, ct) = (self.cos_i, self.cos_t);
+        let (c2, co) = (k2.z, out.z);
+        let ts = 2.0 * ci / (ci + N * ct);
+        let tp = 2.0 * ci / (N * ci + ct);
+        let ts_out = 2.0 * N * c2 / (N * c2 + co);
+        let tp_out = 2.0 * N * c2 / (c2 + N * co);
+        let z = Vec3::z();
+        // In the plane of incidence (xz) the entry s is y; p = k × s for each direction.
+        let s_in = Vec3::y();
+        let p1 = self.k1.cross(&s_in);
+        let s2 = z.cross(k2).normalize();
+        let p2 = k2.cross(&s2);
+        let mut power = 0.0;
+        for e1 in [s_in * ts, p1 * tp] {
+            let e2 = 2.0 * m.dot(&e1) * m - e1;
+            let (es, ep) = (e2.dot(&s2) * ts_out, e2.dot(&p2) * tp_out);
+            power += 0.5 * (es * es + ep * ep);
+        }
+        power * (ct / ci) * (co / c2)
     }
 
     fn inside(&self, m: &Vec3, psi: f64, cone: &Cone) -> bool {

@@ -37,6 +37,14 @@ pub enum Target {
     MaxSeconds(f64),
     /// The throughput must be at least this many units per second.
     MinPerSecond(f64),
+    /// The median time must be at most `times` × the median of the benchmark `of`
+    /// (measured in the same run: a cost relative to another operation).
+    MaxTimes {
+        /// Criterion id of the reference benchmark.
+        of: &'static str,
+        /// Largest allowed ratio of the two medians.
+        times: f64,
+    },
 }
 
 /// One row of the table: which benchmark, what it measures, what it should reach.
@@ -175,6 +183,20 @@ pub const ROWS: &[RowSpec] = &[
         unit: Unit::Evaluations,
         target: Some(Target::MinPerSecond(1e7)),
         target_note: "> 10⁷ evaluations/s",
+        quick: true,
+    },
+    RowSpec {
+        operation: "Distribution model, point Mueller BRDF",
+        size: "1000 directions",
+        id: "gaussian/point_mueller_x1000",
+        floor: None,
+        work: 1000.0,
+        unit: Unit::Evaluations,
+        target: Some(Target::MaxTimes {
+            of: "gaussian/point_brdf_x1000",
+            times: 3.0,
+        }),
+        target_note: "≤ 3× the point BRDF",
         quick: true,
     },
     RowSpec {
@@ -333,6 +355,9 @@ pub struct Row {
     pub median_s: Result<f64, String>,
     /// Median time of the floor, seconds (`None` without a floor; `Err`: missing).
     pub floor_s: Option<Result<f64, String>>,
+    /// Median time of the reference of a [`Target::MaxTimes`], seconds (`None` for
+    /// other targets; `Err`: missing).
+    pub reference_s: Option<Result<f64, String>>,
 }
 
 impl Row {
@@ -349,6 +374,10 @@ impl Row {
         match self.spec.target? {
             Target::MaxSeconds(max) => Some(t <= max),
             Target::MinPerSecond(min) => Some(self.spec.work / t >= min),
+            Target::MaxTimes { times, .. } => {
+                let r = *self.reference_s.as_ref()?.as_ref().ok()?;
+                Some(t <= times * r)
+            }
         }
     }
 

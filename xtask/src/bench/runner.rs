@@ -7,7 +7,7 @@ use std::time::{Instant, SystemTime};
 
 use anyhow::{Context, bail};
 
-use super::rows::{BenchTarget, Row, RowSpec, TARGETS};
+use super::rows::{BenchTarget, Row, RowSpec, TARGETS, Target};
 
 /// Median seconds per iteration of benchmark `id`, read from
 /// `<criterion_dir>/<id>/new/estimates.json` (`median.point_estimate`, nanoseconds).
@@ -63,6 +63,10 @@ pub fn build_rows(criterion_dir: &Path, specs: &[RowSpec], since: Option<SystemT
             spec,
             median_s: read_median(criterion_dir, spec.id, since),
             floor_s: spec.floor.map(|f| read_median(criterion_dir, f, since)),
+            reference_s: match spec.target {
+                Some(Target::MaxTimes { of, .. }) => Some(read_median(criterion_dir, of, since)),
+                _ => None,
+            },
         })
         .collect()
 }

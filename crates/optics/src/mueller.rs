@@ -1,0 +1,361 @@
+//! Stokes vectors and Mueller matrices (physics.md §11), in SCATMECH's convention.
+//!
+//! # Conventions
+//! * Stokes vectors are taken in the `(s, p)` basis of their direction
+//!   ([`crate::jones`]): for a Jones vector `(E_s, E_p)`,
+//!   `S0 = |E_s|² + |E_p|²`, `S1 = |E_s|² − |E_p|²`, `S2 = 2 Re(E_s* E_p)`,
+//!   `S3 = 2 Im(E_s* E_p)`. So `(1, 1, 0, 0)` is s-polarised, `(1, −1, 0, 0)`
+//!   p-polarised, `(1, 0, 1, 0)` linear along `s + p`, `(1, 0, 0, 1)` left circular
+//!   (time dependence `exp(−iωt)`; SCATMECH's "Conventions" page).
+//! * A Mueller matrix maps incident to outgoing Stokes vectors, `S_out = M S_in`. For a
+//!   Jones matrix `J`, `m_ij = ½ tr(σ_i J σ_j J†)` with `σ0 = 1`, `σ1 = diag(1, −1)`,
+//!   `σ2 = [[0, 1], [1, 0]]`, `σ3 = [[0, −i], [i, 0]]`, written out element by element
+//!   in [`Mueller::from_jones`].
+//! * Units are those of what it multiplies: a path's Mueller matrix is a fraction of
+//!   the beam power (no unit), a Mueller BRDF is per steradian. `m00` is what an
+//!   unpolarised beam gives with every polarisation detected.
+//! * A non-depolarising Mueller matrix (one Jones matrix) satisfies
+//!   `tr(MᵀM) = 4 m00²` (Gil and Bernabeu 1985); a physically realisable one (a sum of
+//!   non-depolarising ones, e.g. an integral over a detector cone) has a positive
+//!   semi-definite coherency matrix `H = ¼ Σ m_ij σ_i ⊗ σ_j*` (Cloude 1986), whose
+//!   eigenvalues sum to `m00` ([`Mueller::coherency_eigenvalues`]).
+
+use std::ops::{Add, AddAssign, Mul};
+
+use nalgebra::{Complex, Matrix4};
+
+use crate::OpticsError;
+use crate::jones::JonesMatrix;
+
+/// A 4 × 4 Mueller matrix (module docs for the basis and the unit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mueller(pub Matrix4<f64>);
+
+impl Default for Mueller {
+    fn default() -> Self {
+        Self::ZERO
+    }
+}
+
+impl Mueller {
+    /// The zero matrix.
+    pub const ZERO: Self = Self(Matrix4::new(
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+    ));
+
+    /// The identity (a non-polarising, lossless element).
+    #[must_use]
+    pub fn identity() -> Self {
+        Self(Matrix4::identity())
+    }
+
+    /// From 16 elements in row-major order (`m00, m01, …, m33`).
+    #[must_use]
+    pub fn from_row_major(m: &[f64; 16]) -> Self {
+        Self(Matrix4::from_row_slice(m))
+    }
+
+    /// The 16 elements in row-major order (`m00, m01, …, m33`).
+    #[must_use]
+    pub fn to_row_major(&self) -> [f64; 16] {
+        let mut out = [0.0; 16];
+        for (i, row) in out.chunks_exact_mut(4).enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = self.0[(i, j)];
+            }
+        }
+        out
+    }
+
+    /// Element `m_ij` (row `i`, column `j`, both in `0..4`).
+    #[must_use]
+    #[inline]
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.0[(i, j)]
+    }
+
+    /// `m00`: the result for unpolarised light with every polarisation detected.
+    #[must_use]
+    #[inline]
+    pub fn m00(&self) -> f64 {
+        self.0[(0, 0)]
+    }
+
+    /// The Mueller matrix of a Jones matrix (module docs), element by element. With
+    /// `J = [[a, b], [c, d]]` (`a` = s→s, `b` = p→s, `c` = s→p, `d` = p→p):
+    /// `m00 = ½(|a|²+|b|²+|c|²+|d|²)`, `m01 = ½(|a|²−|b|²+|c|²−|d|²)`,
+    /// `m10 = ½(|a|²+|b|²−|c|²−|d|²)`, `m11 = ½(|a|²−|b|²−|c|²+|d|²)`,
+    /// `m02 = Re(ab* + dc*)`, `m03 = Im(ab* − dc*)`, `m12 = Re(ab* − dc*)`,
+    /// `m13 = Im(ab* + dc*)`, `m20 = Re(ac* + db*)`, `m21 = Re(ac* − db*)`,
+    /// `m30 = Im(db* − ac*)`, `m31 = −Im(ac* + db*)`, `m22 = Re(da* + bc*)`,
+    /// `m33 = Re(da* − bc*)`, `m23 = −Im(da* + bc*)`, `m32 = Im(da* − bc*)`
+    /// (Bohren and Huffman's form, as SCATMECH writes it; equal to
+    /// `½ tr(σ_i J σ_j J†)`, which the tests check).
+    #[must_use]
+    #[inline]
+    pub fn from_jones(j: &JonesMatrix) -> Self {
+        let [[a, b], [c, d]] = j.0;
+        let (aa, bb, cc, dd) = (a.norm_sqr(), b.norm_sqr(), c.norm_sqr(), d.norm_sqr());
+        let ab = a * b.conj();
+        let dc = d * c.conj();
+        let ac = a * c.conj();
+        let db = d * b.conj();
+        let da = d * a.conj();
+        let bc = b * c.conj();
+        Self(Matrix4::new(
+            0.5 * (aa + bb + cc + dd),
+            0.5 * (aa - bb + cc - dd),
+            ab.re + dc.re,
+            ab.im - dc.im,
+            0.5 * (aa + bb - cc - dd),
+            0.5 * (aa - bb - cc + dd),
+            ab.re - dc.re,
+            ab.im + dc.im,
+            ac.re + db.re,
+            ac.re - db.re,
+            da.re + bc.re,
+            -(da.im + bc.im),
+            db.im - ac.im,
+            -(ac.im + db.im),
+            da.im - bc.im,
+            da.re - bc.re,
+        ))
+    }
+
+    /// The same matrix with the outgoing Stokes vector expressed in a basis turned by
+    /// `χ` about the direction of propagation, `s' = cos χ s + sin χ p`, given as
+    /// `(c, d) = (cos χ, sin χ)` ([`crate::jones::exit_frame`]): `S1' = cos 2χ S1 +
+    /// sin 2χ S2`, `S2' = −sin 2χ S1 + cos 2χ S2` (rows 1 and 2), the Mueller form of
+    /// [`crate::jones::JonesMatrix::rotate_out`].
+    #[must_use]
+    #[inline]
+    pub fn rotate_out(&self, (c, d): (f64, f64)) -> Self {
+        let (c2, s2) = (c * c - d * d, 2.0 * c * d);
+        let mut m = self.0;
+        for k in 0..4 {
+            let (a, b) = (m[(1, k)], m[(2, k)]);
+            m[(1, k)] = c2 * a + s2 * b;
+            m[(2, k)] = c2 * b - s2 * a;
+        }
+        Self(m)
+    }
+
+    /// The Stokes vector leaving for the incident Stokes vector `s`: `M s`.
+    #[must_use]
+    pub fn apply(&self, s: &Stokes) -> [f64; 4] {
+        let v = self.0 * nalgebra::Vector4::from(s.0);
+        [v[0], v[1], v[2], v[3]]
+    }
+
+    /// What a detector behind `analyzer` reads for the incident polarisation
+    /// `incident` (normalised to unit power, `S0 = 1`): `a · M · s`, with `a` the
+    /// analyser's row ([`Analyzer::row`]). In the unit of the matrix (a BRDF for a
+    /// Mueller BRDF).
+    #[must_use]
+    pub fn detected(&self, incident: &Stokes, analyzer: &Analyzer) -> f64 {
+        let out = self.apply(&incident.normalized());
+        let a = analyzer.row();
+        a[0] * out[0] + a[1] * out[1] + a[2] * out[2] + a[3] * out[3]
+    }
+
+    /// Degree of polarisation of the light leaving for unpolarised incident light,
+    /// `sqrt(m10² + m20² + m30²) / m00` (the first column is the outgoing Stokes
+    /// vector); NaN when `m00 = 0`.
+    #[must_use]
+    pub fn dop_unpolarized(&self) -> f64 {
+        let m = &self.0;
+        if m[(0, 0)] == 0.0 {
+            return f64::NAN;
+        }
+        (m[(1, 0)] * m[(1, 0)] + m[(2, 0)] * m[(2, 0)] + m[(3, 0)] * m[(3, 0)]).sqrt() / m[(0, 0)]
+    }
+
+    /// `tr(MᵀM) / (4 m00²)`: 1 for a non-depolarising matrix (Gil–Bernabeu), between
+    /// 1/4 (ideal depolariser) and 1 for a physically realisable one; NaN when
+    /// `m00 = 0`.
+    #[must_use]
+    pub fn gil_bernabeu_ratio(&self) -> f64 {
+        let m00 = self.0[(0, 0)];
+        if m00 == 0.0 {
+            return f64::NAN;
+        }
+        self.0.norm_squared() / (4.0 * m00 * m00)
+    }
+
+    /// Eigenvalues of the coherency matrix `H = ¼ Σ m_ij σ_i ⊗ σ_j*` (Cloude), in
+    /// increasing order; they sum to `m00`. All `≥ 0` (to rounding) for a physically
+    /// realisable matrix; one non-zero for a non-depolarising one.
+    #[must_use]
+    pub fn coherency_eigenvalues(&self) -> [f64; 4] {
+        let sig = pauli();
+        let mut h = Matrix4::<Complex<f64>>::zeros();
+        for i in 0..4 {
+            for j in 0..4 {
+                let w = 0.25 * self.0[(i, j)];
+                if w == 0.0 {
+                    continue;
+                }
+                let a = &sig[i];
+                let b = sig[j].map(|z| z.conj());
+                for r in 0..4 {
+                    for c in 0..4 {
+                        h[(r, c)] += a[(r / 2, c / 2)] * b[(r % 2, c % 2)] * w;
+                    }
+                }
+            }
+        }
+        // Hermitian to rounding; symmetrise before the eigen solver.
+        let h = (h + h.adjoint()) * Complex::new(0.5, 0.0);
+        let e = nalgebra::SymmetricEigen::new(h).eigenvalues;
+        let mut out = [e[0], e[1], e[2], e[3]];
+        out.sort_by(f64::total_cmp);
+        out
+    }
+}
+
+/// The Pauli matrices in the order of the Stokes parameters (module docs).
+fn pauli() -> [nalgebra::Matrix2<Complex<f64>>; 4] {
+    let z = Complex::new(0.0, 0.0);
+    let o = Complex::new(1.0, 0.0);
+    let i = Complex::new(0.0, 1.0);
+    [
+        nalgebra::Matrix2::new(o, z, z, o),
+        nalgebra::Matrix2::new(o, z, z, -o),
+        nalgebra::Matrix2::new(z, o, o, z),
+        nalgebra::Matrix2::new(z, -i, i, z),
+    ]
+}
+
+impl Add for Mueller {
+    type Output = Self;
+    #[inline]
+    fn add(self, rhs: Self) -> Self {
+        Self(self.0 + rhs.0)
+    }
+}
+
+impl AddAssign for Mueller {
+    #[inline]
+    fn add_assign(&mut self, rhs: Self) {
+        self.0 += rhs.0;
+    }
+}
+
+impl Mul<f64> for Mueller {
+    type Output = Self;
+    #[inline]
+    fn mul(self, k: f64) -> Self {
+        Self(self.0 * k)
+    }
+}
+
+/// Relative tolerance on `|S1, S2, S3| ≤ S0` and on full polarisation.
+const STOKES_TOL: f64 = 1e-9;
+
+/// A Stokes vector `(S0, S1, S2, S3)` of a physical beam: finite, `S0 > 0`,
+/// `S1² + S2² + S3² ≤ S0²` (module docs for the basis).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stokes([f64; 4]);
+
+impl Default for Stokes {
+    /// Unpolarised light.
+    fn default() -> Self {
+        Self::UNPOLARIZED
+    }
+}
+
+impl Stokes {
+    /// Unpolarised light, `(1, 0, 0, 0)`.
+    pub const UNPOLARIZED: Self = Self([1.0, 0.0, 0.0, 0.0]);
+    /// s-polarised light, `(1, 1, 0, 0)`.
+    pub const S: Self = Self([1.0, 1.0, 0.0, 0.0]);
+    /// p-polarised light, `(1, −1, 0, 0)`.
+    pub const P: Self = Self([1.0, -1.0, 0.0, 0.0]);
+
+    /// A Stokes vector from its four parameters.
+    ///
+    /// # Errors
+    /// [`OpticsError::InvalidStokes`] unless all four are finite, `S0 > 0` and the
+    /// degree of polarisation `sqrt(S1² + S2² + S3²)/S0` is at most 1 (to 1e-9).
+    pub fn new(s: [f64; 4]) -> Result<Self, OpticsError> {
+        if !s.iter().all(|v| v.is_finite()) || !(s[0] > 0.0) {
+            return Err(OpticsError::InvalidStokes {
+                s,
+                expected: "finite numbers with S0 > 0",
+            });
+        }
+        let p = (s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt();
+        if p > s[0] * (1.0 + STOKES_TOL) {
+            return Err(OpticsError::InvalidStokes {
+                s,
+                expected: "S1^2 + S2^2 + S3^2 <= S0^2 (degree of polarisation at most 1)",
+            });
+        }
+        Ok(Self(s))
+    }
+
+    /// The four parameters.
+    #[must_use]
+    pub fn parameters(&self) -> [f64; 4] {
+        self.0
+    }
+
+    /// The same state with unit power, `S / S0`.
+    #[must_use]
+    pub fn normalized(&self) -> Self {
+        let k = 1.0 / self.0[0];
+        Self([1.0, self.0[1] * k, self.0[2] * k, self.0[3] * k])
+    }
+
+    /// Degree of polarisation `sqrt(S1² + S2² + S3²)/S0` (at most 1).
+    #[must_use]
+    pub fn dop(&self) -> f64 {
+        let s = &self.0;
+        ((s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt() / s[0]).min(1.0)
+    }
+}
+
+/// What stands in front of the detector.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Analyzer {
+    /// Nothing: every polarisation is detected (reads `S0`).
+    #[default]
+    None,
+    /// An ideal polariser that passes the fully polarised state given by its Stokes
+    /// vector (in the basis of the detector's direction) and blocks the orthogonal one.
+    Polarizer(Stokes),
+}
+
+impl Analyzer {
+    /// An ideal polariser passing `state`, which must be fully polarised.
+    ///
+    /// # Errors
+    /// [`OpticsError::InvalidStokes`] when the degree of polarisation of `state` is not
+    /// 1 (to 1e-9): an ideal polariser passes one pure state.
+    pub fn polarizer(state: Stokes) -> Result<Self, OpticsError> {
+        if (state.dop() - 1.0).abs() > STOKES_TOL {
+            return Err(OpticsError::InvalidStokes {
+                s: state.0,
+                expected: "a fully polarised state for an analyser (S1^2 + S2^2 + S3^2 = S0^2)",
+            });
+        }
+        Ok(Self::Polarizer(state))
+    }
+
+    /// The row `a` with which a detector behind this analyser reads a Stokes vector
+    /// `S`, `a · S`: `(1, 0, 0, 0)` without an analyser, `½(1, ŝ)` for a polariser
+    /// passing the unit direction `ŝ = (S1, S2, S3)/|(S1, S2, S3)|` (the first row of
+    /// its Mueller matrix).
+    #[must_use]
+    pub fn row(&self) -> [f64; 4] {
+        match self {
+            Self::None => [1.0, 0.0, 0.0, 0.0],
+            Self::Polarizer(s) => {
+                let p = s.0;
+                let norm = (p[1] * p[1] + p[2] * p[2] + p[3] * p[3]).sqrt();
+                let k = 0.5 / norm;
+                [0.5, p[1] * k, p[2] * k, p[3] * k]
+            }
+        }
+    }
+}
