@@ -67,6 +67,7 @@ impl MapArgs {
             pixel_um,
             z_unit,
             accept_md5_mismatch: self.accept_md5_mismatch,
+            ..ReadOptions::default()
         })
     }
 }
