@@ -5,13 +5,10 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn data(name: &str) -> String {
-    PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/topography"
-    ))
-    .join(name)
-    .display()
-    .to_string()
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/real"))
+        .join(name)
+        .display()
+        .to_string()
 }
 
 fn run(args: &[&str]) -> Output {

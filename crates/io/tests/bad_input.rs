@@ -1,7 +1,7 @@
 //! Bad input gives a clear typed error naming the problem, never a panic.
 //!
 //! The X3P archives here are assembled in the test with the zip crate from a `main.xml`
-//! written from ISO 25178-72 (the layout of the real files in `shared/data/topography`),
+//! written from ISO 25178-72 (the layout of the real files in `fixtures/real`),
 //! so each one differs from a valid file in exactly one way.
 
 use std::io::Write;
@@ -224,7 +224,11 @@ fn bad_xml() {
     let e = x3p_err(&x3p(&xml("two", "2", "D", "1e-6"), &[]));
     assert!(matches!(&e, X3pError::BadValue { value, .. } if value == "two"));
     let e = x3p_err(&x3p(&xml("0", "2", "D", "1e-6"), &[]));
-    assert!(matches!(e, X3pError::Map(_)), "{e:?}");
+    assert!(
+        matches!(&e, X3pError::BadValue { element, value, .. }
+            if element == "Record3/MatrixDimension/SizeX" && value == "0"),
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -318,7 +322,18 @@ fn ragged_text_rows() {
             found: 2
         }
     );
+    // One comma per line and nothing else: `1,2` is 1.2 or two values; refused unless said.
     let e = text_err(b"1,2\n3,x\n", &options);
+    assert!(
+        matches!(&e, TextError::AmbiguousDecimal { line: 1, token, .. } if token == "1,2"),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("--decimal-comma"), "{e}");
+    let point = ReadOptions {
+        decimal: flakescatter_io::DecimalMark::Point,
+        ..options
+    };
+    let e = text_err(b"1,2\n3,x\n", &point);
     assert_eq!(
         e,
         TextError::BadNumber {
@@ -370,10 +385,16 @@ fn empty_files() {
         z_unit: Some(ZUnit::Um),
         ..ReadOptions::default()
     };
-    for bytes in [&b""[..], b"\n\n", b"# Width: 1 m\n", b"  \n"] {
+    for bytes in [&b"\n\n"[..], b"# Width: 1 m\n", b"  \n"] {
         assert_eq!(text_err(bytes, &options), TextError::Empty);
     }
-    assert_eq!(text_err(b"\x00\x01\x02", &options), TextError::Binary);
+    // Zero bytes is no format at all, and says so.
+    let e = read_map_bytes(b"", &options).unwrap_err();
+    assert!(matches!(e, MapError::Empty { expected: None }), "{e:?}");
+    assert_eq!(e.to_string(), "the file is empty (0 bytes)");
+    let e = read_map_bytes(b"\x00\x01\x02", &options).unwrap_err();
+    assert!(matches!(e, MapError::Unrecognised { .. }), "{e:?}");
+    assert!(e.to_string().contains("byte 0 is 0x00"), "{e}");
 }
 
 #[test]
@@ -453,14 +474,19 @@ fn binary_sdf_written_from_the_spec() {
     // Short data and an unknown DataType.
     let mut b = sdf_header(b"bISO-1.0", 2, 2, [1e-6, 1e-6, 1e-6, 0.0], 7);
     b.extend_from_slice(&[0; 16]);
-    assert!(matches!(
-        sdf_err(&b),
-        SdfError::DataLength {
-            expected: 32,
-            found: 16,
-            ..
+    // The data of 2 x 2 float64 values starts after the 81-byte header and would end at
+    // byte 81 + 32 = 113; the file ends at 81 + 16 = 97.
+    let e = sdf_err(&b);
+    assert_eq!(
+        e,
+        SdfError::TruncatedData {
+            end: 97,
+            start: 81,
+            needed_end: 113,
+            detail: "NumPoints 2 x NumProfiles 2 x 8 bytes".into()
         }
-    ));
+    );
+    assert!(e.to_string().contains("ends at byte 97"), "{e}");
     let b = sdf_header(b"bISO-1.0", 1, 1, [1e-6, 1e-6, 1e-6, 0.0], 9);
     assert!(matches!(sdf_err(&b), SdfError::BadField { .. }));
     let b = sdf_header(b"bISO-1.0", 1, 1, [f64::NAN, 1e-6, 1e-6, 0.0], 7);

@@ -11,10 +11,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use flakescatter_io::{ReadOptions, ZUnit, read_map_bytes};
 use proptest::prelude::*;
 
-const DIR: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/data/topography"
-);
+const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/real");
 
 fn load(name: &str) -> Vec<u8> {
     std::fs::read(format!("{DIR}/{name}")).unwrap()
@@ -130,6 +127,7 @@ proptest! {
             pixel_um: None,
             z_unit: Some(ZUnit::Um),
             accept_md5_mismatch: accept,
+            ..ReadOptions::default()
         };
         // Either outcome is fine; a panic fails the test.
         if read_map_bytes(&bytes, &options).is_ok() {
