@@ -7,6 +7,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
+use flakescatter::io::detectors::read_detectors;
 use flakescatter::optics::flake::FlakeReflectance;
 use flakescatter::optics::polarization::{Transmission, Weighting};
 use flakescatter::{Coating, Curves, DetectorSet, Instrument, Settings};
@@ -128,9 +129,10 @@ impl InstrumentArgs {
         let aperture = self.aperture_rad()?;
         let detectors = match &self.detectors {
             Some(path) => DetectorSet::OutOfPlane(
-                read_detectors(path)?
+                read_detectors(path)
+                    .with_context(|| format!("--detectors {}", path.display()))?
                     .into_iter()
-                    .map(|(t, p)| (t.to_radians(), p.to_radians()))
+                    .map(|d| (d.theta_r, d.phi_r))
                     .collect(),
             ),
             None => {
@@ -214,52 +216,6 @@ pub fn parse_angles(flag: &str, text: &str) -> anyhow::Result<Vec<f64>> {
         if out.len() > MAX_ANGLES {
             bail!("{flag}: more than {MAX_ANGLES} angles");
         }
-    }
-    Ok(out)
-}
-
-/// Read out-of-plane detectors: CSV with header `theta_r_deg, phi_r_deg`.
-fn read_detectors(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
-    let name = path.display();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .with_context(|| format!("reading --detectors {name}"))?;
-    let headers = rdr
-        .headers()
-        .with_context(|| format!("--detectors {name}: no header"))?
-        .clone();
-    let col = |want: &str| headers.iter().position(|h| h == want);
-    let (Some(ct), Some(cp)) = (col("theta_r_deg"), col("phi_r_deg")) else {
-        bail!(
-            "--detectors {name}: the header must have columns theta_r_deg and phi_r_deg (found: {})",
-            headers.iter().collect::<Vec<_>>().join(", ")
-        );
-    };
-    let mut out = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.with_context(|| format!("--detectors {name}"))?;
-        let line = rec.position().map_or(0, |p| p.line());
-        let get = |c: usize, what: &str| -> anyhow::Result<f64> {
-            let s = rec.get(c).unwrap_or("");
-            let v: f64 = s.parse().map_err(|_| {
-                anyhow::anyhow!(
-                    "--detectors {name}, line {line}, column {what}: `{s}` is not a number"
-                )
-            })?;
-            if !v.is_finite() {
-                bail!("--detectors {name}, line {line}, column {what}: `{s}` is not finite");
-            }
-            Ok(v)
-        };
-        let (t, p) = (get(ct, "theta_r_deg")?, get(cp, "phi_r_deg")?);
-        if !(0.0..90.0).contains(&t) {
-            bail!("--detectors {name}, line {line}: theta_r_deg {t} is outside [0, 90)");
-        }
-        out.push((t, p));
-    }
-    if out.is_empty() {
-        bail!("--detectors {name}: no detector rows");
     }
     Ok(out)
 }
