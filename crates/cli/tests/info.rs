@@ -205,3 +205,83 @@ fn intensity_cutoff_masks_points() {
     assert_eq!(o.status.code(), Some(2));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn decimal_commas_are_read_detected_or_refused() {
+    let dir = std::env::temp_dir().join(format!("flakescatter-info-dc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let json = |o: &Output| -> serde_json::Value {
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    // A German export: 2 x 2 values 1.5, 2.25 / -0.5, 4 µm with decimal commas. Read as
+    // decimal points it would be 4 columns (1, 5, 2, 25): nx must be 2, max 4 µm.
+    let german = dir.join("de.txt");
+    std::fs::write(
+        &german,
+        "# Breite: 2,0 µm\n# Höhe: 2,0 µm\n# Werteinheiten: µm\n1,5 2,25\n-0,5 4\n",
+    )
+    .unwrap();
+    let g = german.to_str().unwrap();
+    let v = json(&run(&["info", g, "--json"]));
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(2), Some(2)));
+    assert!(close(v["max_m"].as_f64().unwrap(), 4e-6, 1e-12));
+    assert!(close(v["min_m"].as_f64().unwrap(), -0.5e-6, 1e-12));
+    assert!(close(v["dx_m"].as_f64().unwrap(), 1e-6, 1e-12));
+    assert!(
+        v["metadata"]["text.decimal_mark"]
+            .as_str()
+            .unwrap()
+            .starts_with("comma (detected"),
+        "{v}"
+    );
+    // The flag gives the same numbers and says it was the option.
+    let v = json(&run(&["info", g, "--json", "--decimal-comma"]));
+    assert_eq!(v["nx"], 2);
+    assert_eq!(v["metadata"]["text.decimal_mark"], "comma (option)");
+    assert_eq!(v["inputs"]["decimal"], "comma");
+
+    // One token per line (`10,5`): 10.5 or two columns? Refused, naming the flag; the
+    // flag settles it (1 column of 10.5 and 20.25 nm).
+    let one = dir.join("one.txt");
+    std::fs::write(&one, "10,5\n20,25\n").unwrap();
+    let o = one.to_str().unwrap();
+    let base = ["info", o, "--json", "--z-unit", "nm", "--pixel-um", "1"];
+    let out = run(&base);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("one.txt") && err.contains("--decimal-comma") && err.contains("line 1"),
+        "{err}"
+    );
+    let v = json(&run(&[&base[..], &["--decimal-comma"]].concat()));
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(1), Some(2)));
+    assert!(close(v["max_m"].as_f64().unwrap(), 20.25e-9, 1e-12));
+    let v = json(&run(&[&base[..], &["--decimal-point"]].concat()));
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(2), Some(2)));
+
+    // The flag against content with decimal points is an error naming the line.
+    let point = dir.join("point.txt");
+    std::fs::write(&point, "1 2\n3.5 4\n").unwrap();
+    let out = run(&[
+        "info",
+        point.to_str().unwrap(),
+        "--z-unit",
+        "um",
+        "--pixel-um",
+        "1",
+        "--decimal-comma",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("line 2") && err.contains("\"3.5\""), "{err}");
+    // Both flags at once is a usage error.
+    let out = run(&["info", g, "--decimal-comma", "--decimal-point"]);
+    assert_eq!(out.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::io::{MapFormat, ReadOptions, ZUnit, read_intensity, read_map};
+use flakescatter::io::{DecimalMark, MapFormat, ReadOptions, ZUnit, read_intensity, read_map};
 use flakescatter::stats::heightmap::HeightMap;
 use serde_json::{Map, Value, json};
 
@@ -26,6 +26,14 @@ pub struct MapArgs {
     /// metadata (`x3p.md5_mismatch`) instead of failing.
     #[arg(long)]
     pub accept_md5_mismatch: bool,
+    /// Plain-text matrices write decimals with a comma (`1,5`, German exports); values
+    /// are then separated by whitespace or `;`. Without this flag (or --decimal-point)
+    /// the decimal mark is detected, and a file that allows both readings is refused.
+    #[arg(long, conflicts_with = "decimal_point")]
+    pub decimal_comma: bool,
+    /// Plain-text matrices write decimals with a point; commas separate values.
+    #[arg(long)]
+    pub decimal_point: bool,
 }
 
 impl MapArgs {
@@ -67,6 +75,13 @@ impl MapArgs {
             pixel_um,
             z_unit,
             accept_md5_mismatch: self.accept_md5_mismatch,
+            decimal: if self.decimal_comma {
+                DecimalMark::Comma
+            } else if self.decimal_point {
+                DecimalMark::Point
+            } else {
+                DecimalMark::Auto
+            },
             ..ReadOptions::default()
         })
     }
@@ -130,6 +145,7 @@ fn summary_json(
             "pixel_um": options.pixel_um.map(|(x, y)| vec![x, y]),
             "z_unit": options.z_unit.map(ZUnit::name),
             "accept_md5_mismatch": options.accept_md5_mismatch,
+            "decimal": options.decimal.name(),
             "intensity_file": args.intensity.as_ref().map(|p| p.display().to_string()),
             "cutoff": args.cutoff,
         },
