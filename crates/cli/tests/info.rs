@@ -285,3 +285,60 @@ fn decimal_commas_are_read_detected_or_refused() {
     assert_eq!(out.status.code(), Some(2));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn intensity_maps_need_the_same_pitch_but_no_unit() {
+    let dir = std::env::temp_dir().join(format!("flakescatter-info-ip-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    };
+    let h = write(
+        "h.txt",
+        "# Pitch x: 0.5 µm\n# Pitch y: 0.5 µm\n# Value units: nm\n10 20\n30 40\n",
+    );
+    // Same shape, pitch 0.25 µm: a different area, refused with both pitches named.
+    let coarse = write(
+        "i-coarse.txt",
+        "# Pitch x: 0.25 µm\n# Pitch y: 0.25 µm\n# Value units: a.u.\n0.1 0.9\n0.5 0.8\n",
+    );
+    let o = run(&["info", &h, "--intensity", &coarse, "--cutoff", "0.5"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("0.25 µm x 0.25 µm") && err.contains("0.5 µm x 0.5 µm"),
+        "{err}"
+    );
+    // The same pitch with an `a.u.`, an empty and no unit header: accepted; cutoff 0.5
+    // keeps 20, 30, 40 nm (0.1 is below it).
+    for unit in ["# Value units: a.u.\n", "# Value units:\n", ""] {
+        let i = write(
+            "i.txt",
+            &format!("# Pitch x: 0.5 µm\n# Pitch y: 0.5 µm\n{unit}0.1 0.9\n0.5 0.8\n"),
+        );
+        let o = run(&["info", &h, "--json", "--intensity", &i, "--cutoff", "0.5"]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{unit:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["valid_points"], 3, "{unit:?}");
+    }
+    // A height map with an `a.u.` unit is refused, naming --z-unit.
+    let au = write(
+        "h-au.txt",
+        "# Pitch x: 1 µm\n# Pitch y: 1 µm\n# Value units: a.u.\n1 2\n",
+    );
+    let o = run(&["info", &au]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("h-au.txt") && err.contains("\"a.u.\"") && err.contains("--z-unit"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
