@@ -208,6 +208,24 @@ impl Table {
             ),
         };
         let text: &[u8] = text.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&text);
+        // The csv reader ends comment lines only at `\n`: a lone `\r` (old Mac files)
+        // becomes `\n`, which keeps every byte offset.
+        let text: Cow<[u8]> = if text
+            .iter()
+            .enumerate()
+            .any(|(i, &b)| b == b'\r' && text.get(i + 1) != Some(&b'\n'))
+        {
+            let mut owned = text.to_vec();
+            for i in 0..owned.len() {
+                if owned[i] == b'\r' && owned.get(i + 1) != Some(&b'\n') {
+                    owned[i] = b'\n';
+                }
+            }
+            Cow::Owned(owned)
+        } else {
+            Cow::Borrowed(text)
+        };
+        let text: &[u8] = &text;
         let lines = Lines::new(text);
         let mut r = csv::ReaderBuilder::new()
             .has_headers(true)

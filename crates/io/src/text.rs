@@ -330,6 +330,8 @@ fn decide_decimal(lines: &[(usize, &str)], mark: DecimalMark) -> Result<Decision
     let mut multi_on_line = false; // a line with `1,5` among several values
     let mut separator: Option<(usize, &str, &'static str)> = None; // commas separating
     let mut point: Option<(usize, &str)> = None; // `1.5`
+    let mut mixed: Option<(usize, &str, bool)> = None; // `1.000,5` (, several on the line)
+    let mut any_comma: Option<(usize, &str)> = None;
     for &(no, line) in lines {
         let tokens: Vec<&str> = line
             .split(|c: char| c.is_whitespace() || c == ';')
@@ -343,7 +345,12 @@ fn decide_decimal(lines: &[(usize, &str)], mark: DecimalMark) -> Result<Decision
             if commas == 0 {
                 continue;
             }
-            if is_comma_decimal(t) {
+            any_comma.get_or_insert((no, t));
+            if t.contains('.') {
+                if mixed.is_none_or(|m| !m.2 && tokens.len() > 1) {
+                    mixed = Some((no, t, tokens.len() > 1));
+                }
+            } else if is_comma_decimal(t) {
                 comma_decimal.get_or_insert((no, t));
                 if tokens.len() > 1 {
                     multi_on_line = true;
@@ -355,6 +362,13 @@ fn decide_decimal(lines: &[(usize, &str)], mark: DecimalMark) -> Result<Decision
             }
         }
     }
+    let ambiguous = |(line, token): (usize, &str), why| {
+        Err(TextError::AmbiguousDecimal {
+            line,
+            token: token.into(),
+            why,
+        })
+    };
     match mark {
         DecimalMark::Comma => {
             if let Some((line, token)) = point {
@@ -379,12 +393,12 @@ fn decide_decimal(lines: &[(usize, &str)], mark: DecimalMark) -> Result<Decision
             })
         }
         DecimalMark::Point => {
-            if semicolons && let Some((line, token)) = comma_decimal {
+            if semicolons && let Some((line, token)) = any_comma {
                 return Err(TextError::DecimalContradiction {
                     line,
                     token: token.into(),
                     mark: "point",
-                    why: "values are separated by `;` and this one has a decimal comma",
+                    why: "values are separated by `;` and this one holds a comma",
                 });
             }
             Ok(Decision {
@@ -392,40 +406,59 @@ fn decide_decimal(lines: &[(usize, &str)], mark: DecimalMark) -> Result<Decision
                 how: "point (option)",
             })
         }
+        DecimalMark::Auto if semicolons => {
+            if let Some((line, token, _)) = mixed {
+                return ambiguous(
+                    (line, token),
+                    "values are separated by `;` and some hold both `.` and `,`",
+                );
+            }
+            if let Some((line, token, _)) = separator {
+                return ambiguous(
+                    (line, token),
+                    "values are separated by `;` and some hold commas that look like separators",
+                );
+            }
+            Ok(if comma_decimal.is_some() {
+                Decision {
+                    comma: true,
+                    how: "comma (detected: `;` separates values)",
+                }
+            } else {
+                Decision {
+                    comma: false,
+                    how: "point (detected)",
+                }
+            })
+        }
         DecimalMark::Auto => {
-            let Some((line, token)) = comma_decimal else {
+            if let Some((line, token, true)) = mixed {
+                return ambiguous(
+                    (line, token),
+                    "whitespace separates values and some hold both `.` and `,`",
+                );
+            }
+            let Some(first) = comma_decimal else {
                 return Ok(Decision {
                     comma: false,
                     how: "point (detected)",
                 });
             };
-            if point.is_some() && semicolons {
-                // `1.000,5;2`: thousands separators or a mix; either way not decidable.
-                return Err(TextError::AmbiguousDecimal {
-                    line,
-                    token: token.into(),
-                    why: "values are separated by `;` but some have a `.` as well",
-                });
-            }
             if point.is_some() {
-                // `1.5,2.5`: decimal points, so commas separate.
+                if multi_on_line {
+                    return ambiguous(
+                        first,
+                        "some values have a decimal point, others look like decimal commas",
+                    );
+                }
+                // `1.5,2.5` and `3,4`: decimal points, so commas separate.
                 return Ok(Decision {
                     comma: false,
                     how: "point (detected: `.` in numbers, commas separate values)",
                 });
             }
-            if semicolons {
-                return Ok(Decision {
-                    comma: true,
-                    how: "comma (detected: `;` separates values)",
-                });
-            }
             if separator.is_some() {
-                return Err(TextError::AmbiguousDecimal {
-                    line,
-                    token: token.into(),
-                    why: "other lines use commas to separate values",
-                });
+                return ambiguous(first, "other lines use commas to separate values");
             }
             if multi_on_line {
                 return Ok(Decision {
@@ -433,11 +466,7 @@ fn decide_decimal(lines: &[(usize, &str)], mark: DecimalMark) -> Result<Decision
                     how: "comma (detected: whitespace separates values like `1,5`)",
                 });
             }
-            Err(TextError::AmbiguousDecimal {
-                line,
-                token: token.into(),
-                why: "every line holds a single token",
-            })
+            ambiguous(first, "every line holds a single token")
         }
     }
 }

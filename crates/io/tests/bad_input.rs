@@ -233,17 +233,22 @@ fn bad_xml() {
 
 #[test]
 fn non_finite_or_negative_pitch() {
-    for inc in ["inf", "NaN", "-1e-6", "0", "abc", ""] {
+    // Every unusable CX Increment is refused naming the element (an empty one is missing).
+    for inc in ["inf", "NaN", "-1e-6", "0", "abc", "1e-400"] {
         let bytes = x3p(&xml("1", "1", "D", inc), &f64_data(&[0.0]));
         let e = x3p_err(&bytes);
         assert!(
-            matches!(
-                e,
-                X3pError::BadValue { .. } | X3pError::Map(_) | X3pError::MissingElement(_)
-            ),
+            matches!(&e, X3pError::BadValue { element, value, .. }
+                if element == "Record1/Axes/CX/Increment" && value == inc),
             "increment {inc:?}: {e:?}"
         );
+        assert!(e.to_string().contains("> 0"), "{e}");
     }
+    let e = x3p_err(&x3p(&xml("1", "1", "D", ""), &f64_data(&[0.0])));
+    assert_eq!(
+        e,
+        X3pError::MissingElement("Record1/Axes/CX/Increment".into())
+    );
     let e = text_err(
         b"# Width: inf m\n# Height: 1 m\n# Value units: m\n1 2\n",
         &ReadOptions::default(),
@@ -269,7 +274,9 @@ fn md5_mismatch_is_refused_unless_accepted() {
         ),
         ("bindata/data.bin", &f64_data(&[1.0])),
     ]);
-    assert!(matches!(x3p_err(&bytes), X3pError::Md5Mismatch { .. }));
+    let e = x3p_err(&bytes);
+    assert!(matches!(e, X3pError::Md5Mismatch { .. }));
+    assert!(e.to_string().contains("--accept-md5-mismatch"), "{e}");
     let accept = ReadOptions {
         accept_md5_mismatch: true,
         ..ReadOptions::default()
@@ -507,4 +514,432 @@ fn file_errors_name_the_file() {
     let msg = e.to_string();
     assert!(msg.contains(&path.display().to_string()), "{msg}");
     assert!(msg.contains("line 2"), "{msg}");
+}
+
+/// `xml()` with the CZ `<Increment>` and `<Offset>` replaced.
+fn xml_z(increment: &str, offset: &str) -> String {
+    xml("2", "1", "D", "1e-6").replace(
+        "<CZ><AxisType>A</AxisType><DataType>D</DataType><Increment>1e-6</Increment><Offset>0</Offset></CZ>",
+        &format!("<CZ><AxisType>A</AxisType><DataType>D</DataType><Increment>{increment}</Increment><Offset>{offset}</Offset></CZ>"),
+    )
+}
+
+#[test]
+fn zero_or_bad_z_increment_is_refused_naming_the_element() {
+    // A zero increment made every height 0 and `topo` a perfect mirror (issue 13 item 6).
+    let data = f64_data(&[1.0, 2.0]);
+    for inc in [
+        "0", "0.0", "-0", "-1e-6", "NaN", "inf", "-inf", "1e-400", "x",
+    ] {
+        let e = x3p_err(&x3p(&xml_z(inc, "0"), &data));
+        assert!(
+            matches!(&e, X3pError::BadValue { element, .. } if element == "Record1/Axes/CZ/Increment"),
+            "{inc:?}: {e:?}"
+        );
+    }
+    // Also for intensity images, whose increment is not converted.
+    let bytes = x3p(&xml_z("0", "0"), &data);
+    let e = flakescatter_io::read_intensity_bytes(&bytes, &ReadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("CZ/Increment"), "{e}");
+    // A non-finite offset likewise; a negative offset is fine (2 µm - 5 µm = -3 µm).
+    let e = x3p_err(&x3p(&xml_z("1e-6", "NaN"), &data));
+    assert!(
+        matches!(&e, X3pError::BadValue { element, .. } if element == "Record1/Axes/CZ/Offset"),
+        "{e:?}"
+    );
+    let (map, _) = read_map_bytes(
+        &x3p(&xml_z("1e-6", "-5e-6"), &data),
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(map.heights(), &[-4.0, -3.0]);
+}
+
+#[test]
+fn x3p_sizes_that_overflow_or_exceed_the_data() {
+    // 10^10 x 10^10 points: refused from the data size, nothing of that size allocated.
+    let e = x3p_err(&x3p(
+        &xml("10000000000", "10000000000", "D", "1e-6"),
+        &f64_data(&[0.0]),
+    ));
+    assert!(
+        matches!(e, X3pError::Map(_) | X3pError::DataLength { .. }),
+        "{e:?}"
+    );
+    // nx * ny overflows usize.
+    let e = x3p_err(&x3p(&xml("18446744073709551615", "2", "D", "1e-6"), &[]));
+    assert!(matches!(e, X3pError::Map(_)), "{e:?}");
+    // 100000 x 100000 float64 (80 GB) over 8 bytes of data: a length error naming both.
+    let e = x3p_err(&x3p(
+        &xml("100000", "100000", "D", "1e-6"),
+        &f64_data(&[0.0]),
+    ));
+    assert!(
+        matches!(
+            e,
+            X3pError::DataLength {
+                expected: 80_000_000_000,
+                found: 8,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    // Negative and non-integer sizes name the element.
+    for size in ["-1", "1.5", ""] {
+        let e = x3p_err(&x3p(&xml(size, "1", "D", "1e-6"), &f64_data(&[0.0])));
+        assert!(
+            matches!(&e, X3pError::BadValue { element, .. } if element.ends_with("SizeX")),
+            "{size:?}: {e:?}"
+        );
+    }
+}
+
+#[test]
+fn missing_checksum_member_names_the_option() {
+    let main = xml("1", "1", "D", "1e-6");
+    let bytes = zip_members(&[
+        ("main.xml", main.as_bytes()),
+        ("md5checksum.hex", b""),
+        ("bindata/data.bin", &f64_data(&[1.0])),
+    ]);
+    let e = x3p_err(&bytes);
+    assert!(matches!(e, X3pError::MissingChecksum { .. }), "{e:?}");
+    assert!(e.to_string().contains("--accept-md5-mismatch"), "{e}");
+}
+
+fn sdf_text(fields: &[(&str, &str)], data: &str) -> Vec<u8> {
+    let mut s = String::from("aISO-1.0\n");
+    for (k, v) in fields {
+        s.push_str(&format!("{k} = {v}\n"));
+    }
+    s.push_str("*\n");
+    s.push_str(data);
+    s.into_bytes()
+}
+
+const SDF_OK: [(&str, &str); 5] = [
+    ("NumPoints", "2"),
+    ("NumProfiles", "1"),
+    ("Xscale", "1e-6"),
+    ("Yscale", "1e-6"),
+    ("Zscale", "1e-6"),
+];
+
+fn with(field: &str, value: &str) -> Vec<(String, String)> {
+    SDF_OK
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.to_string(),
+                if *k == field { value } else { v }.to_string(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn sdf_zero_or_bad_scales_and_counts_are_refused_naming_the_field() {
+    // Control: the header as given reads (1 and 2 µm).
+    let (map, _) = read_map_bytes(&sdf_text(&SDF_OK, "1 2\n"), &ReadOptions::default()).unwrap();
+    assert_eq!(map.heights(), &[1.0, 2.0]);
+    for (field, value) in [
+        ("Zscale", "0"),
+        ("Zscale", "-1e-6"),
+        ("Zscale", "NaN"),
+        ("Zscale", "inf"),
+        ("Xscale", "0"),
+        ("Yscale", "-2e-6"),
+        ("NumPoints", "0"),
+        ("NumProfiles", "-1"),
+    ] {
+        let h = with(field, value);
+        let pairs: Vec<(&str, &str)> = h.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+        let e = sdf_err(&sdf_text(&pairs, "1 2\n"));
+        assert!(
+            matches!(&e, SdfError::BadField { field: f, value: v, .. } if f == field && v == value),
+            "{field} = {value}: {e:?}"
+        );
+    }
+    // Binary: Zscale 0, a negative Xscale, NumPoints 0.
+    let e = sdf_err(&sdf_header(b"bISO-1.0", 1, 1, [1e-6, 1e-6, 0.0, 0.0], 7));
+    assert!(
+        matches!(&e, SdfError::BadField { field, .. } if field == "Zscale"),
+        "{e:?}"
+    );
+    let e = sdf_err(&sdf_header(b"bISO-1.0", 1, 1, [-1e-6, 1e-6, 1e-6, 0.0], 7));
+    assert!(
+        matches!(&e, SdfError::BadField { field, .. } if field == "Xscale"),
+        "{e:?}"
+    );
+    let e = sdf_err(&sdf_header(b"bISO-1.0", 0, 1, [1e-6, 1e-6, 1e-6, 0.0], 7));
+    assert!(
+        matches!(&e, SdfError::BadField { field, .. } if field == "NumPoints"),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn sdf_duplicate_fields_bad_points_and_too_many_values() {
+    let mut fields = SDF_OK.to_vec();
+    fields.push(("Zscale", "1e-9"));
+    let e = sdf_err(&sdf_text(&fields, "1 2\n"));
+    assert_eq!(
+        e,
+        SdfError::DuplicateField {
+            field: "Zscale".into(),
+            first: 6,
+            second: 7
+        }
+    );
+    // `BAD` marks a missing point.
+    let (map, _) = read_map_bytes(&sdf_text(&SDF_OK, "BAD 2\n"), &ReadOptions::default()).unwrap();
+    assert_eq!((map.get(0, 0), map.get(1, 0)), (None, Some(2.0)));
+    // One value too many names the line it is on.
+    let e = sdf_err(&sdf_text(&SDF_OK, "1 2\n3\n"));
+    assert!(
+        matches!(
+            e,
+            SdfError::DataLength {
+                found: 3,
+                expected: 2,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("line 9"), "{e}");
+    // A header that claims 65535 x 65535 points over two values.
+    let h = [
+        ("NumPoints", "65535"),
+        ("NumProfiles", "65535"),
+        ("Xscale", "1e-6"),
+        ("Yscale", "1e-6"),
+        ("Zscale", "1e-6"),
+    ];
+    let e = sdf_err(&sdf_text(&h, "1 2\n"));
+    assert!(matches!(e, SdfError::DataLength { found: 2, .. }), "{e:?}");
+}
+
+fn temp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("flakescatter-io-ext-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+#[test]
+fn extension_that_contradicts_the_content_is_an_error() {
+    use flakescatter_io::MapFormat;
+    let opts = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::Um),
+        ..ReadOptions::default()
+    };
+    let msg = |name: &str, bytes: &[u8]| {
+        let p = temp(name, bytes);
+        let e = read_map(&p, &opts).unwrap_err();
+        std::fs::remove_file(&p).unwrap();
+        let s = e.to_string();
+        assert!(s.contains(name), "{s}");
+        (e, s)
+    };
+    // A zero-byte .x3p (issue 13 item 12): empty, and so not an X3P file.
+    let (e, s) = msg("zero.x3p", b"");
+    assert!(matches!(
+        e,
+        ReadMapError::Format {
+            error: MapError::Empty {
+                expected: Some(MapFormat::X3p)
+            },
+            ..
+        }
+    ));
+    assert!(
+        s.contains("empty (0 bytes)") && s.contains("not an X3P file"),
+        "{s}"
+    );
+    // A plain-text .x3p: not a zip archive, and what it is.
+    let (_, s) = msg("text.x3p", b"1 2 3\n4 5 6\n");
+    assert!(
+        s.contains("not a zip archive, so not an X3P file")
+            && s.contains("plain text")
+            && s.contains("\"1 2 3\""),
+        "{s}"
+    );
+    assert!(!s.contains("text matrix:"), "{s}");
+    // An SDF named .x3p, an X3P named .txt, a text matrix named .sdf, binary named .txt.
+    let (_, s) = msg("sdf.x3p", &sdf_text(&SDF_OK, "1 2\n"));
+    assert!(
+        s.contains("not a zip archive") && s.contains("an SDF file"),
+        "{s}"
+    );
+    let (_, s) = msg(
+        "x3p.txt",
+        &x3p(&xml("1", "1", "D", "1e-6"), &f64_data(&[1.0])),
+    );
+    assert!(
+        s.contains(".txt says a plain-text matrix") && s.contains("an X3P file"),
+        "{s}"
+    );
+    let (_, s) = msg("text.sdf", b"1 2\n");
+    assert!(s.contains("does not start with aISO- or bISO-"), "{s}");
+    let (_, s) = msg("bin.txt", b"1 2\x00\x01\n");
+    assert!(
+        s.contains("not a text matrix") && s.contains("byte 3 is 0x00"),
+        "{s}"
+    );
+    // Upper-case extensions count; an extension no format claims leaves it to the content.
+    let (_, s) = msg("TEXT.X3P", b"1 2\n");
+    assert!(s.contains("not an X3P file"), "{s}");
+    for name in ["map.dat", "map"] {
+        let p = temp(name, b"1 2\n");
+        let (map, f) = read_map(&p, &opts).unwrap();
+        std::fs::remove_file(&p).unwrap();
+        assert_eq!((f, map.nx()), (MapFormat::Text, 2));
+    }
+    // Binary content of no known format, no extension.
+    let e = read_map_bytes(b"\x89PNG\r\n\x1a\n\x00\x00", &opts).unwrap_err();
+    assert!(matches!(e, MapError::Unrecognised { .. }), "{e:?}");
+}
+
+#[test]
+fn text_line_endings_and_encodings() {
+    let opts = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::Um),
+        ..ReadOptions::default()
+    };
+    // Old Mac line endings (a lone CR): 2 rows of 2, not one row of 4.
+    let (map, _) = read_map_bytes(b"1 2\r3 4\r", &opts).unwrap();
+    assert_eq!((map.nx(), map.ny()), (2, 2));
+    // Line numbers count CR-only and CRLF lines alike.
+    let e = text_err(b"1 2\r3 4\r5\r", &opts);
+    assert_eq!(
+        e,
+        TextError::Ragged {
+            line: 3,
+            expected: 2,
+            found: 1
+        }
+    );
+    let e = text_err(b"1 2\r\n3 4\r\n5\r\n", &opts);
+    assert_eq!(
+        e,
+        TextError::Ragged {
+            line: 3,
+            expected: 2,
+            found: 1
+        }
+    );
+    // Latin-1 (a Windows export): `Höhe` and `µm` are recognised.
+    let latin1 = b"# Breite: 2 \xb5m\n# H\xf6he: 3 \xb5m\n# Werteinheiten: \xb5m\n1 2\n3 4\n5 6\n";
+    let (map, _) = read_map_bytes(latin1, &ReadOptions::default()).unwrap();
+    assert_eq!((map.dx(), map.dy()), (1.0, 1.0));
+    assert_eq!(map.metadata()["text.encoding"], "Latin-1");
+    // UTF-16 with a byte-order mark (Notepad's "Unicode").
+    let utf16: Vec<u8> = [0xfeff_u16]
+        .into_iter()
+        .chain("# Width: 2 µm\n# Height: 1 µm\n# Value units: nm\n1000 2000\n".encode_utf16())
+        .flat_map(|u| u.to_le_bytes())
+        .collect();
+    let (map, _) = read_map_bytes(&utf16, &ReadOptions::default()).unwrap();
+    assert_eq!(map.heights(), &[1.0, 2.0]);
+    assert_eq!(map.metadata()["text.encoding"], "UTF-16LE");
+    // A header key given twice is refused (which width is meant?).
+    let e = text_err(b"# Width: 1 um\n# Width: 2 um\n1 2\n", &opts);
+    assert_eq!(
+        e,
+        TextError::DuplicateHeader {
+            key: "Width".into(),
+            first: 1,
+            second: 2
+        }
+    );
+}
+
+#[test]
+fn value_units_heights_need_a_length_intensities_do_not() {
+    let text = b"# Width: 2 um\n# Height: 1 um\n# Value units: a.u.\n0.5 0.75\n";
+    let e = text_err(text, &ReadOptions::default());
+    assert_eq!(
+        e,
+        TextError::NotALength {
+            line: 3,
+            unit: "a.u.".into()
+        }
+    );
+    assert!(e.to_string().contains("--z-unit"), "{e}");
+    // An empty unit is as good as none.
+    let e = text_err(
+        b"# Width: 2 um\n# Height: 1 um\n# Value units:\n1 2\n",
+        &ReadOptions::default(),
+    );
+    assert_eq!(e, TextError::MissingZUnit);
+    // --z-unit overrides a unit that is not a length.
+    let um = ReadOptions {
+        z_unit: Some(ZUnit::Nm),
+        ..ReadOptions::default()
+    };
+    let (map, _) = read_map_bytes(text, &um).unwrap();
+    assert_eq!(map.heights(), &[0.0005, 0.00075]);
+    // Intensities: the numbers as written, whatever the unit says.
+    let (i, _) = flakescatter_io::read_intensity_bytes(text, &ReadOptions::default()).unwrap();
+    assert_eq!(i.heights(), &[0.5, 0.75]);
+    assert_eq!(i.metadata()["text.value_units"], "a.u.");
+}
+
+#[test]
+fn channels_are_listed_and_a_missing_one_refused() {
+    use flakescatter_io::{MapFormat, list_channels_bytes};
+    let x = x3p(&xml("2", "1", "D", "0.5e-6"), &f64_data(&[1.0, 2.0]));
+    let (ch, f) = list_channels_bytes(&x, None, &ReadOptions::default()).unwrap();
+    assert_eq!(f, MapFormat::X3p);
+    assert_eq!(
+        (ch.len(), ch[0].name.as_str(), ch[0].nx, ch[0].ny),
+        (1, "Z", 2, 1)
+    );
+    assert_eq!(ch[0].pitch_um, Some((0.5, 1.0)));
+    let (ch, _) =
+        list_channels_bytes(&sdf_text(&SDF_OK, "1 2\n"), None, &ReadOptions::default()).unwrap();
+    assert_eq!(
+        (ch[0].nx, ch[0].ny, ch[0].pitch_um),
+        (2, 1, Some((1.0, 1.0)))
+    );
+    let t = b"# Channel: Topography\n# Value units: nm\n1 2 3\n4 5 6\n";
+    let (ch, _) = list_channels_bytes(t, Some("txt"), &ReadOptions::default()).unwrap();
+    assert_eq!(ch[0].name, "Topography");
+    assert_eq!(ch[0].unit.as_deref(), Some("nm"));
+    assert_eq!((ch[0].nx, ch[0].ny, ch[0].pitch_um), (3, 2, None));
+    let one = ReadOptions {
+        channel: Some(1),
+        ..ReadOptions::default()
+    };
+    let e = read_map_bytes(&x, &one).unwrap_err();
+    assert!(
+        matches!(e, MapError::NoSuchChannel { requested: 1, .. }),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("0 = Z"), "{e}");
+    let zero = ReadOptions {
+        channel: Some(0),
+        ..ReadOptions::default()
+    };
+    assert!(read_map_bytes(&x, &zero).is_ok());
+}
+
+#[test]
+fn write_errors_name_the_file() {
+    use flakescatter_io::{MapFormat, write_map};
+    let map = flakescatter_stats::heightmap::HeightMap::new(1, 1, 1.0, 1.0, vec![0.0]).unwrap();
+    let missing = std::env::temp_dir().join("flakescatter-no-such-dir/sub/out.x3p");
+    for format in [MapFormat::X3p, MapFormat::Text, MapFormat::Sdf] {
+        let e = write_map(&map, &missing, format).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("flakescatter-no-such-dir/sub/out.x3p"),
+            "{e}"
+        );
+    }
 }
