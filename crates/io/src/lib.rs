@@ -11,7 +11,7 @@
 //! Module shape: [`reader`] holds what the format modules share (options, value kind,
 //! channels); each format is one module ([`x3p`], [`sdf`], [`text`]) that imports only
 //! [`reader`] and [`units`]; [`map`] detects and dispatches. The CSV tables
-//! ([`flakes`], [`measured`], [`detectors`]) share one reader ([`table`]) that names the
+//! ([`flakes`], [`measured`], [`detectors`], [`curves`]) share one reader ([`table`]) that names the
 //! file, line and column in every error.
 //!
 //! ```
@@ -29,6 +29,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod curves;
 pub mod detectors;
 pub mod flakes;
 pub mod map;

@@ -3,6 +3,7 @@
 //! checks. Every expected line number is counted by hand in the text next to it.
 
 use flakescatter_io::TableError;
+use flakescatter_io::curves::read_curve_from;
 use flakescatter_io::detectors::read_detectors_from;
 use flakescatter_io::flakes::{read_flakes_from, read_histogram_from, write_flakes};
 use flakescatter_io::measured::read_measured_from;
@@ -10,7 +11,7 @@ use flakescatter_io::measured::read_measured_from;
 /// Each reader by name, returning only its error text.
 type Reader = fn(&str) -> Result<(), String>;
 
-const READERS: [(&str, &str, Reader); 4] = [
+const READERS: [(&str, &str, Reader); 5] = [
     ("flakes", "nx,ny,nz,area_um2", |t| {
         read_flakes_from(t.as_bytes(), "f.csv")
             .map(|_| ())
@@ -35,6 +36,15 @@ const READERS: [(&str, &str, Reader); 4] = [
             .map(|_| ())
             .map_err(|e| e.to_string())
     }),
+    (
+        "curves",
+        "theta_i_deg,theta_s_deg,aperture_deg,brdf_per_sr,relative",
+        |t| {
+            read_curve_from(t.as_bytes(), "f.csv")
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        },
+    ),
 ];
 
 /// A valid data row for each reader's header.
@@ -43,6 +53,7 @@ fn row(reader: &str, k: usize) -> String {
         "flakes" => "0,0,1,2".into(),
         "histogram" => format!("{k},{},0.5", k + 1),
         "measured" => "30,-30,1.5".into(),
+        "curves" => format!("30,-{k}5,1.5,0.25,1"),
         _ => "30,45".into(),
     }
 }
@@ -194,6 +205,26 @@ fn detector_ranges() {
     assert_eq!(d[0].phi_r, (-360f64).to_radians());
     assert_eq!(d[1].theta_r, 89.5f64.to_radians());
     assert_eq!(d[1].line, 3);
+}
+
+#[test]
+fn result_curves_allow_empty_relative_cells_only() {
+    let head = "theta_i_deg,theta_s_deg,phi_s_deg,aperture_deg,brdf_per_sr,reflectance,relative\n";
+    let rows = read_curve_from(format!("{head}30,-30,0,1.5,0.25,,\n").as_bytes(), "m.csv").unwrap();
+    assert!(rows[0].relative.is_nan() && rows[0].reflectance.is_none());
+    assert_eq!(rows[0].phi_s, Some(0.0));
+    for (row, needle) in [
+        ("30,-30,0,1.5,,,1", "line 2, column brdf_per_sr: empty cell"),
+        ("30,-30,0,1.5,-1,,1", "column brdf_per_sr: -1 is negative"),
+        ("30,-30,400,1.5,1,,1", "column phi_s_deg"),
+        ("95,-30,0,1.5,1,,1", "column theta_i_deg"),
+        ("30,-30,0,1.5,1,,x", "column relative"),
+    ] {
+        let e = read_curve_from(format!("{head}{row}\n").as_bytes(), "m.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(needle), "{row}: `{e}` lacks `{needle}`");
+    }
 }
 
 #[test]
