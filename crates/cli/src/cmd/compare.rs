@@ -6,6 +6,7 @@ use anyhow::{Context, bail};
 use flakescatter::compare::{
     IncidenceComparison, MeasuredKind, ModelPoint, compare, distribution_points,
 };
+use flakescatter::io::curves::read_curve;
 use flakescatter::io::measured::{MeasuredCurve, read_measured};
 use flakescatter::{Coating, PipelineError, Settings};
 use serde_json::{Value, json};
@@ -82,75 +83,34 @@ pub struct Args {
 /// Model values from a result CSV, matched to the measured angles (degrees to 1e-6).
 fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, ModelPoint)>> {
     let name = path.display();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .with_context(|| format!("reading --model {name}"))?;
-    let headers = rdr
-        .headers()
-        .with_context(|| format!("--model {name}: no header"))?
-        .clone();
-    let need = [
-        "theta_i_deg",
-        "theta_s_deg",
-        "aperture_deg",
-        "brdf_per_sr",
-        "relative",
-    ];
-    let mut idx = [0usize; 5];
-    for (k, col) in need.iter().enumerate() {
-        idx[k] = headers.iter().position(|h| h == *col).ok_or_else(|| {
-            anyhow::anyhow!(
-                "--model {name}: missing column {col} (a result CSV of `model` or `topo`)"
-            )
-        })?;
-    }
-    let col = |want: &str| headers.iter().position(|h| h == want);
-    let (phi_col, refl_col) = (col("phi_s_deg"), col("reflectance"));
-    let mut out = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.with_context(|| format!("--model {name}"))?;
-        let line = rec.position().map_or(0, |p| p.line());
-        // An empty cell (relative or reflectance undefined) reads as NaN.
-        let num = |c: usize, what: &str| -> anyhow::Result<f64> {
-            let s = rec.get(c).unwrap_or("");
-            if s.is_empty() {
-                return Ok(f64::NAN);
-            }
-            s.parse().map_err(|_| {
-                anyhow::anyhow!("--model {name}, line {line}, column {what}: `{s}` is not a number")
-            })
-        };
-        let mut v = [0.0; 5];
-        for (j, &c) in idx.iter().enumerate() {
-            v[j] = num(c, need[j])?;
-        }
-        if let Some(c) = phi_col {
-            let phi = num(c, "phi_s_deg")?;
-            if phi != 0.0 {
-                bail!(
-                    "--model {name}, line {line}: phi_s_deg {phi}: out-of-plane detectors cannot be matched to in-plane measured angles"
-                );
-            }
-        }
-        if (v[2] - aperture_deg).abs() > 1e-6 {
+    let rows = read_curve(path).with_context(|| format!("--model {name}"))?;
+    let mut out = Vec::with_capacity(rows.len());
+    for row in rows {
+        let line = row.line;
+        if let Some(phi) = row.phi_s
+            && phi != 0.0
+        {
             bail!(
-                "--model {name}, line {line}: aperture_deg {} differs from --aperture {aperture_deg}; compare at the aperture the model was computed with",
-                v[2]
+                "--model {name}, line {line}: phi_s_deg {}: out-of-plane detectors cannot be matched to in-plane measured angles",
+                phi.to_degrees()
             );
         }
-        let reflectance = match refl_col {
-            Some(c) => Some(num(c, "reflectance")?).filter(|r| r.is_finite()),
-            None => None,
-        };
+        let aperture = row.aperture.to_degrees();
+        if (aperture - aperture_deg).abs() > 1e-6 {
+            bail!(
+                "--model {name}, line {line}: aperture_deg {aperture} differs from --aperture {aperture_deg}; compare at the aperture the model was computed with"
+            );
+        }
         out.push((
-            v[0],
-            v[1],
-            ModelPoint::from_row(v[3], v[4], reflectance, aperture_deg.to_radians()),
+            row.theta_i.to_degrees(),
+            row.theta_s.to_degrees(),
+            ModelPoint::from_row(
+                row.brdf,
+                row.relative,
+                row.reflectance,
+                aperture_deg.to_radians(),
+            ),
         ));
-    }
-    if out.is_empty() {
-        bail!("--model {name}: no rows");
     }
     Ok(out)
 }
