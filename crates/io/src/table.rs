@@ -8,7 +8,7 @@
 //! CRLF files). A header that names a column twice is an error (which would be meant?);
 //! a row with another number of fields than the header is an error saying both numbers;
 //! a header that is one field holding `;` or tabs gets a hint about the delimiter. Text
-//! that is not UTF-8 is read as Latin-1.
+//! is UTF-8, UTF-16 with a byte-order mark, or else read as Latin-1.
 
 use std::borrow::Cow;
 use std::io::Read;
@@ -99,6 +99,12 @@ pub enum TableError {
         closest: &'static str,
         /// Its missing columns.
         missing: Vec<String>,
+    },
+    /// The file holds no header row (it is empty, or only comments and blank lines).
+    #[error("{file}: the file is empty (no header row)")]
+    NoHeader {
+        /// File name.
+        file: String,
     },
     /// The table has a header but no data rows.
     #[error("{file}: no data rows after the header")]
@@ -196,7 +202,27 @@ impl Table {
     pub(crate) fn read(mut reader: impl Read, file: &str) -> Result<Self, TableError> {
         let mut bytes = Vec::new();
         reader.read_to_end(&mut bytes).map_err(io_err(file))?;
+        let utf16 = match bytes.get(..2) {
+            Some([0xff, 0xfe]) => Some(true),
+            Some([0xfe, 0xff]) => Some(false),
+            _ => None,
+        };
         let text: Cow<[u8]> = match std::str::from_utf8(&bytes) {
+            _ if utf16.is_some() => {
+                // UTF-16 with a byte-order mark (spreadsheets' "Unicode text").
+                let units: Vec<u16> = bytes[2..]
+                    .chunks(2)
+                    .map(|c| {
+                        let pair = [c[0], *c.get(1).unwrap_or(&0)];
+                        if utf16 == Some(true) {
+                            u16::from_le_bytes(pair)
+                        } else {
+                            u16::from_be_bytes(pair)
+                        }
+                    })
+                    .collect();
+                Cow::Owned(String::from_utf16_lossy(&units).into_bytes())
+            }
             Ok(_) => Cow::Borrowed(&bytes),
             // Latin-1: every byte is the code point of the same number.
             Err(_) => Cow::Owned(
@@ -259,6 +285,11 @@ impl Table {
             .iter()
             .map(|h| h.trim().to_ascii_lowercase())
             .collect();
+        if header.iter().all(String::is_empty) {
+            return Err(TableError::NoHeader {
+                file: file.to_string(),
+            });
+        }
         for (j, name) in header.iter().enumerate() {
             if name.is_empty() {
                 continue;

@@ -172,6 +172,18 @@ pub enum TextError {
         /// Mean step, in the file's x unit.
         mean: f64,
     },
+    /// The profile's `x` column does not increase.
+    #[error(
+        "line {line}: the x column must increase from row to row (it runs from {first} to {last})"
+    )]
+    ProfileNotIncreasing {
+        /// 1-based line of the first data row.
+        line: usize,
+        /// First x value.
+        first: f64,
+        /// Last x value.
+        last: f64,
+    },
     /// The numbers do not make a valid height map.
     #[error("{0}")]
     Map(HeightMapError),
@@ -743,6 +755,13 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         let n = xs.len();
         let pitch = if n >= 2 {
             let mean = (xs[n - 1] - xs[0]) / (n - 1) as f64;
+            if !(mean.is_finite() && mean > 0.0) {
+                return Err(TextError::ProfileNotIncreasing {
+                    line: rows[0].0,
+                    first: xs[0],
+                    last: xs[n - 1],
+                });
+            }
             for (k, w) in xs.windows(2).enumerate() {
                 let step = w[1] - w[0];
                 // Tolerate rounding of printed coordinates (5 % of the step).

@@ -373,6 +373,24 @@ fn profile_header_over_one_column_rows() {
 }
 
 #[test]
+fn profile_x_column_must_increase() {
+    let options = ReadOptions {
+        z_unit: Some(ZUnit::Um),
+        ..ReadOptions::default()
+    };
+    for text in [
+        &b"x_um,z\n0.3,1\n0.2,2\n0.1,3\n"[..],
+        b"x_um,z\n0.1,1\n0.1,2\n",
+    ] {
+        let e = text_err(text, &options);
+        assert!(
+            matches!(e, TextError::ProfileNotIncreasing { line: 2, .. }),
+            "{e:?}"
+        );
+    }
+}
+
+#[test]
 fn text_needs_calibration() {
     let e = text_err(b"1 2\n3 4\n", &ReadOptions::default());
     assert_eq!(e, TextError::MissingZUnit);

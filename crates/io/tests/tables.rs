@@ -256,3 +256,53 @@ fn write_errors_name_the_file() {
     assert!(matches!(e, TableError::Io { .. }), "{e:?}");
     assert!(e.to_string().contains("out/flakes.csv"), "{e}");
 }
+
+#[test]
+fn empty_files_and_utf16_tables() {
+    for (name, header, read) in READERS {
+        for text in ["", "\n\n", "# only a comment\n"] {
+            let e = read(text).unwrap_err();
+            assert!(
+                e.contains("f.csv: the file is empty"),
+                "{name} {text:?}: {e}"
+            );
+        }
+        // UTF-16 with a byte-order mark, comma-separated: read; tab-separated (a
+        // spreadsheet's "Unicode text"): the tab hint, not garbage.
+        let utf16 = |s: &str| -> Vec<u8> {
+            [0xfeff_u16]
+                .into_iter()
+                .chain(s.encode_utf16())
+                .flat_map(|u| u.to_le_bytes())
+                .collect()
+        };
+        let good = utf16(&format!("{header}\r\n{}\r\n", row(name, 0)));
+        let e = match name {
+            "flakes" => read_flakes_from(&good[..], "f.csv")
+                .err()
+                .map(|e| e.to_string()),
+            "histogram" => read_histogram_from(&good[..], "f.csv")
+                .err()
+                .map(|e| e.to_string()),
+            "measured" => read_measured_from(&good[..], "f.csv")
+                .err()
+                .map(|e| e.to_string()),
+            "detectors" => read_detectors_from(&good[..], "f.csv")
+                .err()
+                .map(|e| e.to_string()),
+            _ => read_curve_from(&good[..], "f.csv")
+                .err()
+                .map(|e| e.to_string()),
+        };
+        assert_eq!(e, None, "{name}");
+        let tabs = utf16(&format!(
+            "{}\r\n{}\r\n",
+            header.replace(',', "\t"),
+            row(name, 0).replace(',', "\t")
+        ));
+        let e = read_detectors_from(&tabs[..], "f.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("tabs"), "{e}");
+    }
+}
