@@ -172,6 +172,20 @@ pub enum TextError {
         /// Mean step, in the file's x unit.
         mean: f64,
     },
+    /// The three columns are a list of `x y z` points on a grid, not a height matrix.
+    #[error(
+        "line {line}: the 3 columns look like an x, y, z point list ({nx} x values times {ny} y \
+         values, one row each), not a height matrix with 3 columns; point lists are not \
+         read: export the map as a matrix (one row of heights per line)"
+    )]
+    PointList {
+        /// 1-based line of the first data row.
+        line: usize,
+        /// Distinct values of the first column.
+        nx: usize,
+        /// Distinct values of the second column.
+        ny: usize,
+    },
     /// The profile's `x` column does not increase.
     #[error(
         "line {line}: the x column must increase from row to row (it runs from {first} to {last})"
@@ -651,6 +665,38 @@ fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Parsed, TextError> {
     Ok(p)
 }
 
+/// Refuses three columns whose first two enumerate a grid (every pair once, at least 2
+/// x 2 distinct values): an `x y z` export, which read as a matrix would be a map of
+/// coordinates. A height matrix with 3 columns does not have that structure.
+fn point_list_check(rows: &[(usize, Vec<f64>)]) -> Result<(), TextError> {
+    let coordinates =
+        |r: &(usize, Vec<f64>)| r.1.len() == 3 && r.1[..2].iter().all(|v| v.is_finite());
+    if rows.len() < 4 || !rows.iter().all(coordinates) {
+        return Ok(());
+    }
+    let distinct = |k: usize| {
+        let mut v: Vec<u64> = rows.iter().map(|r| r.1[k].to_bits()).collect();
+        v.sort_unstable();
+        v.dedup();
+        v.len()
+    };
+    let (nx, ny) = (distinct(0), distinct(1));
+    let mut pairs: Vec<(u64, u64)> = rows
+        .iter()
+        .map(|r| (r.1[0].to_bits(), r.1[1].to_bits()))
+        .collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    if nx >= 2 && ny >= 2 && nx * ny == rows.len() && pairs.len() == rows.len() {
+        return Err(TextError::PointList {
+            line: rows[0].0,
+            nx,
+            ny,
+        });
+    }
+    Ok(())
+}
+
 fn header_length(
     found: &Option<Found<String>>,
     key: &str,
@@ -749,6 +795,9 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let z_factor = 10f64.powi(z_exp);
 
     let rows = std::mem::take(&mut p.rows);
+    if p.profile.is_none() {
+        point_list_check(&rows)?;
+    }
     let (nx, ny, z, pitch) = if let Some((header_line, x_name)) = &p.profile {
         let xs: Vec<f64> = rows.iter().map(|r| r.1[0]).collect();
         let z: Vec<f64> = rows.iter().map(|r| r.1[1] * z_factor).collect();

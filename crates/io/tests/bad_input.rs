@@ -391,6 +391,30 @@ fn profile_x_column_must_increase() {
 }
 
 #[test]
+fn xyz_point_lists_are_not_read_as_three_column_maps() {
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::Um),
+        ..ReadOptions::default()
+    };
+    // x = 0, 1, 2 times y = 0, 1 (Gwyddion's XYZ export order): a map of coordinates if
+    // read as a matrix.
+    let xyz = b"0 0 1.5\n1 0 1.25\n2 0 1\n0 1 1.75\n1 1 1.5\n2 1 1.25\n";
+    let e = text_err(xyz, &options);
+    assert_eq!(
+        e,
+        TextError::PointList {
+            line: 1,
+            nx: 3,
+            ny: 2
+        }
+    );
+    // A 3-column height matrix reads (its first two columns repeat a pair).
+    let (map, _) = read_map_bytes(b"0 0 1\n0 0 2\n1 1 3\n1 1 4\n", &options).unwrap();
+    assert_eq!((map.nx(), map.ny()), (3, 4));
+}
+
+#[test]
 fn text_needs_calibration() {
     let e = text_err(b"1 2\n3 4\n", &ReadOptions::default());
     assert_eq!(e, TextError::MissingZUnit);
