@@ -347,6 +347,13 @@ fn parse_header(
             "1 (one layer of heights)",
         ));
     }
+    if at(root, "Record3/DataLink").is_none() && at(root, "Record3/DataList").is_some() {
+        return Err(bad(
+            "Record3/DataList",
+            "(values inline in main.xml)",
+            "binary data in a member (Record3/DataLink); inline DataList files are not read",
+        ));
+    }
     let data_link = required(root, "Record3/DataLink/PointDataLink")?;
     if data_link.is_empty() {
         return Err(bad(

@@ -638,6 +638,19 @@ fn x3p_sizes_that_overflow_or_exceed_the_data() {
 }
 
 #[test]
+fn inline_data_list_is_refused_by_name() {
+    let main = xml("2", "1", "D", "1e-6").replace(
+        "<DataLink><PointDataLink>bindata/data.bin</PointDataLink></DataLink>",
+        "<DataList><Datum>1</Datum><Datum>2</Datum></DataList>",
+    );
+    let e = x3p_err(&zip_members(&[("main.xml", main.as_bytes())]));
+    assert!(
+        matches!(&e, X3pError::BadValue { element, .. } if element == "Record3/DataList"),
+        "{e:?}"
+    );
+}
+
+#[test]
 fn missing_checksum_member_names_the_option() {
     let main = xml("1", "1", "D", "1e-6");
     let bytes = zip_members(&[
