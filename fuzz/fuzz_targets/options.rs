@@ -8,9 +8,9 @@ pub fn split(data: &[u8]) -> Option<(ReadOptions, ValueKind, &[u8])> {
     let (&b, rest) = data.split_first()?;
     let options = ReadOptions {
         pixel_um: (b & 1 != 0).then_some((0.5, 0.25)),
+        // None half of the time: X3P and SDF heights refuse the text-only options.
         z_unit: match (b >> 1) & 3 {
-            0 => None,
-            1 => Some(ZUnit::Um),
+            0 | 1 => None,
             2 => Some(ZUnit::Nm),
             _ => Some(ZUnit::M),
         },

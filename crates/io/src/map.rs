@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
-use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
+use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
 use crate::text::{self, TextError};
 use crate::x3p::{self, ArchiveError, X3pError};
@@ -225,6 +225,19 @@ pub enum MapError {
         /// Why the content is not that format, and what it is instead.
         reason: String,
     },
+    /// An option that only plain-text matrices use was given for a calibrated format.
+    #[error(
+        "option {option} applies to plain-text matrices only, and this is {}, {why}; leave it out",
+        format.description()
+    )]
+    NotApplicable {
+        /// The option, with its command-line flag.
+        option: &'static str,
+        /// The format of the file.
+        format: MapFormat,
+        /// Why the format does not need it.
+        why: &'static str,
+    },
     /// The channel asked for does not exist.
     #[error(
         "channel {requested} was asked for, but the file has {} channel(s): {}",
@@ -344,6 +357,24 @@ pub fn read_bytes(
         }
     }
     let format = choose(bytes, extension)?;
+    // A flag is honoured or refused: the text-only options are refused for the
+    // calibrated formats (intensity reads share the height map's flags and ignore them).
+    if kind == ValueKind::Height && format != MapFormat::Text {
+        if options.z_unit.is_some() {
+            return Err(MapError::NotApplicable {
+                option: "z_unit (`--z-unit` on the command line)",
+                format,
+                why: "whose heights are calibrated in metres",
+            });
+        }
+        if options.decimal != DecimalMark::Auto {
+            return Err(MapError::NotApplicable {
+                option: "decimal (`--decimal-comma`, `--decimal-point` on the command line)",
+                format,
+                why: "which stores no decimal text",
+            });
+        }
+    }
     let spec = spec(format);
     if let Some(requested) = options.channel {
         let available = (spec.channels)(bytes, options)?;

@@ -53,14 +53,15 @@ pub struct ReadOptions {
     /// required for plain-text matrices that declare no size. `None` = use the file's.
     pub pixel_um: Option<(f64, f64)>,
     /// Unit of the heights in plain-text matrices. Overrides a unit the file declares;
-    /// required when it declares none. Ignored for X3P and SDF, which are calibrated, and
-    /// for intensity images, which are unit-less.
+    /// required when it declares none. Refused for X3P and SDF heights, which are
+    /// calibrated; ignored for intensity images, which are unit-less.
     pub z_unit: Option<ZUnit>,
     /// Accept an X3P file whose MD5 checksums do not match (or are missing); the mismatch
     /// is then recorded in the metadata key `x3p.md5_mismatch` instead of failing.
     pub accept_md5_mismatch: bool,
     /// Decimal mark of plain-text matrices (the command line's `--decimal-comma`).
-    /// [`DecimalMark::Auto`] detects it and records what was used in `text.decimal_mark`.
+    /// [`DecimalMark::Auto`] detects it and records what was used in `text.decimal_mark`;
+    /// another value is refused for X3P and SDF heights.
     pub decimal: DecimalMark,
     /// Which channel to read (0-based, in the order of [`crate::list_channels`]);
     /// `None` = the file's first (for every format read so far, its only) channel.

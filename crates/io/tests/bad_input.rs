@@ -985,6 +985,32 @@ fn channels_are_listed_and_a_missing_one_refused() {
 }
 
 #[test]
+fn text_only_options_are_refused_for_calibrated_formats() {
+    use flakescatter_io::DecimalMark;
+    let x = x3p(&xml("2", "1", "D", "1e-6"), &f64_data(&[1.0, 2.0]));
+    let sdf = sdf_text(&SDF_OK, "1 2\n");
+    for bytes in [&x[..], &sdf[..]] {
+        let unit = ReadOptions {
+            z_unit: Some(ZUnit::Nm),
+            ..ReadOptions::default()
+        };
+        let e = read_map_bytes(bytes, &unit).unwrap_err();
+        assert!(matches!(e, MapError::NotApplicable { .. }), "{e:?}");
+        assert!(e.to_string().contains("--z-unit"), "{e}");
+        let comma = ReadOptions {
+            decimal: DecimalMark::Comma,
+            ..ReadOptions::default()
+        };
+        let e = read_map_bytes(bytes, &comma).unwrap_err();
+        assert!(e.to_string().contains("--decimal-comma"), "{e}");
+        // The same options for an intensity image (they are the height map's flags) are
+        // ignored: the values are as stored (1e-6 x raw for both files).
+        let (i, _) = flakescatter_io::read_intensity_bytes(bytes, &unit).unwrap();
+        assert_eq!(i.heights(), &[1e-6, 2e-6]);
+    }
+}
+
+#[test]
 fn write_errors_name_the_file() {
     use flakescatter_io::{MapFormat, write_map};
     let map = flakescatter_stats::heightmap::HeightMap::new(1, 1, 1.0, 1.0, vec![0.0]).unwrap();

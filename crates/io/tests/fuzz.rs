@@ -188,8 +188,15 @@ proptest! {
         flags in any::<u8>(),
         ext in 0..EXTENSIONS.len(),
     ) {
-        let bytes = apply(MAP_SEEDS[seed.index(MAP_SEEDS.len())].clone(), &muts);
-        let (options, kind) = options(flags);
+        let seed = &MAP_SEEDS[seed.index(MAP_SEEDS.len())];
+        let bytes = apply(seed.clone(), &muts);
+        let (mut options, kind) = options(flags);
+        // The text-only options make X3P and SDF heights fail at once (a flag is honoured
+        // or refused); leave them out of most calibrated cases so the readers are reached.
+        if !seed.is_ascii() && flags & 4 == 0 || seed.starts_with(b"aISO") && flags & 4 == 0 {
+            options.z_unit = None;
+            options.decimal = DecimalMark::Auto;
+        }
         // Either outcome is fine; a panic fails the test.
         let _ = list_channels_bytes(&bytes, EXTENSIONS[ext], &options);
         if let Ok((map, _)) = read_bytes(&bytes, EXTENSIONS[ext], &options, kind) {
