@@ -19,7 +19,8 @@ pub struct MapArgs {
     #[arg(long = "pixel-um", value_name = "DX[,DY]", allow_hyphen_values = true)]
     pub pixel_um: Option<String>,
     /// Unit of the heights in plain-text matrices without a unit header: `um`, `nm` or
-    /// `m`. Overrides the file's unit; ignored for X3P and SDF, which are calibrated.
+    /// `m`. Overrides the file's unit; refused for X3P and SDF height maps, which are
+    /// calibrated (and ignored for intensity maps).
     #[arg(long = "z-unit", value_name = "UNIT")]
     pub z_unit: Option<String>,
     /// Read X3P files whose MD5 checksums do not match; the mismatch is reported in the
