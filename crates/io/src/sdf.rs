@@ -225,6 +225,8 @@ type TextHeader<'t> = (Header, Vec<(String, String)>, Vec<(usize, &'t str)>);
 fn text_header(text: &str, z_shift: i32) -> Result<TextHeader<'_>, SdfError> {
     let mut lines = split_lines(text).enumerate().skip(1);
     let mut header: Vec<(String, String, usize)> = Vec::new();
+    // Keys (lower case) with their line: a hash map, as a header may be long.
+    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     for (i, line) in lines.by_ref() {
         let line = line.trim();
         if line == "*" {
@@ -240,13 +242,10 @@ fn text_header(text: &str, z_shift: i32) -> Result<TextHeader<'_>, SdfError> {
                 text: line.to_string(),
             })?;
         let (k, v) = (k.trim(), v.trim());
-        if let Some((_, _, first)) = header
-            .iter()
-            .find(|(key, _, _)| key.eq_ignore_ascii_case(k))
-        {
+        if let Some(first) = seen.insert(k.to_ascii_lowercase(), i + 1) {
             return Err(SdfError::DuplicateField {
                 field: k.to_string(),
-                first: *first,
+                first,
                 second: i + 1,
             });
         }

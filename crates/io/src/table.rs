@@ -290,11 +290,13 @@ impl Table {
                 file: file.to_string(),
             });
         }
+        // A hash map of the names seen: a header may have very many columns.
+        let mut seen = std::collections::HashMap::new();
         for (j, name) in header.iter().enumerate() {
             if name.is_empty() {
                 continue;
             }
-            if let Some(first) = header[..j].iter().position(|h| h == name) {
+            if let Some(first) = seen.insert(name.as_str(), j) {
                 return Err(TableError::DuplicateColumn {
                     file: file.to_string(),
                     line: header_line,

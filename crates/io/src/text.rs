@@ -560,7 +560,8 @@ fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Parsed, TextError> {
         comma: false,
         header_comma: options.decimal != DecimalMark::Point,
     };
-    let mut seen: Vec<(String, usize)> = Vec::new();
+    // Header keys seen, with their line (a hash map: a file may hold many header lines).
+    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     let mut data: Vec<(usize, &str)> = Vec::new();
     for (i, raw) in split_lines(&text).enumerate() {
         let line_no = i + 1;
@@ -584,14 +585,14 @@ fn parse(bytes: &[u8], options: &ReadOptions) -> Result<Parsed, TextError> {
                 }
                 _ => None,
             };
-            if let Some((_, first)) = seen.iter().find(|(k, _)| *k == lower) {
+            if let Some(first) = seen.get(&lower) {
                 return Err(TextError::DuplicateHeader {
                     key: key.to_string(),
                     first: *first,
                     second: line_no,
                 });
             }
-            seen.push((lower.clone(), line_no));
+            seen.insert(lower.clone(), line_no);
             match slot {
                 Some(slot) => {
                     *slot = Some(Found {

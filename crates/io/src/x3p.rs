@@ -460,6 +460,10 @@ fn read_member<R: Read + Seek>(
     Ok(Some((buf, Some(digest))))
 }
 
+/// Deepest `Record2` element whose text goes into the metadata (ISO 25178-72 nests
+/// two levels, e.g. `Instrument/Manufacturer`).
+const RECORD2_DEPTH: usize = 6;
+
 /// Upper bound on the size of `main.xml` and `md5checksum.hex` read into memory.
 const XML_LIMIT: u64 = 64 << 20;
 
@@ -671,12 +675,24 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             if node.children().any(|c| c.is_element()) {
                 continue;
             }
-            let mut parts: Vec<String> = node
+            // Record2 is a few levels deep; deeper leaves are skipped, so that a hostile
+            // nesting costs no more than a few steps per element.
+            let mut parts: Vec<String> = Vec::new();
+            let mut reached = false;
+            for a in node
                 .ancestors()
-                .take_while(|a| a != &r2)
                 .filter(|a| a.is_element())
-                .map(|a| a.tag_name().name().to_lowercase())
-                .collect();
+                .take(RECORD2_DEPTH + 1)
+            {
+                if a == r2 {
+                    reached = true;
+                    break;
+                }
+                parts.push(a.tag_name().name().to_lowercase());
+            }
+            if !reached {
+                continue;
+            }
             parts.reverse();
             let value = node.text().unwrap_or("").trim();
             if !value.is_empty() {

@@ -1024,3 +1024,66 @@ fn write_errors_name_the_file() {
         );
     }
 }
+
+#[test]
+fn many_header_lines_columns_and_deep_nesting_stay_cheap() {
+    // Duplicate checks use hash maps: 100 000 distinct text header keys, then a repeat
+    // of the first (quadratic scans took minutes at this size).
+    let n = 100_000;
+    let mut text = String::with_capacity(n * 16);
+    for k in 0..n {
+        text.push_str(&format!("# key{k}: v\n"));
+    }
+    text.push_str("# key0: again\n1 2\n");
+    let e = text_err(text.as_bytes(), &ReadOptions::default());
+    assert_eq!(
+        e,
+        TextError::DuplicateHeader {
+            key: "key0".into(),
+            first: 1,
+            second: n + 1
+        }
+    );
+    // SDF: the same with header fields.
+    let mut sdf = String::from("aISO-1.0\n");
+    for k in 0..n {
+        sdf.push_str(&format!("F{k} = 1\n"));
+    }
+    sdf.push_str("f0 = 2\n*\n");
+    let e = sdf_err(sdf.as_bytes());
+    assert_eq!(
+        e,
+        SdfError::DuplicateField {
+            field: "f0".into(),
+            first: 2,
+            second: n + 2
+        }
+    );
+    // CSV: 100 000 columns, the last a repeat of the first.
+    let mut header: Vec<String> = (0..n).map(|k| format!("c{k}")).collect();
+    header.push("c0".into());
+    let csv = format!("{}\n", header.join(","));
+    let e = flakescatter_io::measured::read_measured_from(csv.as_bytes(), "m.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(&format!("fields 1 and {}", n + 1)), "{e}");
+    // X3P: a Record2 comb 5000 levels deep (each level a leaf and a deeper branch) adds
+    // only the shallow leaves to the metadata, not 5000 keys of up to 5000 parts.
+    let mut comb = String::new();
+    for k in 0..5000 {
+        comb.push_str(&format!("<L{k}><V>x</V>"));
+    }
+    for k in (0..5000).rev() {
+        comb.push_str(&format!("</L{k}>"));
+    }
+    let main = xml("1", "1", "D", "1e-6").replace(
+        "<Creator>test</Creator>",
+        &format!("<Creator>test</Creator>{comb}"),
+    );
+    let (map, _) = read_map_bytes(&x3p(&main, &f64_data(&[1.0])), &ReadOptions::default()).unwrap();
+    assert_eq!(map.metadata()["x3p.creator"], "test");
+    assert_eq!(map.metadata()["x3p.l0.v"], "x");
+    assert_eq!(map.metadata()["x3p.l0.l1.l2.l3.l4.v"], "x");
+    assert!(!map.metadata().contains_key("x3p.l0.l1.l2.l3.l4.l5.v"));
+    assert!(map.metadata().len() < 40, "{}", map.metadata().len());
+}
