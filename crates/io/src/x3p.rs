@@ -69,6 +69,21 @@ pub enum X3pError {
         /// How the expected size was computed.
         detail: String,
     },
+    /// A member is too small (compressed) to hold what the header implies.
+    #[error(
+        "member {member:?} has {compressed} compressed bytes, which cannot inflate to the \
+         {expected} bytes the header implies ({detail}): the header or the archive is corrupt"
+    )]
+    Implausible {
+        /// The member.
+        member: String,
+        /// Size implied by the header.
+        expected: u64,
+        /// Its compressed size in the archive.
+        compressed: u64,
+        /// How the expected size was computed.
+        detail: String,
+    },
     /// A checksum does not match (and the mismatch was not accepted).
     #[error(
         "MD5 of {member:?} is {computed} but the file declares {declared}: the file may be \
@@ -464,6 +479,9 @@ fn read_member<R: Read + Seek>(
 /// two levels, e.g. `Instrument/Manufacturer`).
 const RECORD2_DEPTH: usize = 6;
 
+/// Largest number of points loaded (16384², 2 GiB of float64 heights).
+const MAX_POINTS: usize = 1 << 28;
+
 /// Upper bound on the size of `main.xml` and `md5checksum.hex` read into memory.
 const XML_LIMIT: u64 = 64 << 20;
 
@@ -573,6 +591,13 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let n = nx
         .checked_mul(ny)
         .ok_or(X3pError::Map(HeightMapError::TooLarge { nx, ny }))?;
+    if n > MAX_POINTS {
+        return Err(bad(
+            "Record3/MatrixDimension",
+            &format!("SizeX {nx} x SizeY {ny}"),
+            "at most 268435456 points (16384 x 16384), the largest map this reader loads",
+        ));
+    }
     let width = h.dtype.width();
 
     let mut notes = Vec::new();
@@ -596,6 +621,29 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
 
     let data_name = format!("{prefix}{}", h.data_link);
     let expected = (n as u64).saturating_mul(width as u64);
+    let detail = || {
+        format!(
+            "{nx} x {ny} points of {width} bytes, DataType {}",
+            h.dtype.code()
+        )
+    };
+    // Plausibility before any inflation: deflate expands at most 1032-fold (stored
+    // members not at all), so a member whose compressed size cannot hold the data is
+    // refused before a byte is allocated for it.
+    let compressed = match archive.by_name(&data_name) {
+        Ok(f) => Some(f.compressed_size()),
+        Err(_) => None,
+    };
+    if let Some(compressed) = compressed
+        && expected > compressed.saturating_mul(1032).saturating_add(1024)
+    {
+        return Err(X3pError::Implausible {
+            member: data_name,
+            expected,
+            compressed,
+            detail: detail(),
+        });
+    }
     // Read one byte more than needed, to tell "too long" from "just right".
     let (data, computed) = read_member(
         &mut archive,
@@ -604,12 +652,6 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         expected.saturating_add(1),
     )?
     .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
-    let detail = || {
-        format!(
-            "{nx} x {ny} points of {width} bytes, DataType {}",
-            h.dtype.code()
-        )
-    };
     if data.len() as u64 != expected {
         let found = if data.len() as u64 > expected {
             // Longer than needed: report the size the archive declares.

@@ -611,21 +611,27 @@ fn x3p_sizes_that_overflow_or_exceed_the_data() {
     // nx * ny overflows usize.
     let e = x3p_err(&x3p(&xml("18446744073709551615", "2", "D", "1e-6"), &[]));
     assert!(matches!(e, X3pError::Map(_)), "{e:?}");
-    // 100000 x 100000 float64 (80 GB) over 8 bytes of data: a length error naming both.
+    // 100000 x 100000 points is beyond the 2^28-point cap: refused from the header.
     let e = x3p_err(&x3p(
         &xml("100000", "100000", "D", "1e-6"),
         &f64_data(&[0.0]),
     ));
     assert!(
-        matches!(
-            e,
-            X3pError::DataLength {
-                expected: 80_000_000_000,
-                found: 8,
-                ..
-            }
-        ),
+        matches!(&e, X3pError::BadValue { element, .. } if element == "Record3/MatrixDimension"),
         "{e:?}"
+    );
+    // 10000 x 10000 float64 (800 MB) over 8 bytes of data, 5 bytes deflated: 5 bytes
+    // cannot inflate to 800 MB (deflate's ratio is below 1032:1), refused before
+    // anything is inflated.
+    let e = x3p_err(&x3p(&xml("10000", "10000", "D", "1e-6"), &f64_data(&[0.0])));
+    assert_eq!(
+        e,
+        X3pError::Implausible {
+            member: "bindata/data.bin".into(),
+            expected: 800_000_000,
+            compressed: 5,
+            detail: "10000 x 10000 points of 8 bytes, DataType D".into()
+        }
     );
     // Negative and non-integer sizes name the element.
     for size in ["-1", "1.5", ""] {
