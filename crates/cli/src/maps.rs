@@ -72,70 +72,12 @@ pub fn segment_file(map: &Path, args: &SegmentArgs) -> anyhow::Result<(HeightMap
     Ok((height, seg))
 }
 
-/// Reads out-of-plane detectors: CSV with header `theta_r_deg, phi_r_deg`, degrees.
+/// Reads out-of-plane detectors (io's detector reader: CSV with header
+/// `theta_r_deg, phi_r_deg`, degrees, ranges checked); returns `(θr, φr)` in radians.
 pub fn read_detectors(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
-    let name = path.display();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .with_context(|| format!("reading --detectors {name}"))?;
-    let headers = rdr
-        .headers()
-        .with_context(|| format!("--detectors {name}: no header"))?
-        .clone();
-    let col = |want: &str| headers.iter().position(|h| h == want);
-    let (Some(ct), Some(cp)) = (col("theta_r_deg"), col("phi_r_deg")) else {
-        bail!(
-            "--detectors {name}: the header must have columns theta_r_deg and phi_r_deg (found: {})",
-            headers.iter().collect::<Vec<_>>().join(", ")
-        );
-    };
-    let mut out = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| anyhow::anyhow!("--detectors {name}: {}", csv_message(&e)))?;
-        let line = rec.position().map_or(0, csv::Position::line);
-        let get = |c: usize, what: &str| -> anyhow::Result<f64> {
-            let s = rec.get(c).unwrap_or("");
-            let v: f64 = s.parse().map_err(|_| {
-                anyhow::anyhow!(
-                    "--detectors {name}, line {line}, column {what}: `{s}` is not a number"
-                )
-            })?;
-            if !v.is_finite() {
-                bail!("--detectors {name}, line {line}, column {what}: `{s}` is not finite");
-            }
-            Ok(v)
-        };
-        let (t, p) = (get(ct, "theta_r_deg")?, get(cp, "phi_r_deg")?);
-        if !(0.0..90.0).contains(&t) {
-            bail!("--detectors {name}, line {line}: theta_r_deg {t} is outside [0, 90)");
-        }
-        if !(-360.0..=360.0).contains(&p) {
-            bail!("--detectors {name}, line {line}: phi_r_deg {p} is outside [-360, 360]");
-        }
-        out.push((t, p));
-    }
-    if out.is_empty() {
-        bail!("--detectors {name}: no detector rows");
-    }
-    Ok(out)
-}
-
-/// A CSV reading error in words (no Rust debug text).
-pub fn csv_message(e: &csv::Error) -> String {
-    match e.kind() {
-        csv::ErrorKind::UnequalLengths {
-            pos,
-            expected_len,
-            len,
-        } => format!(
-            "line {}: {len} fields where the header has {expected_len}",
-            pos.as_ref().map_or(0, csv::Position::line)
-        ),
-        csv::ErrorKind::Utf8 { pos, .. } => format!(
-            "line {}: not valid UTF-8 text",
-            pos.as_ref().map_or(0, csv::Position::line)
-        ),
-        _ => e.to_string(),
-    }
+    Ok(flakescatter::io::detectors::read_detectors(path)
+        .with_context(|| format!("--detectors {}", path.display()))?
+        .into_iter()
+        .map(|d| (d.theta_r, d.phi_r))
+        .collect())
 }

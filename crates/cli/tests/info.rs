@@ -5,13 +5,10 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn data(name: &str) -> String {
-    PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/topography"
-    ))
-    .join(name)
-    .display()
-    .to_string()
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/real"))
+        .join(name)
+        .display()
+        .to_string()
 }
 
 fn run(args: &[&str]) -> Output {
@@ -158,13 +155,19 @@ fn bad_files_and_flags_exit_2_naming_them() {
         ["--pixel-um", "-1"],
         ["--pixel-um", "1,2,3"],
         ["--z-unit", "inch"],
+        // Honoured or refused: X3P heights are calibrated, so --z-unit is refused.
+        ["--z-unit", "um"],
+        ["--accept-md5-mismatch", "--decimal-comma"],
     ] {
         let o = run(&["info", &logo, flag[0], flag[1]]);
         assert_eq!(o.status.code(), Some(2), "{flag:?}");
-        assert!(
-            String::from_utf8_lossy(&o.stderr).contains(flag[0]),
-            "{flag:?}"
-        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        let named = if flag[1].starts_with("--") {
+            flag[1]
+        } else {
+            flag[0]
+        };
+        assert!(err.contains(named), "{flag:?}: {err}");
     }
 }
 
@@ -206,5 +209,142 @@ fn intensity_cutoff_masks_points() {
     // --cutoff without --intensity is a usage error.
     let o = run(&[&base[..], &["--cutoff", "2"]].concat());
     assert_eq!(o.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn decimal_commas_are_read_detected_or_refused() {
+    let dir = std::env::temp_dir().join(format!("flakescatter-info-dc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let json = |o: &Output| -> serde_json::Value {
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    // A German export: 2 x 2 values 1.5, 2.25 / -0.5, 4 µm with decimal commas. Read as
+    // decimal points it would be 4 columns (1, 5, 2, 25): nx must be 2, max 4 µm.
+    let german = dir.join("de.txt");
+    std::fs::write(
+        &german,
+        "# Breite: 2,0 µm\n# Höhe: 2,0 µm\n# Werteinheiten: µm\n1,5 2,25\n-0,5 4\n",
+    )
+    .unwrap();
+    let g = german.to_str().unwrap();
+    let v = json(&run(&["info", g, "--json"]));
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(2), Some(2)));
+    assert!(close(v["max_m"].as_f64().unwrap(), 4e-6, 1e-12));
+    assert!(close(v["min_m"].as_f64().unwrap(), -0.5e-6, 1e-12));
+    assert!(close(v["dx_m"].as_f64().unwrap(), 1e-6, 1e-12));
+    assert!(
+        v["metadata"]["text.decimal_mark"]
+            .as_str()
+            .unwrap()
+            .starts_with("comma (detected"),
+        "{v}"
+    );
+    // The flag gives the same numbers and says it was the option.
+    let v = json(&run(&["info", g, "--json", "--decimal-comma"]));
+    assert_eq!(v["nx"], 2);
+    assert_eq!(v["metadata"]["text.decimal_mark"], "comma (option)");
+    assert_eq!(v["inputs"]["decimal"], "comma");
+
+    // One token per line (`10,5`): 10.5 or two columns? Refused, naming the flag; the
+    // flag settles it (1 column of 10.5 and 20.25 nm).
+    let one = dir.join("one.txt");
+    std::fs::write(&one, "10,5\n20,25\n").unwrap();
+    let o = one.to_str().unwrap();
+    let base = ["info", o, "--json", "--z-unit", "nm", "--pixel-um", "1"];
+    let out = run(&base);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("one.txt") && err.contains("--decimal-comma") && err.contains("line 1"),
+        "{err}"
+    );
+    let v = json(&run(&[&base[..], &["--decimal-comma"]].concat()));
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(1), Some(2)));
+    assert!(close(v["max_m"].as_f64().unwrap(), 20.25e-9, 1e-12));
+    let v = json(&run(&[&base[..], &["--decimal-point"]].concat()));
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(2), Some(2)));
+
+    // The flag against content with decimal points is an error naming the line.
+    let point = dir.join("point.txt");
+    std::fs::write(&point, "1 2\n3.5 4\n").unwrap();
+    let out = run(&[
+        "info",
+        point.to_str().unwrap(),
+        "--z-unit",
+        "um",
+        "--pixel-um",
+        "1",
+        "--decimal-comma",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("line 2") && err.contains("\"3.5\""), "{err}");
+    // Both flags at once is a usage error.
+    let out = run(&["info", g, "--decimal-comma", "--decimal-point"]);
+    assert_eq!(out.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn intensity_maps_need_the_same_pitch_but_no_unit() {
+    let dir = std::env::temp_dir().join(format!("flakescatter-info-ip-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    };
+    let h = write(
+        "h.txt",
+        "# Pitch x: 0.5 µm\n# Pitch y: 0.5 µm\n# Value units: nm\n10 20\n30 40\n",
+    );
+    // Same shape, pitch 0.25 µm: a different area, refused with both pitches named.
+    let coarse = write(
+        "i-coarse.txt",
+        "# Pitch x: 0.25 µm\n# Pitch y: 0.25 µm\n# Value units: a.u.\n0.1 0.9\n0.5 0.8\n",
+    );
+    let o = run(&["info", &h, "--intensity", &coarse, "--cutoff", "0.5"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("0.25 µm x 0.25 µm") && err.contains("0.5 µm x 0.5 µm"),
+        "{err}"
+    );
+    // The same pitch with an `a.u.`, an empty and no unit header: accepted; cutoff 0.5
+    // keeps 20, 30, 40 nm (0.1 is below it).
+    for unit in ["# Value units: a.u.\n", "# Value units:\n", ""] {
+        let i = write(
+            "i.txt",
+            &format!("# Pitch x: 0.5 µm\n# Pitch y: 0.5 µm\n{unit}0.1 0.9\n0.5 0.8\n"),
+        );
+        let o = run(&["info", &h, "--json", "--intensity", &i, "--cutoff", "0.5"]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{unit:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["valid_points"], 3, "{unit:?}");
+    }
+    // A height map with an `a.u.` unit is refused, naming --z-unit.
+    let au = write(
+        "h-au.txt",
+        "# Pitch x: 1 µm\n# Pitch y: 1 µm\n# Value units: a.u.\n1 2\n",
+    );
+    let o = run(&["info", &au]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("h-au.txt") && err.contains("\"a.u.\"") && err.contains("--z-unit"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -26,7 +26,8 @@ use std::path::Path;
 use flakescatter_stats::flake::{Flake, FlakeError, normal_from_tilts, polar_from_normal};
 use flakescatter_stats::histogram::AreaHistogram;
 use flakescatter_stats::nalgebra::Vector3 as Vec3;
-use thiserror::Error;
+
+use crate::table::{Table, TableError, io_err, write_err};
 
 /// Which column set a flake table was read with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,173 +62,8 @@ impl ColumnSet {
     }
 }
 
-/// Errors reading or writing flake tables and histograms.
-#[derive(Debug, Error)]
-pub enum FlakeTableError {
-    /// The file could not be opened, read or written.
-    #[error("{file}: {source}")]
-    Io {
-        /// File name.
-        file: String,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// Malformed CSV (e.g. a row with a different number of fields).
-    #[error("{file}, line {line}: malformed CSV: {message}")]
-    Csv {
-        /// File name.
-        file: String,
-        /// 1-based line.
-        line: u64,
-        /// What the CSV parser reported.
-        message: String,
-    },
-    /// No complete column set in the header.
-    #[error(
-        "{file}, line 1: header has none of the flake column sets (normals: nx, ny, nz, area_um2; tilts: theta_x_deg, theta_y_deg, area_um2; endpoints: x1_um, z1_um, x2_um, z2_um, y1_um, zy1_um, y2_um, zy2_um); closest is {closest} set, missing column(s) {}",
-        missing.join(", ")
-    )]
-    MissingColumns {
-        /// File name.
-        file: String,
-        /// The column set with the most columns present.
-        closest: &'static str,
-        /// Its missing columns.
-        missing: Vec<String>,
-    },
-    /// The table has a header but no data rows.
-    #[error("{file}: no data rows after the header")]
-    Empty {
-        /// File name.
-        file: String,
-    },
-    /// A cell is not a valid value.
-    #[error("{file}, line {line}, column {column}: {message}")]
-    BadValue {
-        /// File name.
-        file: String,
-        /// 1-based line.
-        line: u64,
-        /// Column name (or names).
-        column: String,
-        /// What was found and what was expected.
-        message: String,
-    },
-}
-
-fn io_err(file: &str) -> impl FnOnce(std::io::Error) -> FlakeTableError + '_ {
-    move |source| FlakeTableError::Io {
-        file: file.to_string(),
-        source,
-    }
-}
-
-fn csv_err(file: &str, e: csv::Error) -> FlakeTableError {
-    let line = e.position().map_or(0, |p| p.line());
-    match e.into_kind() {
-        csv::ErrorKind::Io(source) => FlakeTableError::Io {
-            file: file.to_string(),
-            source,
-        },
-        kind => FlakeTableError::Csv {
-            file: file.to_string(),
-            line,
-            message: format!("{kind:?}"),
-        },
-    }
-}
-
-/// A parsed CSV: lower-cased, trimmed header and records with their line numbers.
-pub(crate) struct Table {
-    pub(crate) file: String,
-    pub(crate) header: Vec<String>,
-    pub(crate) rows: Vec<(u64, csv::StringRecord)>,
-}
-
-impl Table {
-    pub(crate) fn read(reader: impl Read, file: &str) -> Result<Self, FlakeTableError> {
-        let mut r = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .trim(csv::Trim::All)
-            .comment(Some(b'#'))
-            .from_reader(reader);
-        let header: Vec<String> = r
-            .headers()
-            .map_err(|e| csv_err(file, e))?
-            .iter()
-            .map(|h| h.trim().trim_start_matches('\u{feff}').to_ascii_lowercase())
-            .collect();
-        let mut rows = Vec::new();
-        for rec in r.records() {
-            let rec = rec.map_err(|e| csv_err(file, e))?;
-            let line = rec.position().map_or(0, |p| p.line());
-            if rec.iter().all(str::is_empty) {
-                continue;
-            }
-            rows.push((line, rec));
-        }
-        Ok(Self {
-            file: file.to_string(),
-            header,
-            rows,
-        })
-    }
-
-    pub(crate) fn col(&self, name: &str) -> Option<usize> {
-        self.header.iter().position(|h| h == name)
-    }
-
-    /// The indices of the columns `need`, or an error at line 1 naming the missing ones
-    /// with `message` (what the file needs).
-    pub(crate) fn require<const N: usize>(
-        &self,
-        need: [&str; N],
-        message: &str,
-    ) -> Result<[usize; N], FlakeTableError> {
-        let missing: Vec<&str> = need
-            .iter()
-            .copied()
-            .filter(|c| self.col(c).is_none())
-            .collect();
-        if !missing.is_empty() {
-            return Err(FlakeTableError::BadValue {
-                file: self.file.clone(),
-                line: 1,
-                column: missing.join(", "),
-                message: message.to_string(),
-            });
-        }
-        Ok(need.map(|c| self.col(c).unwrap_or(0)))
-    }
-
-    pub(crate) fn bad(&self, line: u64, column: &str, message: String) -> FlakeTableError {
-        FlakeTableError::BadValue {
-            file: self.file.clone(),
-            line,
-            column: column.to_string(),
-            message,
-        }
-    }
-
-    /// A finite number from column `name` (index `i`) of a row.
-    pub(crate) fn num(
-        &self,
-        line: u64,
-        rec: &csv::StringRecord,
-        i: usize,
-        name: &str,
-    ) -> Result<f64, FlakeTableError> {
-        let s = rec.get(i).unwrap_or("");
-        match s.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            Ok(v) => Err(self.bad(line, name, format!("{v} is not a finite number"))),
-            Err(_) if s.is_empty() => {
-                Err(self.bad(line, name, "empty cell, expected a number".into()))
-            }
-            Err(_) => Err(self.bad(line, name, format!("{s:?} is not a number"))),
-        }
-    }
-}
+/// Errors reading or writing flake tables and histograms (the shared CSV error).
+pub type FlakeTableError = TableError;
 
 /// A flake table as read: the flakes and the column set used.
 #[derive(Debug, Clone, PartialEq)]
@@ -272,6 +108,7 @@ pub fn read_flakes_from(reader: impl Read, file: &str) -> Result<FlakeTable, Fla
             .expect("three sets");
         return Err(FlakeTableError::MissingColumns {
             file: file.to_string(),
+            line: t.header_line,
             closest: best.name(),
             missing: best
                 .columns()
@@ -400,7 +237,7 @@ pub fn write_flakes(
         "theta_n_deg",
         "phi_n_deg",
     ])
-    .map_err(|e| csv_err(file, e))?;
+    .map_err(|e| write_err(file, e))?;
     for f in flakes {
         let (t, p) = polar_from_normal(&f.normal);
         let (x, y) = f
@@ -418,7 +255,7 @@ pub fn write_flakes(
             t.to_degrees().to_string(),
             p.to_degrees().to_string(),
         ])
-        .map_err(|e| csv_err(file, e))?;
+        .map_err(|e| write_err(file, e))?;
     }
     w.flush().map_err(io_err(file))
 }
@@ -458,7 +295,7 @@ pub fn write_histogram_bins(
         "p_per_rad",
         "p_tilde",
     ])
-    .map_err(|e| csv_err(file, e))?;
+    .map_err(|e| write_err(file, e))?;
     for (e, f) in edges_rad.windows(2).zip(area_fractions) {
         w.write_record([
             e[0].to_degrees().to_string(),
@@ -467,7 +304,7 @@ pub fn write_histogram_bins(
             (f / (e[1] - e[0])).to_string(),
             (f / (e[0].cos() - e[1].cos())).to_string(),
         ])
-        .map_err(|e| csv_err(file, e))?;
+        .map_err(|e| write_err(file, e))?;
     }
     w.flush().map_err(io_err(file))
 }
@@ -648,7 +485,10 @@ mod tests {
             "{e}"
         );
         let e = err("nx,ny,nz,area_um2\n0,0,1\n");
-        assert!(e.contains("line 2") && e.contains("malformed"), "{e}");
+        assert!(
+            e.contains("line 2") && e.contains("expected 4 fields") && e.contains("found 3"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -1,10 +1,18 @@
 //! File formats for flakescatter: height maps (X3P, ISO 25178-71 SDF, plain-text
-//! matrices with Gwyddion headers) and flake tables.
+//! matrices with Gwyddion headers), flake tables, histograms, measured curves and
+//! detector lists.
 //!
 //! Only this crate (and the CLI) touches files. Every height-map reader returns a
 //! [`HeightMap`](flakescatter_stats::heightmap::HeightMap) in micrometres (heights and
 //! pitch), row-major with `x` along columns, with an explicit validity mask; the format
-//! is recognised from the file's content ([`MapFormat::detect`]), not its extension.
+//! is recognised from the file's content ([`MapFormat::detect`]), and a file extension
+//! that names another format is an error.
+//!
+//! Module shape: [`reader`] holds what the format modules share (options, value kind,
+//! channels); each format is one module ([`x3p`], [`sdf`], [`text`]) that imports only
+//! [`reader`] and [`units`]; [`map`] detects and dispatches. The CSV tables
+//! ([`flakes`], [`measured`], [`detectors`], [`curves`]) share one reader ([`table`]) that names the
+//! file, line and column in every error.
 //!
 //! ```
 //! use flakescatter_io::{read_map_bytes, x3p::write_x3p_bytes, MapFormat, ReadOptions};
@@ -21,21 +29,28 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod curves;
+pub mod detectors;
 pub mod flakes;
 pub mod map;
 pub mod measured;
+pub mod reader;
 pub mod sdf;
 pub mod stack;
+pub mod table;
 pub mod text;
 pub mod units;
 pub mod x3p;
 
 pub use map::{
-    MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, read_intensity,
-    read_intensity_bytes, read_map, read_map_bytes, write_intensity, write_map,
+    MapError, MapFormat, ReadMapError, WriteMapError, list_channels, list_channels_bytes,
+    read_bytes, read_intensity, read_intensity_bytes, read_map, read_map_bytes, write_intensity,
+    write_map,
 };
+pub use reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 pub use stack::{
     PageOrder, ReadStackError, SampleType, StackError, StackFormat, StackInfo, StackOptions,
     StackReader,
 };
+pub use table::TableError;
 pub use units::ZUnit;

@@ -1,4 +1,7 @@
-//! Reading and writing height maps, with the format recognised from the file's content.
+//! Reading and writing height maps: the one place that knows every format. It scores
+//! the content with each format's `detect`, checks the file extension against the
+//! winner, and calls that format's reader (see [`crate::reader`] for the contract each
+//! format module fulfils). Readers never call back into this module.
 //!
 //! Conventions: every reader returns a [`HeightMap`] with heights in micrometres and pixel
 //! pitch in micrometres, row-major with `x` along columns (X fastest in the file) and `y`
@@ -6,6 +9,9 @@
 //! invalid in the map's mask. Format-specific header fields go into the map's metadata
 //! under `format` and keys prefixed with the format name (`x3p.creator`, `sdf.ManufacID`,
 //! `text.channel`, ...).
+//!
+//! Adding a format: a module with `detect`, `channels` and `read` (as [`crate::x3p`]), a
+//! [`MapFormat`] variant, a [`MapError`] variant, and one row in `FORMATS`.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -13,33 +19,74 @@ use std::path::{Path, PathBuf};
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
 use crate::text::{self, TextError};
-use crate::units::ZUnit;
-use crate::x3p::{self, X3pError};
+use crate::x3p::{self, ArchiveError, X3pError};
 
 /// The height-map file formats this crate understands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MapFormat {
     /// ISO 25178-72 XML 3D surface profile (a zip archive).
     X3p,
-    /// ISO 25178-71 surface data file, text (`aISO-1.0`) or binary (`bISO-1.0`, `bISO-2.0`).
+    /// ISO 25178-71 surface data file, text (`aISO-1.0`, `aISO-2.0`) or binary
+    /// (`bISO-1.0`, `bISO-2.0`).
     Sdf,
-    /// Plain-text matrix (whitespace or comma separated), Gwyddion `#` headers understood.
+    /// Plain-text matrix (whitespace, comma or semicolon separated), Gwyddion `#`
+    /// headers understood.
     Text,
 }
 
+/// One format: how to recognise it, list its channels and read it.
+struct Spec {
+    format: MapFormat,
+    detect: fn(&[u8]) -> Confidence,
+    channels: fn(&[u8], &ReadOptions) -> Result<Vec<Channel>, MapError>,
+    read: fn(&[u8], &ReadOptions, ValueKind) -> Result<HeightMap, MapError>,
+}
+
+/// Every format, in the order ties of confidence are broken when no extension decides.
+const FORMATS: [Spec; 3] = [
+    Spec {
+        format: MapFormat::X3p,
+        detect: x3p::detect,
+        channels: |b, o| x3p::channels(b, o).map_err(MapError::X3p),
+        read: |b, o, k| x3p::read(b, o, k).map_err(MapError::X3p),
+    },
+    Spec {
+        format: MapFormat::Sdf,
+        detect: sdf::detect,
+        channels: |b, o| sdf::channels(b, o).map_err(MapError::Sdf),
+        read: |b, o, k| sdf::read(b, o, k).map_err(MapError::Sdf),
+    },
+    Spec {
+        format: MapFormat::Text,
+        detect: text::detect,
+        channels: |b, o| text::channels(b, o).map_err(MapError::Text),
+        read: |b, o, k| text::read(b, o, k).map_err(MapError::Text),
+    },
+];
+
+fn spec(format: MapFormat) -> &'static Spec {
+    FORMATS
+        .iter()
+        .find(|s| s.format == format)
+        .unwrap_or(&FORMATS[0])
+}
+
 impl MapFormat {
-    /// Recognises the format from the first bytes of a file: zip magic → X3P,
-    /// `aISO`/`bISO` → SDF, anything else → text.
-    pub fn detect(bytes: &[u8]) -> Self {
-        if bytes.starts_with(b"PK\x03\x04") || bytes.starts_with(b"PK\x05\x06") {
-            MapFormat::X3p
-        } else if bytes.starts_with(b"aISO") || bytes.starts_with(b"bISO") {
-            MapFormat::Sdf
-        } else {
-            MapFormat::Text
-        }
+    /// Every format, in detection order.
+    pub const ALL: [MapFormat; 3] = [MapFormat::X3p, MapFormat::Sdf, MapFormat::Text];
+
+    /// Recognises the format from the content alone: the format whose `detect` scores
+    /// highest, `None` if none scores above 0 (empty or unknown binary content).
+    pub fn detect(bytes: &[u8]) -> Option<Self> {
+        best(bytes, None)
+    }
+
+    /// How sure this format's reader is that `bytes` are its format (0–100).
+    pub fn confidence(self, bytes: &[u8]) -> Confidence {
+        (spec(self).detect)(bytes)
     }
 
     /// Short lower-case name: `x3p`, `sdf` or `text`.
@@ -50,6 +97,43 @@ impl MapFormat {
             MapFormat::Text => "text",
         }
     }
+
+    /// What a file of this format is, for messages: `an X3P file`, ...
+    pub fn description(self) -> &'static str {
+        match self {
+            MapFormat::X3p => "an X3P file (ISO 25178-72)",
+            MapFormat::Sdf => "an SDF file (ISO 25178-71)",
+            MapFormat::Text => "a plain-text matrix",
+        }
+    }
+
+    /// What content of this format must look like, for messages.
+    fn signature(self) -> &'static str {
+        match self {
+            MapFormat::X3p => "it is not a zip archive, so not an X3P file",
+            MapFormat::Sdf => {
+                "it does not start with aISO- or bISO-, so not an ISO 25178-71 SDF file"
+            }
+            MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
+        }
+    }
+
+    /// File extensions (lower case, without the dot) that name this format.
+    pub fn extensions(self) -> &'static [&'static str] {
+        match self {
+            MapFormat::X3p => &["x3p"],
+            MapFormat::Sdf => &["sdf"],
+            MapFormat::Text => &["txt", "csv", "asc", "tsv"],
+        }
+    }
+
+    /// The format an extension names (case-insensitive, without the dot), if any.
+    pub fn from_extension(ext: &str) -> Option<Self> {
+        let ext = ext.to_ascii_lowercase();
+        Self::ALL
+            .into_iter()
+            .find(|f| f.extensions().contains(&ext.as_str()))
+    }
 }
 
 impl fmt::Display for MapFormat {
@@ -58,18 +142,47 @@ impl fmt::Display for MapFormat {
     }
 }
 
-/// Options for reading height maps.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct ReadOptions {
-    /// Pixel pitch `(dx, dy)` in µm. Overrides the file's calibration in every format;
-    /// required for plain-text matrices that declare no size. `None` = use the file's.
-    pub pixel_um: Option<(f64, f64)>,
-    /// Unit of the heights in plain-text matrices. Overrides a unit the file declares;
-    /// required when it declares none. Ignored for X3P and SDF, which are calibrated.
-    pub z_unit: Option<ZUnit>,
-    /// Accept an X3P file whose MD5 checksums do not match (or are missing); the mismatch
-    /// is then recorded in the metadata key `x3p.md5_mismatch` instead of failing.
-    pub accept_md5_mismatch: bool,
+/// The best-scoring format for `bytes`; ties go to `preferred`, then to table order.
+fn best(bytes: &[u8], preferred: Option<MapFormat>) -> Option<MapFormat> {
+    let mut winner: Option<(Confidence, bool, MapFormat)> = None;
+    for s in &FORMATS {
+        let score = (s.detect)(bytes);
+        let pref = preferred == Some(s.format);
+        if score > 0 && winner.is_none_or(|(b, p, _)| (score, pref) > (b, p)) {
+            winner = Some((score, pref, s.format));
+        }
+    }
+    winner.map(|(_, _, f)| f)
+}
+
+/// What the content is, in a few words, for messages about a wrong extension.
+fn describe(bytes: &[u8]) -> String {
+    if bytes.is_empty() {
+        return "the file is empty (0 bytes)".into();
+    }
+    match best(bytes, None) {
+        Some(MapFormat::Text) => {
+            let first: String = String::from_utf8_lossy(&bytes[..bytes.len().min(200)])
+                .lines()
+                .find(|l| !l.trim().is_empty())
+                .unwrap_or("")
+                .chars()
+                .take(40)
+                .collect();
+            format!("the content is plain text, starting {:?}", first.trim())
+        }
+        Some(f) => format!("the content is {}", f.description()),
+        None => {
+            let (offset, byte) = bytes
+                .iter()
+                .enumerate()
+                .find(|(_, b)| **b < 0x20 && !b.is_ascii_whitespace())
+                .map_or((0, bytes[0]), |(i, b)| (i, *b));
+            format!(
+                "the content is binary data of no format this crate reads (byte {offset} is 0x{byte:02x})"
+            )
+        }
+    }
 }
 
 /// What went wrong inside a height-map file, by format.
@@ -87,27 +200,59 @@ pub enum MapError {
     /// The pitch override is not usable.
     #[error("pixel pitch option: {0}")]
     Pitch(HeightMapError),
+    /// The file has no bytes at all.
+    #[error("the file is empty (0 bytes){}", match expected {
+        Some(f) => format!(", so not {}", f.description()),
+        None => String::new(),
+    })]
+    Empty {
+        /// The format the file's extension names, if any.
+        expected: Option<MapFormat>,
+    },
+    /// The content is no format this crate reads.
+    #[error("not a height-map format this crate reads (X3P, SDF, plain text): {content}")]
+    Unrecognised {
+        /// What the content is.
+        content: String,
+    },
+    /// The extension names one format and the content is not that format.
+    #[error("the extension .{extension} says {}, but {reason}", format.description())]
+    NotThisFormat {
+        /// The file's extension.
+        extension: String,
+        /// The format it names.
+        format: MapFormat,
+        /// Why the content is not that format, and what it is instead.
+        reason: String,
+    },
+    /// An option that only plain-text matrices use was given for a calibrated format.
+    #[error(
+        "option {option} applies to plain-text matrices only, and this is {}, {why}; leave it out",
+        format.description()
+    )]
+    NotApplicable {
+        /// The option, with its command-line flag.
+        option: &'static str,
+        /// The format of the file.
+        format: MapFormat,
+        /// Why the format does not need it.
+        why: &'static str,
+    },
+    /// The channel asked for does not exist.
+    #[error(
+        "channel {requested} was asked for, but the file has {} channel(s): {}",
+        available.len(),
+        available.iter().enumerate().map(|(i, n)| format!("{i} = {n}")).collect::<Vec<_>>().join(", ")
+    )]
+    NoSuchChannel {
+        /// The 0-based index asked for.
+        requested: usize,
+        /// The names of the channels present.
+        available: Vec<String>,
+    },
 }
 
-impl From<X3pError> for MapError {
-    fn from(e: X3pError) -> Self {
-        MapError::X3p(e)
-    }
-}
-
-impl From<SdfError> for MapError {
-    fn from(e: SdfError) -> Self {
-        MapError::Sdf(e)
-    }
-}
-
-impl From<TextError> for MapError {
-    fn from(e: TextError) -> Self {
-        MapError::Text(e)
-    }
-}
-
-/// Error from [`read_map`]: the file and what went wrong.
+/// Error from [`read_map`] and [`read_intensity`]: the file and what went wrong.
 #[derive(Debug, Error)]
 pub enum ReadMapError {
     /// The file could not be read at all.
@@ -140,8 +285,118 @@ pub enum WriteMapError {
         source: std::io::Error,
     },
     /// The zip container could not be assembled.
-    #[error("cannot build X3P archive: {0}")]
-    Zip(String),
+    #[error("cannot write height map {}: {source}", path.display())]
+    Archive {
+        /// The file.
+        path: PathBuf,
+        /// What the zip writer reported.
+        source: ArchiveError,
+    },
+    /// The format cannot be written.
+    #[error("cannot write height map {}: writing {format} is not supported; use X3P or text", path.display())]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+        /// The format asked for.
+        format: MapFormat,
+    },
+}
+
+fn extension(path: &Path) -> Option<&str> {
+    path.extension().and_then(|e| e.to_str())
+}
+
+/// Which format to read `bytes` with, given the file's extension (if any).
+fn choose(bytes: &[u8], extension: Option<&str>) -> Result<MapFormat, MapError> {
+    let named = extension.and_then(MapFormat::from_extension);
+    if bytes.is_empty() {
+        return Err(MapError::Empty { expected: named });
+    }
+    let found = best(bytes, named);
+    match (named, found) {
+        (Some(n), Some(f)) if n == f => Ok(f),
+        (Some(n), found) => {
+            let content = describe(bytes);
+            let reason = if n == MapFormat::Text && found.is_some() {
+                content
+            } else {
+                format!("{} ({content})", n.signature())
+            };
+            Err(MapError::NotThisFormat {
+                extension: extension.unwrap_or_default().to_string(),
+                format: n,
+                reason,
+            })
+        }
+        (None, Some(f)) => Ok(f),
+        (None, None) => Err(MapError::Unrecognised {
+            content: describe(bytes),
+        }),
+    }
+}
+
+/// Reads a map from memory: the general entry point behind [`read_map`],
+/// [`read_intensity`] and their `_bytes` forms. `extension` (without the dot) is the
+/// file's, if known: one that names a format the content is not is an error.
+///
+/// # Errors
+/// [`MapError`] naming the format and what is wrong (member, header field, line), or
+/// why the content is not the format the extension names.
+pub fn read_bytes(
+    bytes: &[u8],
+    extension: Option<&str>,
+    options: &ReadOptions,
+    kind: ValueKind,
+) -> Result<(HeightMap, MapFormat), MapError> {
+    // Check the pitch override first, so a bad option is reported as such in every format.
+    if let Some((dx, dy)) = options.pixel_um {
+        for (axis, value) in [("dx", dx), ("dy", dy)] {
+            if !value.is_finite() || value <= 0.0 {
+                return Err(MapError::Pitch(HeightMapError::BadPitch { axis, value }));
+            }
+        }
+    }
+    let format = choose(bytes, extension)?;
+    // A flag is honoured or refused: the text-only options are refused for the
+    // calibrated formats (intensity reads share the height map's flags and ignore them).
+    if kind == ValueKind::Height && format != MapFormat::Text {
+        if options.z_unit.is_some() {
+            return Err(MapError::NotApplicable {
+                option: "z_unit (`--z-unit` on the command line)",
+                format,
+                why: "whose heights are calibrated in metres",
+            });
+        }
+        if options.decimal != DecimalMark::Auto {
+            return Err(MapError::NotApplicable {
+                option: "decimal (`--decimal-comma`, `--decimal-point` on the command line)",
+                format,
+                why: "which stores no decimal text",
+            });
+        }
+    }
+    let spec = spec(format);
+    if let Some(requested) = options.channel {
+        let available = (spec.channels)(bytes, options)?;
+        if requested >= available.len() {
+            return Err(MapError::NoSuchChannel {
+                requested,
+                available: available.into_iter().map(|c| c.name).collect(),
+            });
+        }
+    }
+    let mut map = (spec.read)(bytes, options, kind)?;
+    if let Some((dx, dy)) = options.pixel_um {
+        map.set_pitch(dx, dy).map_err(MapError::Pitch)?;
+        map.set_metadata("pitch_source", "option");
+    } else if !map.metadata().contains_key("pitch_source") {
+        map.set_metadata("pitch_source", "file");
+    }
+    map.set_metadata("format", format.name());
+    if kind == ValueKind::Intensity {
+        map.set_metadata("values", "intensity as stored in the file (unit-less)");
+    }
+    Ok((map, format))
 }
 
 /// Reads a height map from memory, recognising the format from the content.
@@ -152,7 +407,7 @@ pub fn read_map_bytes(
     bytes: &[u8],
     options: &ReadOptions,
 ) -> Result<(HeightMap, MapFormat), MapError> {
-    read_bytes(bytes, options, false)
+    read_bytes(bytes, None, options, ValueKind::Height)
 }
 
 /// Reads an intensity image from memory: values as the file stores them (see
@@ -164,53 +419,26 @@ pub fn read_intensity_bytes(
     bytes: &[u8],
     options: &ReadOptions,
 ) -> Result<(HeightMap, MapFormat), MapError> {
-    read_bytes(bytes, options, true)
+    read_bytes(bytes, None, options, ValueKind::Intensity)
 }
 
-fn read_bytes(
-    bytes: &[u8],
+fn read_file(
+    path: &Path,
     options: &ReadOptions,
-    intensity: bool,
-) -> Result<(HeightMap, MapFormat), MapError> {
-    // Check the pitch override first, so a bad option is reported as such in every format.
-    if let Some((dx, dy)) = options.pixel_um {
-        for (axis, value) in [("dx", dx), ("dy", dy)] {
-            if !value.is_finite() || value <= 0.0 {
-                return Err(MapError::Pitch(HeightMapError::BadPitch { axis, value }));
-            }
-        }
-    }
-    // Heights go to µm (10^6 per metre); intensities stay as stored (10^0).
-    let z_shift = if intensity { 0 } else { 6 };
-    // Text intensities are taken as stored by declaring them "µm" (a factor of 1).
-    let text_options = if intensity {
-        ReadOptions {
-            z_unit: Some(ZUnit::Um),
-            ..*options
-        }
-    } else {
-        *options
-    };
-    let format = MapFormat::detect(bytes);
-    let mut map = match format {
-        MapFormat::X3p => x3p::read_x3p_scaled(bytes, options, z_shift)?,
-        MapFormat::Sdf => sdf::read_sdf_scaled(bytes, z_shift)?,
-        MapFormat::Text => text::read_text_bytes(bytes, &text_options)?,
-    };
-    if let Some((dx, dy)) = options.pixel_um {
-        map.set_pitch(dx, dy).map_err(MapError::Pitch)?;
-        map.set_metadata("pitch_source", "option");
-    } else if !map.metadata().contains_key("pitch_source") {
-        map.set_metadata("pitch_source", "file");
-    }
-    map.set_metadata("format", format.name());
-    if intensity {
-        map.set_metadata("values", "intensity as stored in the file (unit-less)");
-    }
-    Ok((map, format))
+    kind: ValueKind,
+) -> Result<(HeightMap, MapFormat), ReadMapError> {
+    let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    read_bytes(&bytes, extension(path), options, kind).map_err(|error| ReadMapError::Format {
+        path: path.to_path_buf(),
+        error,
+    })
 }
 
-/// Reads a height map file (X3P, SDF or plain text, recognised from the content).
+/// Reads a height map file (X3P, SDF or plain text, recognised from the content; an
+/// extension that names another format is an error).
 ///
 /// # Errors
 /// [`ReadMapError::Io`] if the file cannot be read, [`ReadMapError::Format`] naming the
@@ -219,22 +447,14 @@ pub fn read_map(
     path: impl AsRef<Path>,
     options: &ReadOptions,
 ) -> Result<(HeightMap, MapFormat), ReadMapError> {
-    let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    read_map_bytes(&bytes, options).map_err(|error| ReadMapError::Format {
-        path: path.to_path_buf(),
-        error,
-    })
+    read_file(path.as_ref(), options, ValueKind::Height)
 }
 
 /// Reads an intensity image (e.g. a confocal microscope's maximum-intensity map) for use
 /// with [`HeightMap::apply_intensity_cutoff`]. Values are returned as the file stores
 /// them, unit-less: `Offset + raw × Increment` for X3P, `raw × Zscale` for SDF, the
-/// numbers themselves for text (no unit is required or applied; `options.z_unit` is
-/// ignored). The pitch rules are those of [`read_map`].
+/// numbers themselves for text (no unit is required or applied, `a.u.` or none is fine;
+/// `options.z_unit` is ignored). The pitch rules are those of [`read_map`].
 ///
 /// # Errors
 /// As [`read_map`].
@@ -242,12 +462,37 @@ pub fn read_intensity(
     path: impl AsRef<Path>,
     options: &ReadOptions,
 ) -> Result<(HeightMap, MapFormat), ReadMapError> {
+    read_file(path.as_ref(), options, ValueKind::Intensity)
+}
+
+/// Lists the channels of a map held in memory (name, unit, size, pitch) without
+/// converting its data where the format allows; `extension` as in [`read_bytes`].
+///
+/// # Errors
+/// As [`read_bytes`].
+pub fn list_channels_bytes(
+    bytes: &[u8],
+    extension: Option<&str>,
+    options: &ReadOptions,
+) -> Result<(Vec<Channel>, MapFormat), MapError> {
+    let format = choose(bytes, extension)?;
+    Ok(((spec(format).channels)(bytes, options)?, format))
+}
+
+/// Lists the channels of a map file (see [`list_channels_bytes`]).
+///
+/// # Errors
+/// As [`read_map`].
+pub fn list_channels(
+    path: impl AsRef<Path>,
+    options: &ReadOptions,
+) -> Result<(Vec<Channel>, MapFormat), ReadMapError> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    read_intensity_bytes(&bytes, options).map_err(|error| ReadMapError::Format {
+    list_channels_bytes(&bytes, extension(path), options).map_err(|error| ReadMapError::Format {
         path: path.to_path_buf(),
         error,
     })
@@ -264,7 +509,7 @@ pub fn write_intensity(
     path: impl AsRef<Path>,
     format: MapFormat,
 ) -> Result<(), WriteMapError> {
-    write_with(map, path.as_ref(), format, true)
+    write_with(map, path.as_ref(), format, ValueKind::Intensity)
 }
 
 /// Writes `map` to `path` as X3P (float64 heights in metres, `valid.bin` when some point
@@ -278,27 +523,32 @@ pub fn write_map(
     path: impl AsRef<Path>,
     format: MapFormat,
 ) -> Result<(), WriteMapError> {
-    write_with(map, path.as_ref(), format, false)
+    write_with(map, path.as_ref(), format, ValueKind::Height)
 }
 
 fn write_with(
     map: &HeightMap,
     path: &Path,
     format: MapFormat,
-    intensity: bool,
+    kind: ValueKind,
 ) -> Result<(), WriteMapError> {
-    let bytes = match (format, intensity) {
-        (MapFormat::X3p, false) => x3p::write_x3p_bytes(map)?,
-        (MapFormat::X3p, true) => x3p::write_intensity_x3p_bytes(map)?,
-        (MapFormat::Text, false) => text::write_text_string(map).into_bytes(),
-        (MapFormat::Text, true) => text::write_intensity_text_string(map).into_bytes(),
+    let archive = |source| WriteMapError::Archive {
+        path: path.to_path_buf(),
+        source,
+    };
+    let bytes = match (format, kind) {
+        (MapFormat::X3p, ValueKind::Height) => x3p::write_x3p_bytes(map).map_err(archive)?,
+        (MapFormat::X3p, ValueKind::Intensity) => {
+            x3p::write_intensity_x3p_bytes(map).map_err(archive)?
+        }
+        (MapFormat::Text, ValueKind::Height) => text::write_text_string(map).into_bytes(),
+        (MapFormat::Text, ValueKind::Intensity) => {
+            text::write_intensity_text_string(map).into_bytes()
+        }
         (MapFormat::Sdf, _) => {
-            return Err(WriteMapError::Io {
+            return Err(WriteMapError::Unsupported {
                 path: path.to_path_buf(),
-                source: std::io::Error::new(
-                    std::io::ErrorKind::Unsupported,
-                    "writing SDF is not supported; use X3P or text",
-                ),
+                format,
             });
         }
     };

@@ -10,7 +10,7 @@ use std::fs::File;
 use std::io::Read;
 use std::path::Path;
 
-use crate::flakes::{FlakeTableError, Table};
+use crate::table::{Table, TableError as FlakeTableError};
 
 /// One measured point.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,30 +1,34 @@
-//! ISO 25178-71 surface data file (SDF) reader, text (`aISO-1.0`) and binary
+//! ISO 25178-71 surface data file (SDF) reader, text (`aISO-1.0`, `aISO-2.0`) and binary
 //! (`bISO-1.0`, `bISO-2.0`).
 //!
 //! Conventions: `NumPoints` points per profile along X (the map's columns), `NumProfiles`
 //! profiles along Y (rows), X fastest; `Xscale`, `Yscale` are the pitches in metres and a
-//! height is `raw × Zscale` metres (converted here to micrometres). Non-finite values are
-//! invalid points.
+//! height is `raw × Zscale` metres (converted here to micrometres). All three scales must
+//! be finite and > 0 (a zero `Zscale` would make every height 0) and both counts > 0.
+//! Non-finite values and the text token `BAD` (written by MountainsMap and sdfio for
+//! non-measured points) are invalid points. The file holds one channel, `Z`.
 //!
 //! * Text: `key = value` header lines up to a line `*`, then the values (whitespace
-//!   separated), then optionally `*` and a free-form trailer.
+//!   separated), then optionally `*` and a free-form trailer. Line endings may be `\n`,
+//!   `\r\n` or `\r`. A header key given twice is an error (which one would be meant?).
 //! * Binary: an 81-byte little-endian header — magic (8 bytes), `ManufacID` (10),
 //!   `CreateDate` (12), `ModDate` (12), `NumPoints` (u16), `NumProfiles` (u16), `Xscale`,
 //!   `Yscale`, `Zscale`, `Zresolution` (f64 each), `Compression`, `DataType`, `CheckType`
 //!   (u8 each) — then the data. `DataType` codes: 0 u8, 1 u16, 2 u32, 3 f32, 4 i8, 5 i16,
-//!   6 i32, 7 f64. `bISO-2.0` is read with the same header layout. Compressed data
-//!   (`Compression` ≠ 0) is not supported.
+//!   6 i32, 7 f64. `bISO-2.0` is read with the same header layout, and `aISO-2.0` with
+//!   the `aISO-1.0` one. Compressed data (`Compression` ≠ 0) is not supported.
 
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::reader::{Channel, Confidence, ReadOptions, ValueKind, split_lines};
 use crate::units::parse_scaled;
 
 /// What is wrong with an SDF file.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SdfError {
     /// The file ends before the header does.
-    #[error("file ends inside the header ({found} bytes, the binary header needs {needed})")]
+    #[error("file ends inside the header: it has {found} bytes, the binary header needs {needed}")]
     TruncatedHeader {
         /// Bytes found.
         found: usize,
@@ -32,11 +36,24 @@ pub enum SdfError {
         needed: usize,
     },
     /// The magic is not one this reader knows.
-    #[error("unknown SDF version {0:?}: expected aISO-1.0, bISO-1.0 or bISO-2.0")]
+    #[error(
+        "unknown SDF version {0:?}: expected aISO-1.0, aISO-2.0, bISO-1.0 or bISO-2.0 \
+         (the first 8 bytes of an ISO 25178-71 file)"
+    )]
     Version(String),
     /// A required header field is missing.
     #[error("header field {0} is missing")]
     MissingField(&'static str),
+    /// A header field is given more than once.
+    #[error("header field {field} is given twice, on lines {first} and {second}")]
+    DuplicateField {
+        /// The field.
+        field: String,
+        /// 1-based line of the first occurrence.
+        first: usize,
+        /// 1-based line of the second.
+        second: usize,
+    },
     /// A header field has an unusable value.
     #[error("header field {field} = {value:?}: expected {expected}")]
     BadField {
@@ -56,7 +73,7 @@ pub enum SdfError {
         text: String,
     },
     /// A data value is not a number.
-    #[error("line {line}: data value {token:?} is not a number")]
+    #[error("line {line}: data value {token:?} is not a number (or BAD for a missing point)")]
     BadNumber {
         /// 1-based line number.
         line: usize,
@@ -75,11 +92,35 @@ pub enum SdfError {
         /// How the expectation was computed.
         detail: String,
     },
+    /// A binary file ends before its data does.
+    #[error(
+        "file is truncated: it ends at byte {end}, but the data ({detail}) starts at byte \
+         {start} and needs bytes up to {needed_end}"
+    )]
+    TruncatedData {
+        /// File length in bytes.
+        end: usize,
+        /// Byte offset where the data starts.
+        start: usize,
+        /// Byte offset where the data would end.
+        needed_end: u64,
+        /// How the size was computed.
+        detail: String,
+    },
     /// The header's numbers do not make a valid height map.
     #[error("{0}")]
     Map(HeightMapError),
 }
 
+fn bad_field(field: &str, value: String, expected: &'static str) -> SdfError {
+    SdfError::BadField {
+        field: field.to_string(),
+        value,
+        expected,
+    }
+}
+
+/// A binary scale (f64 metres) times `10^shift`, finite and > 0.
 fn scale_um(field: &'static str, value: f64, shift: i32) -> Result<f64, SdfError> {
     // Binary scales are already f64 metres; one multiplication is the best available.
     let um = if shift == 0 {
@@ -87,14 +128,37 @@ fn scale_um(field: &'static str, value: f64, shift: i32) -> Result<f64, SdfError
     } else {
         value * 10f64.powi(shift)
     };
-    if um.is_finite() {
+    if um.is_finite() && um > 0.0 {
         Ok(um)
     } else {
-        Err(SdfError::BadField {
-            field: field.to_string(),
-            value: value.to_string(),
-            expected: "a finite scale in metres",
-        })
+        Err(bad_field(
+            field,
+            value.to_string(),
+            "a finite scale > 0 in metres",
+        ))
+    }
+}
+
+fn count_positive(field: &'static str, n: usize, value: &str) -> Result<usize, SdfError> {
+    if n == 0 {
+        return Err(bad_field(
+            field,
+            value.to_string(),
+            "a positive integer (number of points)",
+        ));
+    }
+    Ok(n)
+}
+
+/// Scores `bytes` as SDF: certain for an `aISO-`/`bISO-` magic (an unknown version is
+/// then reported by the reader), likely for `aISO`/`bISO` alone.
+pub fn detect(bytes: &[u8]) -> Confidence {
+    if bytes.starts_with(b"aISO-") || bytes.starts_with(b"bISO-") {
+        100
+    } else if bytes.starts_with(b"aISO") || bytes.starts_with(b"bISO") {
+        80
+    } else {
+        0
     }
 }
 
@@ -103,24 +167,66 @@ fn scale_um(field: &'static str, value: f64, shift: i32) -> Result<f64, SdfError
 /// # Errors
 /// [`SdfError`] naming the header field, line or data size at fault.
 pub fn read_sdf_bytes(bytes: &[u8]) -> Result<HeightMap, SdfError> {
-    read_sdf_scaled(bytes, 6)
+    read(bytes, &ReadOptions::default(), ValueKind::Height)
 }
 
-/// As [`read_sdf_bytes`] with Z values `raw × Zscale` multiplied by `10^z_shift` (6 for
-/// µm heights, 0 for values as stored).
-pub(crate) fn read_sdf_scaled(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
-    let magic = String::from_utf8_lossy(&bytes[..bytes.len().min(8)]).into_owned();
+fn magic(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(&bytes[..bytes.len().min(8)]).into_owned()
+}
+
+/// Reads an SDF file held in memory: heights (`raw × Zscale` metres, in µm) or
+/// intensities (`raw × Zscale` as stored). The pitch override of `options` is applied
+/// by the caller; the file's scales are checked either way.
+///
+/// # Errors
+/// [`SdfError`] naming the header field, line or data size at fault.
+pub fn read(bytes: &[u8], _options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, SdfError> {
+    let magic = magic(bytes);
+    let z_shift = kind.metre_shift();
     match magic.as_str() {
-        "aISO-1.0" => read_text(bytes, z_shift),
+        "aISO-1.0" | "aISO-2.0" => read_text(bytes, &magic, z_shift),
         "bISO-1.0" | "bISO-2.0" => read_binary(bytes, &magic, z_shift),
         _ => Err(SdfError::Version(magic)),
     }
 }
 
-fn read_text(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
-    let text = String::from_utf8_lossy(bytes);
-    let mut lines = text.lines().enumerate().skip(1);
-    let mut header: Vec<(String, String)> = Vec::new();
+/// The one channel of an SDF file (`Z`, unit `m`), from its header.
+///
+/// # Errors
+/// As [`read`], for the header.
+pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, SdfError> {
+    let magic = magic(bytes);
+    let h = match magic.as_str() {
+        "aISO-1.0" | "aISO-2.0" => text_header(&String::from_utf8_lossy(bytes), 6)?.0,
+        "bISO-1.0" | "bISO-2.0" => binary_header(bytes, 6)?,
+        _ => return Err(SdfError::Version(magic)),
+    };
+    Ok(vec![Channel {
+        name: "Z".into(),
+        unit: Some("m".into()),
+        nx: h.nx,
+        ny: h.ny,
+        pitch_um: Some((h.dx, h.dy)),
+    }])
+}
+
+/// The checked numbers of an SDF header.
+struct Header {
+    nx: usize,
+    ny: usize,
+    dx: f64,
+    dy: f64,
+    zs: f64,
+}
+
+/// The header of a text SDF, its `key = value` pairs, and the lines after its `*`.
+type TextHeader<'t> = (Header, Vec<(String, String)>, Vec<(usize, &'t str)>);
+
+fn text_header(text: &str, z_shift: i32) -> Result<TextHeader<'_>, SdfError> {
+    let mut lines = split_lines(text).enumerate().skip(1);
+    let mut header: Vec<(String, String, usize)> = Vec::new();
+    // Keys (lower case) with their line: a hash map, as a header may be long.
+    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     for (i, line) in lines.by_ref() {
         let line = line.trim();
         if line == "*" {
@@ -135,55 +241,66 @@ fn read_text(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
                 line: i + 1,
                 text: line.to_string(),
             })?;
-        header.push((k.trim().to_string(), v.trim().to_string()));
+        let (k, v) = (k.trim(), v.trim());
+        if let Some(first) = seen.insert(k.to_ascii_lowercase(), i + 1) {
+            return Err(SdfError::DuplicateField {
+                field: k.to_string(),
+                first,
+                second: i + 1,
+            });
+        }
+        header.push((k.to_string(), v.to_string(), i + 1));
     }
     let get = |name: &'static str| {
         header
             .iter()
-            .find(|(k, _)| k.eq_ignore_ascii_case(name))
-            .map(|(_, v)| v.as_str())
+            .find(|(k, _, _)| k.eq_ignore_ascii_case(name))
+            .map(|(_, v, _)| v.as_str())
             .ok_or(SdfError::MissingField(name))
     };
     let count = |name: &'static str| -> Result<usize, SdfError> {
         let v = get(name)?;
-        v.parse().map_err(|_| SdfError::BadField {
-            field: name.to_string(),
-            value: v.to_string(),
-            expected: "a non-negative integer",
-        })
+        let n = v
+            .parse()
+            .map_err(|_| bad_field(name, v.to_string(), "a positive integer (number of points)"))?;
+        count_positive(name, n, v)
     };
     let scale = |name: &'static str, shift: i32| -> Result<f64, SdfError> {
         let v = get(name)?;
         parse_scaled(v, shift)
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| SdfError::BadField {
-                field: name.to_string(),
-                value: v.to_string(),
-                expected: "a finite number in metres",
-            })
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .ok_or_else(|| bad_field(name, v.to_string(), "a finite number > 0 in metres"))
     };
-    let nx = count("NumPoints")?;
-    let ny = count("NumProfiles")?;
-    let dx = scale("Xscale", 6)?;
-    let dy = scale("Yscale", 6)?;
-    let zs = scale("Zscale", z_shift)?;
+    let h = Header {
+        nx: count("NumPoints")?,
+        ny: count("NumProfiles")?,
+        dx: scale("Xscale", 6)?,
+        dy: scale("Yscale", 6)?,
+        zs: scale("Zscale", z_shift)?,
+    };
     if let Ok(c) = get("Compression")
         && c != "0"
     {
-        return Err(SdfError::BadField {
-            field: "Compression".into(),
-            value: c.into(),
-            expected: "0 (uncompressed)",
-        });
+        return Err(bad_field("Compression", c.into(), "0 (uncompressed)"));
     }
+    let pairs = header.into_iter().map(|(k, v, _)| (k, v)).collect();
+    Ok((h, pairs, lines.map(|(i, l)| (i + 1, l)).collect()))
+}
+
+fn read_text(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, SdfError> {
+    // The values are ASCII; free text in another encoding is kept as well as it goes.
+    let text = String::from_utf8_lossy(bytes);
+    let (h, header, rest) = text_header(&text, z_shift)?;
+    let Header { nx, ny, dx, dy, zs } = h;
     let n = nx
         .checked_mul(ny)
         .ok_or(SdfError::Map(HeightMapError::TooLarge { nx, ny }))?;
-
-    let mut z = Vec::with_capacity(n.min(1 << 24));
+    // Each value takes at least two bytes (a digit and a separator): no more room than
+    // the file itself can fill is reserved, whatever the header claims.
+    let mut z = Vec::with_capacity(n.min(bytes.len() / 2 + 1));
     let mut trailer = Vec::new();
     let mut in_trailer = false;
-    for (i, line) in lines {
+    for (line_no, line) in rest {
         if in_trailer {
             trailer.push(line.trim());
             continue;
@@ -193,10 +310,25 @@ fn read_text(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
             continue;
         }
         for token in line.split_whitespace() {
-            let v: f64 = token.parse().map_err(|_| SdfError::BadNumber {
-                line: i + 1,
-                token: token.to_string(),
-            })?;
+            let v: f64 = if token.eq_ignore_ascii_case("BAD") {
+                f64::NAN
+            } else {
+                token.parse().map_err(|_| SdfError::BadNumber {
+                    line: line_no,
+                    token: token.to_string(),
+                })?
+            };
+            if z.len() == n {
+                return Err(SdfError::DataLength {
+                    found: n + 1,
+                    expected: n,
+                    unit: "values",
+                    detail: format!(
+                        "NumPoints {nx} x NumProfiles {ny}; value {} is on line {line_no}",
+                        n + 1
+                    ),
+                });
+            }
             z.push(v * zs);
         }
     }
@@ -209,7 +341,7 @@ fn read_text(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
         });
     }
     let mut map = HeightMap::new(nx, ny, dx, dy, z).map_err(SdfError::Map)?;
-    map.set_metadata("sdf.version", "aISO-1.0");
+    map.set_metadata("sdf.version", magic);
     for (k, v) in &header {
         map.set_metadata(format!("sdf.{k}"), v.as_str());
     }
@@ -222,41 +354,49 @@ fn read_text(bytes: &[u8], z_shift: i32) -> Result<HeightMap, SdfError> {
 
 const BIN_HEADER: usize = 81;
 
-fn read_binary(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, SdfError> {
+fn f64_at(bytes: &[u8], a: usize) -> f64 {
+    let mut b = [0u8; 8];
+    b.copy_from_slice(&bytes[a..a + 8]);
+    f64::from_le_bytes(b)
+}
+
+fn binary_header(bytes: &[u8], z_shift: i32) -> Result<Header, SdfError> {
     if bytes.len() < BIN_HEADER {
         return Err(SdfError::TruncatedHeader {
             found: bytes.len(),
             needed: BIN_HEADER,
         });
     }
+    let u16_at = |a: usize| usize::from(u16::from_le_bytes([bytes[a], bytes[a + 1]]));
+    let (nx, ny) = (u16_at(42), u16_at(44));
+    Ok(Header {
+        nx: count_positive("NumPoints", nx, &nx.to_string())?,
+        ny: count_positive("NumProfiles", ny, &ny.to_string())?,
+        dx: scale_um("Xscale", f64_at(bytes, 46), 6)?,
+        dy: scale_um("Yscale", f64_at(bytes, 54), 6)?,
+        zs: scale_um("Zscale", f64_at(bytes, 62), z_shift)?,
+    })
+}
+
+fn read_binary(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, SdfError> {
+    let Header { nx, ny, dx, dy, zs } = binary_header(bytes, z_shift)?;
     let text = |a: usize, b: usize| {
         String::from_utf8_lossy(&bytes[a..b])
             .trim_end_matches(['\0', ' '])
             .to_string()
     };
-    let u16_at = |a: usize| usize::from(u16::from_le_bytes([bytes[a], bytes[a + 1]]));
-    let f64_at = |a: usize| {
-        let mut b = [0u8; 8];
-        b.copy_from_slice(&bytes[a..a + 8]);
-        f64::from_le_bytes(b)
-    };
     let manufacturer = text(8, 18);
     let created = text(18, 30);
     let modified = text(30, 42);
-    let nx = u16_at(42);
-    let ny = u16_at(44);
-    let dx = scale_um("Xscale", f64_at(46), 6)?;
-    let dy = scale_um("Yscale", f64_at(54), 6)?;
-    let zs = scale_um("Zscale", f64_at(62), z_shift)?;
-    let zres = f64_at(70);
+    let zres = f64_at(bytes, 70);
     let compression = bytes[78];
     let dtype = bytes[79];
     if compression != 0 {
-        return Err(SdfError::BadField {
-            field: "Compression".into(),
-            value: compression.to_string(),
-            expected: "0 (uncompressed)",
-        });
+        return Err(bad_field(
+            "Compression",
+            compression.to_string(),
+            "0 (uncompressed)",
+        ));
     }
     let width = match dtype {
         0 | 4 => 1,
@@ -264,22 +404,25 @@ fn read_binary(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, Sdf
         2 | 3 | 6 => 4,
         7 => 8,
         _ => {
-            return Err(SdfError::BadField {
-                field: "DataType".into(),
-                value: dtype.to_string(),
-                expected: "0..=7 (u8, u16, u32, f32, i8, i16, i32, f64)",
-            });
+            return Err(bad_field(
+                "DataType",
+                dtype.to_string(),
+                "0..=7 (u8, u16, u32, f32, i8, i16, i32, f64)",
+            ));
         }
     };
+    // At most 65535² points of 8 bytes: no overflow in u64.
     let n = nx * ny;
+    let need = n as u64 * width as u64;
     let data = &bytes[BIN_HEADER..];
+    let detail = format!("NumPoints {nx} x NumProfiles {ny} x {width} bytes");
     // Extra bytes after the data may hold a trailer; fewer is an error.
-    if data.len() < n * width {
-        return Err(SdfError::DataLength {
-            found: data.len(),
-            expected: n * width,
-            unit: "bytes",
-            detail: format!("NumPoints {nx} x NumProfiles {ny} x {width} bytes"),
+    if (data.len() as u64) < need {
+        return Err(SdfError::TruncatedData {
+            end: bytes.len(),
+            start: BIN_HEADER,
+            needed_end: BIN_HEADER as u64 + need,
+            detail,
         });
     }
     let z: Vec<f64> = data[..n * width]

@@ -7,30 +7,36 @@
 //! Conventions: the Z `DataType` `I`/`L`/`F`/`D` is int16/int32/float32/float64,
 //! little-endian, X fastest then Y (so X is the map's column index and Y its row index);
 //! a real height is `Offset + raw × Increment` in metres, converted here to micrometres.
-//! A missing Z `Increment` is taken as 1 and a missing or empty `Offset` as 0. NaN or a
-//! clear `valid.bin` bit marks a point invalid. The X and Y axes must be incremental
-//! (`AxisType` `I`); their `Increment` is the pixel pitch in metres.
+//! A missing Z `Increment` is taken as 1 and a missing or empty `Offset` as 0; a present
+//! Z `Increment` must be finite and > 0 (a zero increment would make every height 0).
+//! NaN or a clear `valid.bin` bit marks a point invalid. The X and Y axes must be
+//! incremental (`AxisType` `I`); their `Increment` is the pixel pitch in metres, finite
+//! and > 0. The file holds one channel, `Z`.
 //!
 //! Real-file quirks handled: members inside a sub-folder of the zip, `__MACOSX` and other
 //! extra members, root `ISO5436_2` or `ISO5436` with or without a namespace prefix
 //! (elements are matched by local name), upper-case MD5 and the `hash *main.xml` form of
 //! `md5checksum.hex`, non-square pixels.
+//!
+//! Hostile input: no buffer is sized from a header field before the field has been
+//! checked against what the archive can hold (a member is never read past the size the
+//! header implies, and capacity hints are bounded by the compressed size).
 
-use std::io::{Cursor, Read, Write};
+use std::io::{Cursor, Read, Seek, Write};
 
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use md5::{Digest, Md5};
 use roxmltree::{Document, Node};
 use thiserror::Error;
 
-use crate::map::{ReadOptions, WriteMapError};
+use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 use crate::units::parse_scaled;
 
 /// What is wrong with an X3P file.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum X3pError {
     /// The zip container is unreadable (truncated, corrupt).
-    #[error("not a readable zip archive: {0}")]
+    #[error("not a readable zip archive, so not a usable X3P file: {0}")]
     Zip(String),
     /// A required member is not in the archive.
     #[error("archive has no member {0:?}")]
@@ -42,7 +48,7 @@ pub enum X3pError {
     #[error("main.xml: missing element {0}")]
     MissingElement(String),
     /// A header element has a value that cannot be used.
-    #[error("main.xml: element {element} = {value:?}: {expected}")]
+    #[error("main.xml: element {element} = {value:?}: expected {expected}")]
     BadValue {
         /// The element path, e.g. `Record1/Axes/CZ/DataType`.
         element: String,
@@ -63,10 +69,26 @@ pub enum X3pError {
         /// How the expected size was computed.
         detail: String,
     },
+    /// A member is too small (compressed) to hold what the header implies.
+    #[error(
+        "member {member:?} has {compressed} compressed bytes, which cannot inflate to the \
+         {expected} bytes the header implies ({detail}): the header or the archive is corrupt"
+    )]
+    Implausible {
+        /// The member.
+        member: String,
+        /// Size implied by the header.
+        expected: u64,
+        /// Its compressed size in the archive.
+        compressed: u64,
+        /// How the expected size was computed.
+        detail: String,
+    },
     /// A checksum does not match (and the mismatch was not accepted).
     #[error(
-        "MD5 of {member:?} is {computed} but the file declares {declared}; \
-         the file may be corrupt (an option accepts the mismatch)"
+        "MD5 of {member:?} is {computed} but the file declares {declared}: the file may be \
+         corrupt or edited after it was written (to read it anyway: option \
+         accept_md5_mismatch, `--accept-md5-mismatch` on the command line)"
     )]
     Md5Mismatch {
         /// The member checked.
@@ -76,10 +98,26 @@ pub enum X3pError {
         /// MD5 declared in the file.
         declared: String,
     },
-    /// The header's numbers do not make a valid height map (zero size, bad pitch).
+    /// No checksum is declared for a member that needs one (and that was not accepted).
+    #[error(
+        "no MD5 checksum for {member:?} ({where_}); ISO 25178-72 requires one (to read the \
+         file anyway: option accept_md5_mismatch, `--accept-md5-mismatch` on the command line)"
+    )]
+    MissingChecksum {
+        /// The member without a checksum.
+        member: String,
+        /// Where the checksum should have been.
+        where_: String,
+    },
+    /// The header's numbers do not make a valid height map.
     #[error("{0}")]
     Map(HeightMapError),
 }
+
+/// The zip container of an X3P file could not be assembled in memory.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("cannot build X3P archive: {0}")]
+pub struct ArchiveError(String);
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
@@ -87,6 +125,28 @@ fn hex(bytes: &[u8]) -> String {
 
 fn md5_hex(bytes: &[u8]) -> String {
     hex(&Md5::digest(bytes))
+}
+
+/// Whether `bytes` start like a zip archive (a local file header or an empty archive).
+pub(crate) fn is_zip(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"PK\x03\x04") || bytes.starts_with(b"PK\x05\x06")
+}
+
+/// Scores `bytes` as X3P: a zip archive that names `main.xml` near its start or end
+/// (local header, central directory) is certain; any other zip archive is likely.
+pub fn detect(bytes: &[u8]) -> Confidence {
+    if !is_zip(bytes) {
+        return 0;
+    }
+    let window = 64 << 10;
+    let head = &bytes[..bytes.len().min(window)];
+    let tail = &bytes[bytes.len().saturating_sub(window)..];
+    let names_main = |b: &[u8]| b.windows(8).any(|w| w == b"main.xml");
+    if names_main(head) || names_main(tail) {
+        100
+    } else {
+        60
+    }
 }
 
 /// First child element with the given local name.
@@ -117,25 +177,229 @@ fn bad(element: &str, value: &str, expected: &str) -> X3pError {
     }
 }
 
-/// A decimal in metres at `path` times `10^shift` (6: µm); `default` if absent or empty.
+/// A decimal in metres at `path` times `10^shift` (6: µm), finite and, with `positive`,
+/// > 0; `default` if absent or empty.
 fn metres_scaled(
     node: Node<'_, '_>,
     path: &str,
     default: Option<f64>,
     shift: i32,
+    positive: bool,
 ) -> Result<f64, X3pError> {
     match text_at(node, path) {
-        Some(s) if !s.is_empty() => parse_scaled(s, shift)
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| bad(path, s, "a finite decimal number in metres")),
+        Some(s) if !s.is_empty() => {
+            let expected = if positive {
+                "a finite decimal number > 0 in metres"
+            } else {
+                "a finite decimal number in metres"
+            };
+            let v = parse_scaled(s, shift)
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| bad(path, s, expected))?;
+            // A value so small that it underflows to 0 in µm is as unusable as 0 itself.
+            if positive && !(v > 0.0) {
+                return Err(bad(path, s, expected));
+            }
+            Ok(v)
+        }
         _ => default.ok_or_else(|| X3pError::MissingElement(path.to_string())),
     }
 }
 
 fn size_at(node: Node<'_, '_>, path: &str) -> Result<usize, X3pError> {
     let s = required(node, path)?;
-    s.parse()
-        .map_err(|_| bad(path, s, "a non-negative integer"))
+    match s.parse::<usize>() {
+        Ok(n) if n > 0 => Ok(n),
+        _ => Err(bad(path, s, "a positive integer (number of points)")),
+    }
+}
+
+/// The Z data types of ISO 25178-72.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum DataType {
+    I16,
+    I32,
+    F32,
+    F64,
+}
+
+impl DataType {
+    fn width(self) -> usize {
+        match self {
+            DataType::I16 => 2,
+            DataType::I32 | DataType::F32 => 4,
+            DataType::F64 => 8,
+        }
+    }
+
+    fn code(self) -> &'static str {
+        match self {
+            DataType::I16 => "I",
+            DataType::I32 => "L",
+            DataType::F32 => "F",
+            DataType::F64 => "D",
+        }
+    }
+
+    fn decode(self, c: &[u8]) -> f64 {
+        match self {
+            DataType::I16 => f64::from(i16::from_le_bytes([c[0], c[1]])),
+            DataType::I32 => f64::from(i32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+            DataType::F32 => f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+            DataType::F64 => f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]),
+        }
+    }
+}
+
+/// Everything `main.xml` says that reading the data needs, checked.
+struct Header {
+    nx: usize,
+    ny: usize,
+    /// Pitch in µm (the override's when one is given).
+    pitch: (f64, f64),
+    z_scale: f64,
+    z_offset: f64,
+    dtype: DataType,
+    data_link: String,
+    data_md5: Option<String>,
+    valid_link: Option<String>,
+    valid_md5: Option<String>,
+    checksum_file: String,
+    meta: Vec<(String, String)>,
+}
+
+fn parse_header(
+    root: Node<'_, '_>,
+    options: &ReadOptions,
+    kind: ValueKind,
+) -> Result<Header, X3pError> {
+    let root_name = root.tag_name().name();
+    if root_name != "ISO5436_2" && root_name != "ISO5436" {
+        return Err(X3pError::Xml(format!(
+            "root element is <{root_name}>, expected <ISO5436_2>"
+        )));
+    }
+    let mut meta: Vec<(String, String)> = vec![("x3p.root".into(), root_name.into())];
+    for path in ["Record1/Revision", "Record1/FeatureType"] {
+        if let Some(v) = text_at(root, path) {
+            let key = path.rsplit('/').next().unwrap_or(path).to_lowercase();
+            meta.push((format!("x3p.{key}"), v.to_string()));
+        }
+    }
+    let feature = text_at(root, "Record1/FeatureType").unwrap_or("SUR");
+    if feature == "PCL" {
+        return Err(bad(
+            "Record1/FeatureType",
+            feature,
+            "SUR or PRF (point clouds are not height maps)",
+        ));
+    }
+
+    // Axes.
+    for axis in ["CX", "CY"] {
+        let path = format!("Record1/Axes/{axis}/AxisType");
+        let t = required(root, &path)?;
+        if t != "I" {
+            return Err(bad(
+                &path,
+                t,
+                "I (incremental); absolute X/Y coordinates are not supported",
+            ));
+        }
+    }
+    for axis in ["CX", "CY", "CZ"] {
+        for field in ["AxisType", "DataType", "Increment", "Offset"] {
+            if let Some(v) = text_at(root, &format!("Record1/Axes/{axis}/{field}")) {
+                meta.push((
+                    format!("x3p.{}.{}", axis.to_lowercase(), field.to_lowercase()),
+                    v.to_string(),
+                ));
+            }
+        }
+    }
+    // The pitch override replaces the file's X/Y increments, which are then not used.
+    let pitch = match options.pixel_um {
+        Some(p) => p,
+        None => (
+            metres_scaled(root, "Record1/Axes/CX/Increment", None, 6, true)?,
+            metres_scaled(root, "Record1/Axes/CY/Increment", None, 6, true)?,
+        ),
+    };
+    let z_shift = kind.metre_shift();
+    let z_unit = 10f64.powi(z_shift);
+    let z_scale = metres_scaled(
+        root,
+        "Record1/Axes/CZ/Increment",
+        Some(z_unit),
+        z_shift,
+        true,
+    )?;
+    let z_offset = metres_scaled(root, "Record1/Axes/CZ/Offset", Some(0.0), z_shift, false)?;
+    let dt_path = "Record1/Axes/CZ/DataType";
+    let dtype = match required(root, dt_path)? {
+        "I" => DataType::I16,
+        "L" => DataType::I32,
+        "F" => DataType::F32,
+        "D" => DataType::F64,
+        other => {
+            return Err(bad(
+                dt_path,
+                other,
+                "I, L, F or D (int16, int32, float32, float64)",
+            ));
+        }
+    };
+
+    // Matrix and data links.
+    let nx = size_at(root, "Record3/MatrixDimension/SizeX")?;
+    let ny = size_at(root, "Record3/MatrixDimension/SizeY")?;
+    if let Some(s) = text_at(root, "Record3/MatrixDimension/SizeZ")
+        && s != "1"
+    {
+        return Err(bad(
+            "Record3/MatrixDimension/SizeZ",
+            s,
+            "1 (one layer of heights)",
+        ));
+    }
+    if at(root, "Record3/DataLink").is_none() && at(root, "Record3/DataList").is_some() {
+        return Err(bad(
+            "Record3/DataList",
+            "(values inline in main.xml)",
+            "binary data in a member (Record3/DataLink); inline DataList files are not read",
+        ));
+    }
+    let data_link = required(root, "Record3/DataLink/PointDataLink")?;
+    if data_link.is_empty() {
+        return Err(bad(
+            "Record3/DataLink/PointDataLink",
+            data_link,
+            "the name of the data member, e.g. bindata/data.bin",
+        ));
+    }
+    let checksum_file = text_at(root, "Record4/ChecksumFile")
+        .filter(|s| !s.is_empty())
+        .unwrap_or("md5checksum.hex");
+    Ok(Header {
+        nx,
+        ny,
+        pitch,
+        z_scale,
+        z_offset,
+        dtype,
+        data_link: data_link.to_string(),
+        data_md5: text_at(root, "Record3/DataLink/MD5ChecksumPointData")
+            .filter(|s| !s.is_empty())
+            .map(str::to_string),
+        valid_link: text_at(root, "Record3/DataLink/ValidPointsLink")
+            .filter(|s| !s.is_empty())
+            .map(str::to_string),
+        valid_md5: text_at(root, "Record3/DataLink/MD5ChecksumValidPoints")
+            .filter(|s| !s.is_empty())
+            .map(str::to_string),
+        checksum_file: checksum_file.to_string(),
+        meta,
+    })
 }
 
 /// A member's bytes (at most the limit asked for) and, when asked for, their MD5
@@ -145,7 +409,7 @@ type Member = (Vec<u8>, Option<String>);
 /// Reads member `name`, at most `limit` bytes of it (so that a zip bomb or a lying header
 /// cannot exhaust memory); with `hash`, also its MD5, computed on a second thread while a
 /// large member is being decompressed.
-fn read_member<R: Read + std::io::Seek>(
+fn read_member<R: Read + Seek>(
     archive: &mut zip::ZipArchive<R>,
     name: &str,
     hash: bool,
@@ -157,11 +421,16 @@ fn read_member<R: Read + std::io::Seek>(
         Err(e) => return Err(X3pError::Zip(format!("member {name:?}: {e}"))),
     };
     let zip_err = |e: std::io::Error| X3pError::Zip(format!("member {name:?}: {e}"));
-    // The declared size is only a capacity hint (it may lie in a corrupt file).
-    let hint = usize::try_from(file.size().min(limit))
+    // The declared size is only a capacity hint (it may lie in a corrupt file): bounded
+    // by what the compressed bytes can inflate to (deflate's ratio is below 1032:1).
+    let declared = file.size();
+    let plausible = file
+        .compressed_size()
+        .saturating_mul(1032)
+        .saturating_add(64);
+    let hint = usize::try_from(declared.min(limit).min(plausible))
         .unwrap_or(0)
         .min(1 << 28);
-    let declared = file.size();
     let mut file = file.take(limit);
     let mut buf = Vec::with_capacity(hint);
     const CHUNK: usize = 1 << 20;
@@ -206,6 +475,13 @@ fn read_member<R: Read + std::io::Seek>(
     Ok(Some((buf, Some(digest))))
 }
 
+/// Deepest `Record2` element whose text goes into the metadata (ISO 25178-72 nests
+/// two levels, e.g. `Instrument/Manufacturer`).
+const RECORD2_DEPTH: usize = 6;
+
+/// Largest number of points loaded (16384², 2 GiB of float64 heights).
+const MAX_POINTS: usize = 1 << 28;
+
 /// Upper bound on the size of `main.xml` and `md5checksum.hex` read into memory.
 const XML_LIMIT: u64 = 64 << 20;
 
@@ -219,18 +495,21 @@ fn is_junk(name: &str) -> bool {
 fn check_md5(
     member: &str,
     computed: &str,
-    declared: Option<&str>,
+    declared: Result<&str, String>,
     options: &ReadOptions,
     notes: &mut Vec<String>,
 ) -> Result<(), X3pError> {
     let problem = match declared {
-        Some(d) if d.eq_ignore_ascii_case(computed) => return Ok(()),
-        Some(d) => X3pError::Md5Mismatch {
+        Ok(d) if d.eq_ignore_ascii_case(computed) => return Ok(()),
+        Ok(d) => X3pError::Md5Mismatch {
             member: member.to_string(),
             computed: computed.to_string(),
             declared: d.to_string(),
         },
-        None => X3pError::MissingMember(format!("checksum for {member}")),
+        Err(where_) => X3pError::MissingChecksum {
+            member: member.to_string(),
+            where_,
+        },
     };
     if options.accept_md5_mismatch {
         notes.push(problem.to_string());
@@ -240,25 +519,13 @@ fn check_md5(
     }
 }
 
-/// Reads an X3P file held in memory. Heights and pitch come back in µm.
-///
-/// # Errors
-/// [`X3pError`] naming the member, element or checksum at fault.
-pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, X3pError> {
-    read_x3p_scaled(bytes, options, 6)
-}
+type Archive<'b> = zip::ZipArchive<Cursor<&'b [u8]>>;
 
-/// As [`read_x3p_bytes`] with Z values `Offset + raw × Increment` multiplied by
-/// `10^z_shift` (6 for µm heights, 0 for values as stored).
-pub(crate) fn read_x3p_scaled(
-    bytes: &[u8],
-    options: &ReadOptions,
-    z_shift: i32,
-) -> Result<HeightMap, X3pError> {
+/// Opens the archive and reads `main.xml` (the shallowest one that is not macOS junk):
+/// the archive, the folder prefix of the members (`""` or `"name/"`) and the XML bytes.
+fn open(bytes: &[u8]) -> Result<(Archive<'_>, String, Vec<u8>), X3pError> {
     let mut archive =
         zip::ZipArchive::new(Cursor::new(bytes)).map_err(|e| X3pError::Zip(e.to_string()))?;
-
-    // Find main.xml: the shallowest one that is not macOS junk.
     let mut names = Vec::new();
     for name in archive.file_names() {
         names.push(name.map_err(|e| X3pError::Zip(e.to_string()))?.into_owned());
@@ -269,111 +536,73 @@ pub(crate) fn read_x3p_scaled(
         .min_by_key(|n| n.matches('/').count())
         .ok_or_else(|| X3pError::MissingMember("main.xml".to_string()))?
         .clone();
-    let prefix = &main[..main.len() - "main.xml".len()];
-
+    let prefix = main[..main.len() - "main.xml".len()].to_string();
     let (xml_bytes, _) = read_member(&mut archive, &main, false, XML_LIMIT)?
         .ok_or_else(|| X3pError::MissingMember(main.clone()))?;
-    let xml =
-        std::str::from_utf8(&xml_bytes).map_err(|e| X3pError::Xml(format!("not UTF-8: {e}")))?;
-    let doc = Document::parse(xml).map_err(|e| X3pError::Xml(e.to_string()))?;
-    let root = doc.root_element();
-    let root_name = root.tag_name().name();
-    if root_name != "ISO5436_2" && root_name != "ISO5436" {
-        return Err(X3pError::Xml(format!(
-            "root element is <{root_name}>, expected <ISO5436_2>"
-        )));
-    }
+    Ok((archive, prefix, xml_bytes))
+}
 
-    let mut map_meta: Vec<(String, String)> = vec![("x3p.root".into(), root_name.into())];
+fn parse_xml(xml_bytes: &[u8]) -> Result<Document<'_>, X3pError> {
+    let xml =
+        std::str::from_utf8(xml_bytes).map_err(|e| X3pError::Xml(format!("not UTF-8: {e}")))?;
+    Document::parse(xml).map_err(|e| X3pError::Xml(e.to_string()))
+}
+
+/// The one channel of an X3P file (`Z`, unit `m`), from `main.xml` alone.
+///
+/// # Errors
+/// [`X3pError`] naming the member or element at fault.
+pub fn channels(bytes: &[u8], options: &ReadOptions) -> Result<Vec<Channel>, X3pError> {
+    let (_, _, xml_bytes) = open(bytes)?;
+    let doc = parse_xml(&xml_bytes)?;
+    let h = parse_header(doc.root_element(), options, ValueKind::Height)?;
+    Ok(vec![Channel {
+        name: "Z".into(),
+        unit: Some("m".into()),
+        nx: h.nx,
+        ny: h.ny,
+        pitch_um: Some(h.pitch),
+    }])
+}
+
+/// Reads an X3P file held in memory. Heights and pitch come back in µm.
+///
+/// # Errors
+/// [`X3pError`] naming the member, element or checksum at fault.
+pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, X3pError> {
+    read(bytes, options, ValueKind::Height)
+}
+
+/// Reads an X3P file held in memory: heights (`Offset + raw × Increment` metres, in µm)
+/// or intensities (`Offset + raw × Increment` as stored).
+///
+/// # Errors
+/// [`X3pError`] naming the member, element or checksum at fault.
+pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, X3pError> {
+    let (mut archive, prefix, xml_bytes) = open(bytes)?;
+    let doc = parse_xml(&xml_bytes)?;
+    let root = doc.root_element();
+    let h = parse_header(root, options, kind)?;
+    let (nx, ny) = (h.nx, h.ny);
+    let mut map_meta = h.meta;
     if !prefix.is_empty() {
         map_meta.push(("x3p.folder".into(), prefix.trim_end_matches('/').into()));
-    }
-    for path in ["Record1/Revision", "Record1/FeatureType"] {
-        if let Some(v) = text_at(root, path) {
-            let key = path.rsplit('/').next().unwrap_or(path).to_lowercase();
-            map_meta.push((format!("x3p.{key}"), v.to_string()));
-        }
-    }
-    let feature = text_at(root, "Record1/FeatureType").unwrap_or("SUR");
-    if feature == "PCL" {
-        return Err(bad(
-            "Record1/FeatureType",
-            feature,
-            "SUR or PRF (point clouds are not height maps)",
-        ));
-    }
-
-    // Axes.
-    for axis in ["CX", "CY"] {
-        let path = format!("Record1/Axes/{axis}/AxisType");
-        let t = required(root, &path)?;
-        if t != "I" {
-            return Err(bad(
-                &path,
-                t,
-                "I (incremental); absolute X/Y coordinates are not supported",
-            ));
-        }
-    }
-    for axis in ["CX", "CY", "CZ"] {
-        for field in ["AxisType", "DataType", "Increment", "Offset"] {
-            if let Some(v) = text_at(root, &format!("Record1/Axes/{axis}/{field}")) {
-                map_meta.push((
-                    format!("x3p.{}.{}", axis.to_lowercase(), field.to_lowercase()),
-                    v.to_string(),
-                ));
-            }
-        }
-    }
-    let pitch_default = options.pixel_um.map(|_| 1.0);
-    let dx = metres_scaled(root, "Record1/Axes/CX/Increment", pitch_default, 6)?;
-    let dy = metres_scaled(root, "Record1/Axes/CY/Increment", pitch_default, 6)?;
-    let z_unit = 10f64.powi(z_shift);
-    let z_scale = metres_scaled(root, "Record1/Axes/CZ/Increment", Some(z_unit), z_shift)?;
-    let z_offset = metres_scaled(root, "Record1/Axes/CZ/Offset", Some(0.0), z_shift)?;
-    let dt_path = "Record1/Axes/CZ/DataType";
-    let dtype = required(root, dt_path)?;
-    let width = match dtype {
-        "I" => 2,
-        "L" => 4,
-        "F" => 4,
-        "D" => 8,
-        other => {
-            return Err(bad(
-                dt_path,
-                other,
-                "I, L, F or D (int16, int32, float32, float64)",
-            ));
-        }
-    };
-
-    // Matrix and data links.
-    let nx = size_at(root, "Record3/MatrixDimension/SizeX")?;
-    let ny = size_at(root, "Record3/MatrixDimension/SizeY")?;
-    if let Some(s) = text_at(root, "Record3/MatrixDimension/SizeZ")
-        && s != "1"
-    {
-        return Err(bad(
-            "Record3/MatrixDimension/SizeZ",
-            s,
-            "1 (one layer of heights)",
-        ));
     }
     let n = nx
         .checked_mul(ny)
         .ok_or(X3pError::Map(HeightMapError::TooLarge { nx, ny }))?;
-    let data_link = required(root, "Record3/DataLink/PointDataLink")?;
+    if n > MAX_POINTS {
+        return Err(bad(
+            "Record3/MatrixDimension",
+            &format!("SizeX {nx} x SizeY {ny}"),
+            "at most 268435456 points (16384 x 16384), the largest map this reader loads",
+        ));
+    }
+    let width = h.dtype.width();
 
     let mut notes = Vec::new();
-    let checksum_file = text_at(root, "Record4/ChecksumFile")
-        .filter(|s| !s.is_empty())
-        .unwrap_or("md5checksum.hex");
-    let declared = read_member(
-        &mut archive,
-        &format!("{prefix}{checksum_file}"),
-        false,
-        XML_LIMIT,
-    )?;
+    let checksum_name = format!("{prefix}{}", h.checksum_file);
+    let declared = read_member(&mut archive, &checksum_name, false, XML_LIMIT)?;
     let declared = declared.as_ref().and_then(|(b, _)| {
         std::str::from_utf8(b)
             .ok()
@@ -383,19 +612,43 @@ pub(crate) fn read_x3p_scaled(
     check_md5(
         "main.xml",
         &md5_hex(&xml_bytes),
-        declared.as_deref(),
+        declared
+            .as_deref()
+            .ok_or_else(|| format!("member {checksum_name:?} is missing or empty")),
         options,
         &mut notes,
     )?;
 
-    let data_name = format!("{prefix}{data_link}");
-    let data_md5 = text_at(root, "Record3/DataLink/MD5ChecksumPointData");
+    let data_name = format!("{prefix}{}", h.data_link);
     let expected = (n as u64).saturating_mul(width as u64);
+    let detail = || {
+        format!(
+            "{nx} x {ny} points of {width} bytes, DataType {}",
+            h.dtype.code()
+        )
+    };
+    // Plausibility before any inflation: deflate expands at most 1032-fold (stored
+    // members not at all), so a member whose compressed size cannot hold the data is
+    // refused before a byte is allocated for it.
+    let compressed = match archive.by_name(&data_name) {
+        Ok(f) => Some(f.compressed_size()),
+        Err(_) => None,
+    };
+    if let Some(compressed) = compressed
+        && expected > compressed.saturating_mul(1032).saturating_add(1024)
+    {
+        return Err(X3pError::Implausible {
+            member: data_name,
+            expected,
+            compressed,
+            detail: detail(),
+        });
+    }
     // Read one byte more than needed, to tell "too long" from "just right".
     let (data, computed) = read_member(
         &mut archive,
         &data_name,
-        data_md5.is_some(),
+        h.data_md5.is_some(),
         expected.saturating_add(1),
     )?
     .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
@@ -413,48 +666,31 @@ pub(crate) fn read_x3p_scaled(
             member: data_name,
             expected,
             found,
-            detail: format!("{nx} x {ny} points of {width} bytes, DataType {dtype}"),
+            detail: detail(),
         });
     }
-    if let (Some(d), Some(c)) = (data_md5, computed) {
-        check_md5(&data_name, &c, Some(d), options, &mut notes)?;
+    if let (Some(d), Some(c)) = (&h.data_md5, computed) {
+        check_md5(&data_name, &c, Ok(d), options, &mut notes)?;
     }
 
-    let convert = |raw: f64| {
-        let z = raw * z_scale;
-        if z_offset == 0.0 { z } else { z + z_offset }
-    };
-    let z: Vec<f64> = match dtype {
-        "I" => data
-            .chunks_exact(2)
-            .map(|c| convert(f64::from(i16::from_le_bytes([c[0], c[1]]))))
-            .collect(),
-        "L" => data
-            .chunks_exact(4)
-            .map(|c| convert(f64::from(i32::from_le_bytes([c[0], c[1], c[2], c[3]]))))
-            .collect(),
-        "F" => data
-            .chunks_exact(4)
-            .map(|c| convert(f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]]))))
-            .collect(),
-        _ => data
-            .chunks_exact(8)
-            .map(|c| {
-                let mut b = [0u8; 8];
-                b.copy_from_slice(c);
-                convert(f64::from_le_bytes(b))
-            })
-            .collect(),
-    };
+    let (z_scale, z_offset) = (h.z_scale, h.z_offset);
+    let z: Vec<f64> = data
+        .chunks_exact(width)
+        .map(|c| {
+            let z = h.dtype.decode(c) * z_scale;
+            if z_offset == 0.0 { z } else { z + z_offset }
+        })
+        .collect();
 
     let mut valid = vec![true; n];
-    if let Some(link) = text_at(root, "Record3/DataLink/ValidPointsLink").filter(|s| !s.is_empty())
-    {
+    if let Some(link) = &h.valid_link {
         let name = format!("{prefix}{link}");
-        let (bits, _) = read_member(&mut archive, &name, false, n.div_ceil(8) as u64)?
-            .ok_or_else(|| X3pError::MissingMember(name.clone()))?;
         let need = n.div_ceil(8);
-        if bits.len() < need {
+        // A little slack for writers that pad the member; its MD5 covers what is read.
+        let limit = need as u64 + 4096;
+        let (bits, _) = read_member(&mut archive, &name, false, limit + 1)?
+            .ok_or_else(|| X3pError::MissingMember(name.clone()))?;
+        if bits.len() < need || bits.len() as u64 > limit {
             return Err(X3pError::DataLength {
                 member: name,
                 expected: need as u64,
@@ -462,15 +698,16 @@ pub(crate) fn read_x3p_scaled(
                 detail: format!("one bit per point for {n} points"),
             });
         }
-        if let Some(d) = text_at(root, "Record3/DataLink/MD5ChecksumValidPoints") {
-            check_md5(&name, &md5_hex(&bits), Some(d), options, &mut notes)?;
+        if let Some(d) = &h.valid_md5 {
+            check_md5(&name, &md5_hex(&bits), Ok(d), options, &mut notes)?;
         }
         for (i, v) in valid.iter_mut().enumerate() {
             *v = bits[i / 8] >> (i % 8) & 1 == 1;
         }
-        map_meta.push(("x3p.valid_points_member".into(), link.to_string()));
+        map_meta.push(("x3p.valid_points_member".into(), link.clone()));
     }
 
+    let (dx, dy) = h.pitch;
     let mut map = HeightMap::with_mask(nx, ny, dx, dy, z, valid).map_err(X3pError::Map)?;
     for (k, v) in map_meta {
         map.set_metadata(k, v);
@@ -480,12 +717,24 @@ pub(crate) fn read_x3p_scaled(
             if node.children().any(|c| c.is_element()) {
                 continue;
             }
-            let mut parts: Vec<String> = node
+            // Record2 is a few levels deep; deeper leaves are skipped, so that a hostile
+            // nesting costs no more than a few steps per element.
+            let mut parts: Vec<String> = Vec::new();
+            let mut reached = false;
+            for a in node
                 .ancestors()
-                .take_while(|a| a != &r2)
                 .filter(|a| a.is_element())
-                .map(|a| a.tag_name().name().to_lowercase())
-                .collect();
+                .take(RECORD2_DEPTH + 1)
+            {
+                if a == r2 {
+                    reached = true;
+                    break;
+                }
+                parts.push(a.tag_name().name().to_lowercase());
+            }
+            if !reached {
+                continue;
+            }
             parts.reverse();
             let value = node.text().unwrap_or("").trim();
             if !value.is_empty() {
@@ -523,8 +772,8 @@ fn xml_escape(s: &str) -> String {
 /// point (`valid.bin` only when some point is invalid), and correct MD5 checksums.
 ///
 /// # Errors
-/// [`WriteMapError::Zip`] if the archive cannot be assembled.
-pub fn write_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, WriteMapError> {
+/// [`ArchiveError`] if the archive cannot be assembled.
+pub fn write_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, ArchiveError> {
     write_x3p_with_increment(map, "1e-6")
 }
 
@@ -532,14 +781,14 @@ pub fn write_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, WriteMapError> {
 /// stores the values themselves; [`crate::read_intensity`] reads them back exactly.
 ///
 /// # Errors
-/// [`WriteMapError::Zip`] if the archive cannot be assembled.
-pub fn write_intensity_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, WriteMapError> {
+/// [`ArchiveError`] if the archive cannot be assembled.
+pub fn write_intensity_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, ArchiveError> {
     write_x3p_with_increment(map, "1")
 }
 
-fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8>, WriteMapError> {
-    let zerr = |e: zip::result::ZipError| WriteMapError::Zip(e.to_string());
-    let ioerr = |e: std::io::Error| WriteMapError::Zip(e.to_string());
+fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8>, ArchiveError> {
+    let zerr = |e: zip::result::ZipError| ArchiveError(e.to_string());
+    let ioerr = |e: std::io::Error| ArchiveError(e.to_string());
 
     let mut data = Vec::with_capacity(map.len() * 8);
     for (&z, &v) in map.heights().iter().zip(map.valid()) {

@@ -1,4 +1,4 @@
-//! Every real file in `shared/data/topography` loads, and its dimensions, pitch and
+//! Every real file in `fixtures/real` loads, and its dimensions, pitch and
 //! invalid-point count match what the file itself declares.
 //!
 //! Expected numbers come from the files, not from the reader: X3P headers are read in
@@ -12,11 +12,7 @@ use std::path::PathBuf;
 use flakescatter_io::{MapError, MapFormat, ReadOptions, ZUnit, read_intensity, read_map};
 
 fn data(name: &str) -> PathBuf {
-    PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/topography"
-    ))
-    .join(name)
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/real")).join(name)
 }
 
 /// `main.xml` of an X3P file, found with the zip crate and no XML parsing.
@@ -177,6 +173,50 @@ fn sdf_ascii() {
     assert!(map.metadata()["sdf.trailer"].contains("Tom Jones"));
 }
 
+/// Checks a 30 x 20 sdfio / MountainsMap SDF: 1 µm pitch, one `BAD` point (index 29, the
+/// last of the first profile), mean and rms of the other 599 heights in µm.
+fn check_sdfio(name: &str, mean_um: f64, rms_um: f64) {
+    let (map, format) = read_map(data(name), &ReadOptions::default()).unwrap();
+    assert_eq!(format, MapFormat::Sdf);
+    assert_eq!((map.nx(), map.ny()), (30, 20), "{name}");
+    assert_close(map.dx(), 1.0, 1e-15);
+    assert_close(map.dy(), 1.0, 1e-15);
+    assert_eq!(map.valid_count(), 599, "{name}");
+    assert_eq!(map.get(29, 0), None, "{name}: BAD is invalid");
+    let s = map.summary().unwrap();
+    assert_close(s.mean, mean_um, 1e-12);
+    assert_close(s.rms, rms_um, 1e-12);
+}
+
+#[test]
+fn sdfio_files_with_crlf_bad_points_and_iso2_headers() {
+    // SurfaceTopography 1.27.1 (`open_topography(f).topography()`) reads the aISO-1.0
+    // file as 30 x 20 points, 1 masked, mean 0.29995158597662774 µm, rms (population)
+    // 0.17299607528330785 µm. It ignores the scales of the aISO-2.0 headers and returns
+    // the raw values: mean 299.9515859766277 and rms 172.99607528330785 (input_iso2, raw
+    // 0..599 with Zscale 1e-9 m, so µm = raw x 1e-3) and mean 299951.58195362776, rms
+    // 172996.07528330784 (mm11_iso2, Zscale 1e-12 m, µm = raw x 1e-6). The mean excluding
+    // index 29 is (0 + ... + 599 - 29) / 599 = 299.95158597662771 raw units.
+    check_sdfio(
+        "sdfio-mm11_iso1_ascii_int32.sdf",
+        0.29995158597662774,
+        0.17299607528330785,
+    );
+    check_sdfio(
+        "sdfio-input_iso2_ascii.sdf",
+        0.2999515859766277,
+        0.17299607528330785,
+    );
+    check_sdfio(
+        "sdfio-mm11_iso2_ascii_binary64.sdf",
+        0.29995158195362776,
+        0.17299607528330784,
+    );
+    let (map, _) = read_map(data("sdfio-input_iso2_ascii.sdf"), &ReadOptions::default()).unwrap();
+    assert_eq!(map.metadata()["sdf.version"], "aISO-2.0");
+    assert!(map.metadata()["sdf.trailer"].contains("OperatorName = Tester"));
+}
+
 #[test]
 fn gwyddion_english_and_german() {
     // "# Width: 12.34 µm", "# Height: 5678.9 nm" (German: Breite, Höhe),
@@ -249,11 +289,14 @@ fn every_file_in_the_folder_is_covered() {
         "surfacetopography-gwyddion-export-german.txt",
         "surfacetopography-txt_example.txt",
         "surfacetopography-csv-1.csv",
+        "sdfio-input_iso2_ascii.sdf",
+        "sdfio-mm11_iso1_ascii_int32.sdf",
+        "sdfio-mm11_iso2_ascii_binary64.sdf",
     ];
     let dir = data("");
     for entry in std::fs::read_dir(&dir).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
-        if name.ends_with(".md") || name.starts_with("LICENSE") {
+        if name.ends_with(".md") || name.starts_with("LICENSE") || name == ".gitattributes" {
             continue;
         }
         assert!(covered.contains(&name.as_str()), "untested file {name}");

@@ -67,6 +67,18 @@ pub enum HeightMapError {
         /// Intensity map dimensions `(nx, ny)`.
         found: (usize, usize),
     },
+    /// The intensity map's pixel pitch differs from the height map's.
+    #[error(
+        "intensity map pitch is {} µm x {} µm (dx x dy), height map pitch is {} µm x {} µm: \
+         the two maps do not cover the same area point for point",
+        found.0, found.1, expected.0, expected.1
+    )]
+    PitchMismatch {
+        /// Height map pitch `(dx, dy)`, µm.
+        expected: (f64, f64),
+        /// Intensity map pitch `(dx, dy)`, µm.
+        found: (f64, f64),
+    },
     /// The intensity cutoff leaves no valid point.
     #[error("cutoff {cutoff} leaves 0 of {total} pixels usable")]
     NothingUsable {
@@ -261,11 +273,13 @@ impl HeightMap {
     }
 
     /// Marks points whose intensity is below `cutoff` (or non-finite, or invalid in
-    /// `intensity`) invalid. `intensity` must have the same `nx`, `ny` (its pitch is not
-    /// checked). Returns the number of points still valid.
+    /// `intensity`) invalid. `intensity` must have the same `nx`, `ny` and the same pitch
+    /// (to a relative 1e-9, which allows for pitches written in different units).
+    /// Returns the number of points still valid.
     ///
     /// # Errors
     /// [`HeightMapError::DimensionMismatch`] if the shapes differ,
+    /// [`HeightMapError::PitchMismatch`] if the pitches differ,
     /// [`HeightMapError::BadCutoff`] if `cutoff` is NaN, and
     /// [`HeightMapError::NothingUsable`] if no point would remain valid (the map is then
     /// left unchanged).
@@ -278,6 +292,13 @@ impl HeightMap {
             return Err(HeightMapError::DimensionMismatch {
                 expected: (self.nx, self.ny),
                 found: (intensity.nx, intensity.ny),
+            });
+        }
+        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+        if !(same(intensity.dx, self.dx) && same(intensity.dy, self.dy)) {
+            return Err(HeightMapError::PitchMismatch {
+                expected: (self.dx, self.dy),
+                found: (intensity.dx, intensity.dy),
             });
         }
         if cutoff.is_nan() {
@@ -446,6 +467,21 @@ mod tests {
                 found: (4, 1)
             })
         );
+        // Pitches 1 µm and 1 + 2e-9 µm differ by 2e-9 relative: refused, both named;
+        // 1 + 5e-10 µm (rounding of a pitch written in metres) is accepted.
+        let coarse = HeightMap::new(2, 2, 1.0, 1.0 + 2e-9, vec![1.0; 4]).unwrap();
+        let err = m.apply_intensity_cutoff(&coarse, 0.5).unwrap_err();
+        assert_eq!(
+            err,
+            HeightMapError::PitchMismatch {
+                expected: (1.0, 1.0),
+                found: (1.0, 1.0 + 2e-9)
+            }
+        );
+        assert!(err.to_string().contains("1.000000002 µm"), "{err}");
+        let close = HeightMap::new(2, 2, 1.0 + 5e-10, 1.0, vec![1.0; 4]).unwrap();
+        assert_eq!(m.apply_intensity_cutoff(&close, 0.5), Ok(4));
+        let mut m = HeightMap::new(2, 2, 1.0, 1.0, vec![0.0; 4]).unwrap();
         let i = HeightMap::new(2, 2, 1.0, 1.0, vec![0.1; 4]).unwrap();
         let err = m.apply_intensity_cutoff(&i, 0.5).unwrap_err();
         assert_eq!(err.to_string(), "cutoff 0.5 leaves 0 of 4 pixels usable");

@@ -8,10 +8,10 @@ use flakescatter::chart::comparison_chart;
 use flakescatter::compare::{
     IncidenceComparison, ModelPoint, compare, distribution_points, tabulated_points,
 };
+use flakescatter::io::curves::read_curve;
 use serde_json::{Value, json};
 
 use crate::flags::{MeasuredArgs, OrientationArgs};
-use crate::maps::csv_message;
 use crate::output::{Dest, Kind, Plan, print, print_json, warn};
 use crate::parse::{deg, deg_num, fixed};
 use crate::tables::write_compared;
@@ -53,83 +53,34 @@ pub struct Args {
 /// Model values from a result CSV, by `(θi, θs)` in radians.
 fn model_file(path: &Path, aperture_deg: f64) -> anyhow::Result<Vec<(f64, f64, ModelPoint)>> {
     let name = path.display();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .with_context(|| format!("reading --model {name}"))?;
-    let headers = rdr
-        .headers()
-        .map_err(|e| anyhow::anyhow!("--model {name}: no header ({})", csv_message(&e)))?
-        .clone();
-    let need = [
-        "theta_i_deg",
-        "theta_s_deg",
-        "aperture_deg",
-        "brdf_per_sr",
-        "relative",
-    ];
-    let mut idx = [0usize; 5];
-    for (k, col) in need.iter().enumerate() {
-        let found: Vec<usize> = (0..headers.len())
-            .filter(|&j| &headers[j] == *col)
-            .collect();
-        idx[k] = match found.as_slice() {
-            [j] => *j,
-            [] => bail!("--model {name}: missing column {col} (a result CSV of `model` or `topo`)"),
-            _ => bail!("--model {name}: column {col} appears {} times", found.len()),
-        };
-    }
-    let col = |want: &str| headers.iter().position(|h| h == want);
-    let (phi_col, refl_col) = (col("phi_s_deg"), col("reflectance"));
-    let mut out = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| anyhow::anyhow!("--model {name}: {}", csv_message(&e)))?;
-        let line = rec.position().map_or(0, csv::Position::line);
-        // An empty cell (relative or reflectance undefined) reads as NaN.
-        let num = |c: usize, what: &str| -> anyhow::Result<f64> {
-            let s = rec.get(c).unwrap_or("");
-            if s.is_empty() {
-                return Ok(f64::NAN);
-            }
-            s.parse().map_err(|_| {
-                anyhow::anyhow!("--model {name}, line {line}, column {what}: `{s}` is not a number")
-            })
-        };
-        let mut v = [0.0; 5];
-        for (j, &c) in idx.iter().enumerate() {
-            v[j] = num(c, need[j])?;
-        }
-        if !(v[0].is_finite() && v[1].is_finite() && v[3].is_finite()) {
+    let rows = read_curve(path).with_context(|| format!("--model {name}"))?;
+    let mut out = Vec::with_capacity(rows.len());
+    for row in rows {
+        let line = row.line;
+        if let Some(phi) = row.phi_s
+            && phi != 0.0
+        {
             bail!(
-                "--model {name}, line {line}: theta_i_deg, theta_s_deg and brdf_per_sr must be numbers"
+                "--model {name}, line {line}: phi_s_deg {}: out-of-plane detectors cannot be matched to in-plane measured angles",
+                phi.to_degrees()
             );
         }
-        if let Some(c) = phi_col {
-            let phi = num(c, "phi_s_deg")?;
-            if phi != 0.0 {
-                bail!(
-                    "--model {name}, line {line}: phi_s_deg {phi}: out-of-plane detectors cannot be matched to in-plane measured angles"
-                );
-            }
-        }
-        if !((v[2] - aperture_deg).abs() <= 1e-6) {
+        let aperture = row.aperture.to_degrees();
+        if !((aperture - aperture_deg).abs() <= 1e-6) {
             bail!(
-                "--model {name}, line {line}: aperture_deg {} differs from --aperture {aperture_deg}; compare at the aperture the model was computed with",
-                v[2]
+                "--model {name}, line {line}: aperture_deg {aperture} differs from --aperture {aperture_deg}; compare at the aperture the model was computed with"
             );
         }
-        let reflectance = match refl_col {
-            Some(c) => Some(num(c, "reflectance")?).filter(|r| r.is_finite()),
-            None => None,
-        };
         out.push((
-            v[0].to_radians(),
-            v[1].to_radians(),
-            ModelPoint::from_row(v[3], v[4], reflectance, aperture_deg.to_radians()),
+            row.theta_i,
+            row.theta_s,
+            ModelPoint::from_row(
+                row.brdf,
+                row.relative,
+                row.reflectance,
+                aperture_deg.to_radians(),
+            ),
         ));
-    }
-    if out.is_empty() {
-        bail!("--model {name}: no rows");
     }
     Ok(out)
 }

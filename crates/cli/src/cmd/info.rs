@@ -74,6 +74,7 @@ fn summary_json(
             "pixel_um": options.pixel_um.map(|(x, y)| vec![x, y]),
             "z_unit": options.z_unit.map(ZUnit::name),
             "accept_md5_mismatch": options.accept_md5_mismatch,
+            "decimal": options.decimal.name(),
             "intensity_file": args.intensity.as_ref().map(|p| p.display().to_string()),
             "cutoff": args.cutoff,
         },

@@ -160,12 +160,7 @@ impl InstrumentArgs {
         let theta_i = self.theta_i_deg()?;
         let aperture = self.optics.aperture_rad()?;
         let detectors = match &self.detectors {
-            Some(path) => DetectorSet::OutOfPlane(
-                crate::maps::read_detectors(path)?
-                    .into_iter()
-                    .map(|(t, p)| (t.to_radians(), p.to_radians()))
-                    .collect(),
-            ),
+            Some(path) => DetectorSet::OutOfPlane(crate::maps::read_detectors(path)?),
             None => {
                 let text = self.theta_s.as_deref().unwrap_or(DEFAULT_THETA_S);
                 let ts = angles("--theta-s", text)?;

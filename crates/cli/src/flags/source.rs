@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::io::flakes::read_histogram;
-use flakescatter::io::{ReadOptions, ZUnit};
+use flakescatter::io::{DecimalMark, ReadOptions, ZUnit};
 use flakescatter::stats::segment::SegmentParams;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use serde_json::{Value, json};
@@ -135,13 +135,22 @@ pub struct MapArgs {
     #[arg(long = "pixel-um", value_name = "DX[,DY]", allow_hyphen_values = true)]
     pub pixel_um: Option<String>,
     /// Unit of the heights in plain-text matrices without a unit header: `um`, `nm` or
-    /// `m`. Overrides the file's unit; ignored for X3P and SDF, which are calibrated.
+    /// `m`. Overrides the file's unit; refused for X3P and SDF height maps, which are
+    /// calibrated (and ignored for intensity maps).
     #[arg(long = "z-unit", value_name = "UNIT")]
     pub z_unit: Option<String>,
     /// Read X3P files whose MD5 checksums do not match; the mismatch is reported in the
     /// metadata (`x3p.md5_mismatch`) instead of failing.
     #[arg(long)]
     pub accept_md5_mismatch: bool,
+    /// Plain-text matrices write decimals with a comma (`1,5`, German exports); values
+    /// are then separated by whitespace or `;`. Without this flag (or --decimal-point)
+    /// the decimal mark is detected, and a file that allows both readings is refused.
+    #[arg(long, conflicts_with = "decimal_point")]
+    pub decimal_comma: bool,
+    /// Plain-text matrices write decimals with a point; commas separate values.
+    #[arg(long)]
+    pub decimal_point: bool,
 }
 
 impl MapArgs {
@@ -170,6 +179,14 @@ impl MapArgs {
             pixel_um,
             z_unit,
             accept_md5_mismatch: self.accept_md5_mismatch,
+            decimal: if self.decimal_comma {
+                DecimalMark::Comma
+            } else if self.decimal_point {
+                DecimalMark::Point
+            } else {
+                DecimalMark::Auto
+            },
+            ..ReadOptions::default()
         })
     }
 }

@@ -1,0 +1,16 @@
+//! The text reader on arbitrary bytes (first byte: reader options): it returns a map or
+//! an error, never panics, hangs or allocates beyond what the input can hold.
+#![no_main]
+
+use flakescatter_io::text;
+use libfuzzer_sys::fuzz_target;
+
+#[path = "options.rs"]
+mod options;
+
+fuzz_target!(|data: &[u8]| {
+    if let Some((options, kind, bytes)) = options::split(data) {
+        let _ = text::read(bytes, &options, kind);
+        let _ = text::channels(bytes, &options);
+    }
+});
