@@ -100,13 +100,14 @@ fn render<DB: DrawingBackend>(
     name: &str,
 ) -> anyhow::Result<()> {
     let usable = |x: f64, y: f64| x.is_finite() && y.is_finite() && (!fig.log_y || y > 0.0);
-    // The axes hold every point of the lines and markers and the upper bounds of the
-    // bands (a lower bound near zero would stretch a log axis for nothing).
+    // The axes hold every point of the lines and markers and the bounds of the bands;
+    // on a log axis only their upper bounds (a lower bound near zero would stretch it
+    // for nothing).
     let pts = || {
         fig.series
             .iter()
             .flat_map(|s| match s.style {
-                Style::Band => s
+                Style::Band if fig.log_y => s
                     .band_bounds()
                     .into_iter()
                     .map(|(x, _, hi)| (x, hi))
