@@ -43,8 +43,10 @@ enum Command {
     Info(cmd::info::Args),
     /// Find individual flakes in a confocal height map: flake table with normals and areas.
     Segment(cmd::segment::Args),
-    /// Synthetic flake layer with known truth: height map, intensity map, flake table.
+    /// Synthetic flake layer with known truth: height map, intensity map, flake table, confocal z-stack.
     Synth(cmd::synth::Args),
+    /// Confocal z-stack (multi-page TIFF) to height, intensity and peak-width maps, localised between slices.
+    Stack(cmd::stack::Args),
     /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
     Stats(cmd::stats::Args),
 }
@@ -60,6 +62,7 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a),
         Command::Segment(a) => cmd::segment::run(a),
         Command::Synth(a) => cmd::synth::run(a),
+        Command::Stack(a) => cmd::stack::run(a),
         Command::Stats(a) => cmd::stats::run(a),
     };
     match result {

@@ -100,10 +100,20 @@ fn render<DB: DrawingBackend>(
     name: &str,
 ) -> anyhow::Result<()> {
     let usable = |x: f64, y: f64| x.is_finite() && y.is_finite() && (!fig.log_y || y > 0.0);
+    // The axes hold every point of the lines and markers and the bounds of the bands;
+    // on a log axis only their upper bounds (a lower bound near zero would stretch it
+    // for nothing).
     let pts = || {
         fig.series
             .iter()
-            .flat_map(|s| s.points.iter().copied())
+            .flat_map(|s| match s.style {
+                Style::Band if fig.log_y => s
+                    .band_bounds()
+                    .into_iter()
+                    .map(|(x, _, hi)| (x, hi))
+                    .collect::<Vec<_>>(),
+                _ => s.points.clone(),
+            })
             .filter(|&(x, y)| usable(x, y))
     };
     let (mut x0, mut x1, mut y0, mut y1) = (
@@ -166,7 +176,29 @@ fn render<DB: DrawingBackend>(
                 .x_label_formatter(&|v: &f64| tick(*v))
                 .draw()
                 .map_err(|e| err(e.to_string()))?;
-            for s in &fig.series {
+            // Bands first, so that the lines and markers are drawn over them.
+            for s in fig.series.iter().filter(|s| s.style == Style::Band) {
+                let colour = PALETTE[s.colour % PALETTE.len()];
+                let fill = colour.mix(0.22).filled();
+                let mut drawn = false;
+                for run in band_runs(&s.band_bounds(), fig.log_y, y0) {
+                    let outline: Vec<(f64, f64)> = run
+                        .iter()
+                        .map(|&(x, lo, _)| (x, lo))
+                        .chain(run.iter().rev().map(|&(x, _, hi)| (x, hi)))
+                        .collect();
+                    let anno = chart
+                        .draw_series(std::iter::once(Polygon::new(outline, fill)))
+                        .map_err(|e| err(e.to_string()))?;
+                    if !drawn && !s.label.is_empty() {
+                        anno.label(s.label.as_str()).legend(move |(x, y)| {
+                            Rectangle::new([(x, y - 5), (x + 20, y + 5)], colour.mix(0.22).filled())
+                        });
+                    }
+                    drawn = true;
+                }
+            }
+            for s in fig.series.iter().filter(|s| s.style != Style::Band) {
                 let colour = PALETTE[s.colour % PALETTE.len()];
                 let keep = |&(x, y): &(f64, f64)| usable(x, y) && (!fig.log_y || y >= y0);
                 // Lines break where a point cannot be drawn (NaN, or ≤ 0 on a log axis):
@@ -217,6 +249,7 @@ fn render<DB: DrawingBackend>(
                             });
                         }
                     }
+                    Style::Band => {}
                     Style::Points => {
                         let data = std::iter::once(first).chain(rest).flatten();
                         let anno = chart
@@ -254,6 +287,27 @@ fn render<DB: DrawingBackend>(
     Ok(())
 }
 
+/// The runs of a band that can be drawn: consecutive `(x, lower, upper)` with finite
+/// values and an upper bound above the axis floor `y0` on a log axis; a lower bound
+/// below the floor (or ≤ 0) is drawn at the floor. A run of one point is widened to
+/// nothing visible and dropped.
+fn band_runs(bounds: &[(f64, f64, f64)], log_y: bool, y0: f64) -> Vec<Vec<(f64, f64, f64)>> {
+    let mut runs: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new()];
+    for &(x, lo, hi) in bounds {
+        let ok = x.is_finite() && lo.is_finite() && hi.is_finite() && (!log_y || hi > y0);
+        if ok {
+            let lo = if log_y { lo.max(y0) } else { lo };
+            if let Some(r) = runs.last_mut() {
+                r.push((x, lo, hi));
+            }
+        } else if runs.last().is_some_and(|r| !r.is_empty()) {
+            runs.push(Vec::new());
+        }
+    }
+    runs.retain(|r| r.len() >= 2);
+    runs
+}
+
 /// Tick labels with at most three significant digits (`1e-5`, `0.25`, `-40`).
 fn tick(v: f64) -> String {
     if v == 0.0 {
@@ -268,5 +322,35 @@ fn tick(v: f64) -> String {
         let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
         let m = m.trim_end_matches('0').trim_end_matches('.');
         format!("{m}e{e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::band_runs;
+
+    #[test]
+    fn band_runs_break_at_gaps_and_floor_the_lower_bound() {
+        let nan = f64::NAN;
+        let b = [
+            (0.0, 0.5, 2.0),
+            (1.0, -1.0, 3.0),
+            (2.0, nan, nan),
+            (3.0, 1.0, 2.0),
+            (4.0, 1.0, 2.0),
+            (5.0, 0.5, 1e-9),
+            (6.0, 1.0, 2.0),
+        ];
+        // Log axis with floor 0.1: the negative lower bound goes to the floor, the NaN
+        // pair and the upper bound below the floor break the band, a lone pair is dropped.
+        assert_eq!(
+            band_runs(&b, true, 0.1),
+            vec![
+                vec![(0.0, 0.5, 2.0), (1.0, 0.1, 3.0)],
+                vec![(3.0, 1.0, 2.0), (4.0, 1.0, 2.0)]
+            ]
+        );
+        // Linear axis: negative bounds are drawn as they are.
+        assert_eq!(band_runs(&b[..2], false, 0.1), vec![b[..2].to_vec()]);
     }
 }

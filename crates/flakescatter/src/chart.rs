@@ -4,7 +4,9 @@
 //!
 //! Conventions: x values are degrees (θs, θr or θn, as the axis label says) because
 //! charts are read by people; y values in the unit of the label. Points that cannot be
-//! drawn (not finite, or ≤ 0 on a log axis) are gaps.
+//! drawn (not finite, or ≤ 0 on a log axis) are gaps. An uncertainty band
+//! ([`Style::Band`], made by [`Series::band`]) holds its lower and upper bounds as
+//! pairs of points.
 
 use crate::compare::{IncidenceComparison, MeasuredKind};
 use crate::instrument::DetectorSet;
@@ -20,6 +22,11 @@ pub enum Style {
     Dashed,
     /// Markers only (measured points).
     Points,
+    /// A filled band between a lower and an upper bound (an uncertainty band): the
+    /// points come in pairs `(x, lower), (x, upper)`, in order of `x` (see
+    /// [`Series::band`]). A pair whose upper bound cannot be drawn is a gap; a lower
+    /// bound that cannot be drawn on a log axis (≤ 0) is drawn at the bottom of the axis.
+    Band,
 }
 
 /// One series of `(x, y)` points.
@@ -33,6 +40,36 @@ pub struct Series {
     pub style: Style,
     /// Colour index into the drawing palette.
     pub colour: usize,
+}
+
+impl Series {
+    /// A [`Style::Band`] series from `(x, lower, upper)` triples.
+    #[must_use]
+    pub fn band(
+        label: String,
+        colour: usize,
+        bounds: impl IntoIterator<Item = (f64, f64, f64)>,
+    ) -> Self {
+        Self {
+            label,
+            points: bounds
+                .into_iter()
+                .flat_map(|(x, lo, hi)| [(x, lo), (x, hi)])
+                .collect(),
+            style: Style::Band,
+            colour,
+        }
+    }
+
+    /// The `(x, lower, upper)` triples of a [`Style::Band`] series (the points taken in
+    /// pairs; a last unpaired point is ignored).
+    #[must_use]
+    pub fn band_bounds(&self) -> Vec<(f64, f64, f64)> {
+        self.points
+            .chunks_exact(2)
+            .map(|p| (p[0].0, p[0].1, p[1].1))
+            .collect()
+    }
 }
 
 /// A chart.
@@ -124,17 +161,57 @@ pub fn distribution_chart(curves: &Curves, orientation: &Orientation) -> Chart {
     chart
 }
 
-/// The topographic model's chart (`topo --plot`): relative curves per incidence.
+/// The topographic model's chart (`topo --plot`, also averaged over the sample's
+/// rotation): relative curves per incidence, each with a band of ± one standard error
+/// where the rows have one (`relative · (1 ± std_err / brdf)`: the error of the
+/// detector's own value; the specular reference's error is not included).
 #[must_use]
 pub fn topographic_chart(curves: &Curves) -> Chart {
-    relative_chart(
+    let what = if curves.model == "topographic-isotropic" {
+        "Topographic model averaged over the sample's rotation"
+    } else {
+        "Topographic model"
+    };
+    let mut chart = relative_chart(
         curves,
         format!(
-            "Topographic model, n = {}, aperture {:.2}°",
+            "{what}, n = {}, aperture {:.2}°",
             curves.coating.n,
             curves.instrument.aperture().to_degrees()
         ),
-    )
+    );
+    let detectors = curves.instrument.detectors();
+    let x = |j: usize| match detectors {
+        DetectorSet::InPlane(ts) => ts[j].to_degrees(),
+        DetectorSet::OutOfPlane(d) => d[j].0.to_degrees(),
+    };
+    for (k, &ti) in curves.instrument.theta_i().iter().enumerate() {
+        let bounds: Vec<(f64, f64, f64)> = curves
+            .rows
+            .iter()
+            .filter(|r| r.theta_i == ti)
+            .map(|r| {
+                let rel = match r.std_err {
+                    Some(se) if r.brdf > 0.0 => se / r.brdf,
+                    _ => f64::NAN,
+                };
+                (
+                    x(r.detector),
+                    r.relative * (1.0 - rel),
+                    r.relative * (1.0 + rel),
+                )
+            })
+            .collect();
+        if bounds.iter().any(|b| b.2.is_finite()) {
+            let label = if k == 0 {
+                "± 1 standard error (map tiles)".to_owned()
+            } else {
+                String::new()
+            };
+            chart.series.push(Series::band(label, k, bounds));
+        }
+    }
+    chart
 }
 
 /// Measured points and scaled model lines per incidence, log axis (`compare --plot`);

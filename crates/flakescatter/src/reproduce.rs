@@ -1,10 +1,12 @@
 //! Library side of `flakescatter reproduce`: a synthetic "measured" goniometric curve.
 //!
 //! We have no NIST measurements, so the paper's measured curves (Figs. 9, 10) are stood
-//! in for by the topographic model (physics.md §5) run on *rough* synthetic flake layers
-//! ([`flakescatter_synth`]) with confocal artefacts (z quantisation, height noise), plus
-//! multiplicative Gaussian noise of the paper's size (0.7 % relative). Everything is
-//! seeded: the same [`SyntheticSample`] and noise seed give bit-identical curves.
+//! in for by the topographic model averaged over the sample's rotation (physics.md §5.1:
+//! what a goniometer sees of an isotropic sample) on the exact surfaces of *rough*
+//! synthetic flake layers ([`flakescatter_synth`]), plus multiplicative Gaussian noise of
+//! the paper's size (0.7 % relative). The same [`SyntheticSample`] type describes the
+//! map sets of the Fig. 10 samples ([`SyntheticSample::masked_maps`]). Everything is
+//! seeded: the same sample and noise seed give bit-identical curves.
 //!
 //! Conventions: radians and micrometres in every API; the curve's values are BRDFs
 //! (sr⁻¹, cone-averaged over the instrument's aperture, physics.md §4), in-plane
@@ -14,11 +16,11 @@ use flakescatter_io::measured::{MeasuredCurve, MeasuredPoint};
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use flakescatter_stats::{GaussianWidth, Orientation};
 use flakescatter_synth::{LayerParams, LayerSpec, SynthError, generate};
-use flakescatter_topo::TopoResult;
+use flakescatter_topo::IsotropicResult;
 
 use crate::PipelineError;
 use crate::instrument::Instrument;
-use crate::pipeline::{Coating, Curves, Settings, TopoSettings, topographic_curves};
+use crate::pipeline::{Coating, Curves, Settings, TopoSettings, isotropic_curves};
 
 /// Errors of [`synthetic_measurement`].
 #[derive(Debug, thiserror::Error)]
@@ -47,8 +49,8 @@ pub enum ReproduceError {
     Pipeline(#[from] PipelineError),
 }
 
-/// A rough synthetic sample standing in for a measured coating: `maps` layers of
-/// `size × size` pixels, seeds `seed, seed + 1, ...`.
+/// A synthetic sample: `maps` layers of `size × size` pixels, seeds `seed, seed + 1,
+/// ...` (the "measured" coating of [`synthetic_measurement`], or a set of confocal maps).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SyntheticSample {
     /// Gaussian orientation width of the flakes, hwhm of `p̃`, radians.
@@ -72,31 +74,32 @@ pub struct SyntheticSample {
 }
 
 impl SyntheticSample {
-    /// The sample of `flakescatter reproduce`: flakes with a Gaussian hwhm of 3° (the
-    /// width of the paper's Fig. 7 histograms) whose surfaces are rough (rms 0.12 µm,
-    /// correlation length 2 µm), 8 maps of 2048² pixels at 0.5 µm (8 × 1.05 mm², about
-    /// 5.6 × 10⁴ visible flakes), z step 0.02 µm, height noise 0.01 µm, seeds 9000–9007.
+    /// The "measured" sample of `flakescatter reproduce`: flakes with a Gaussian hwhm of
+    /// 3° (the width of the paper's Fig. 7 histograms) whose surfaces are rough (rms
+    /// 0.12 µm, correlation length 2 µm), 6 maps of 2048² pixels at the paper's 0.18 µm
+    /// (6 × 0.136 mm², about 7 × 10³ visible flakes), exact heights (no z quantisation,
+    /// no height noise: the surface itself, not a microscope's view of it), seeds
+    /// 9000–9005.
     #[must_use]
     pub fn reproduce_default() -> Self {
         Self {
             hwhm: 3f64.to_radians(),
-            maps: 8,
+            maps: 6,
             size: 2048,
-            pitch_um: 0.5,
+            pitch_um: 0.18,
             roughness_rms_um: 0.12,
             roughness_correlation_um: 2.0,
-            z_step_um: 0.02,
-            height_noise_um: 0.01,
+            z_step_um: 0.0,
+            height_noise_um: 0.0,
             seed: 9000,
         }
     }
 
-    /// The same sample with 2 maps of 512² pixels (for quick checks and tests: noisier).
+    /// The same sample with 1 map of 2048² pixels (for quick checks and tests: noisier).
     #[must_use]
     pub fn quick() -> Self {
         Self {
-            maps: 2,
-            size: 512,
+            maps: 1,
             ..Self::reproduce_default()
         }
     }
@@ -118,17 +121,55 @@ impl SyntheticSample {
         spec.confocal.noise_sd_um = self.height_noise_um;
         LayerParams::new(spec).map_err(|source| ReproduceError::Synth { layer: k, source })
     }
+
+    /// Generates the sample's layers and masks each height map with its intensity map at
+    /// the levels' midpoint (as a confocal user would): the maps and the number of
+    /// visible flakes over all layers. `progress(stage)` is told what is being done.
+    ///
+    /// # Errors
+    /// [`ReproduceError`] for invalid parameters.
+    pub fn masked_maps(
+        &self,
+        progress: &dyn Fn(&str),
+    ) -> Result<(Vec<HeightMap>, usize), ReproduceError> {
+        if self.maps == 0 {
+            return Err(ReproduceError::Sample("at least one map is needed".into()));
+        }
+        let mut maps: Vec<HeightMap> = Vec::with_capacity(self.maps);
+        let mut visible_flakes = 0;
+        for k in 0..self.maps {
+            progress(&format!(
+                "generating synthetic layer {}/{} ({}² pixels at {} µm)",
+                k + 1,
+                self.maps,
+                self.size,
+                self.pitch_um
+            ));
+            let params = self.layer_params(k)?;
+            let layer =
+                generate(&params).map_err(|source| ReproduceError::Synth { layer: k, source })?;
+            visible_flakes += layer.visible_flakes().count();
+            let mut height = layer.height;
+            height
+                .apply_intensity_cutoff(&layer.intensity, params.spec().intensity.midpoint())
+                .map_err(|source| ReproduceError::Mask { layer: k, source })?;
+            maps.push(height);
+        }
+        Ok((maps, visible_flakes))
+    }
 }
 
 /// A synthetic measured curve and what it rests on.
 #[derive(Debug, Clone)]
 pub struct SyntheticMeasurement {
-    /// The noisy curve: values are BRDFs (sr⁻¹); `file` names it as synthetic.
+    /// The noisy curve: values are BRDFs (sr⁻¹), uncertainties one standard uncertainty
+    /// (the noise and the clean curve's own sampling error, in quadrature); `file` names
+    /// it as synthetic.
     pub curve: MeasuredCurve,
-    /// The noise-free topographic curves it was drawn from.
+    /// The noise-free (isotropic topographic) curves it was drawn from.
     pub clean: Curves,
-    /// Totals of the topographic run (pixels, rays).
-    pub topo: TopoResult,
+    /// Totals of the topographic run (pixels, rings, interpolation errors).
+    pub topo: IsotropicResult,
     /// Visible flakes over all layers (from the generator's truth).
     pub visible_flakes: usize,
     /// Detectors left out of `curve` because no ray reached them (a zero is below any
@@ -136,11 +177,14 @@ pub struct SyntheticMeasurement {
     pub dropped_points: usize,
 }
 
-/// Generates the layers of `sample` (masked with the intensity midpoint, as a confocal
-/// user would), runs the topographic model for `instrument` (in-plane detectors), and
-/// multiplies every BRDF by `1 + rel_sd · N(0, 1)` with the noise drawn by
-/// [`gaussian_noise`] from `noise_seed`. Detectors that no ray reached are left out of
-/// the curve (counted in `dropped_points`). `progress(stage)` is told what is being done.
+/// Generates the layers of `sample` ([`SyntheticSample::masked_maps`]), runs the
+/// topographic model averaged over the sample's rotation ([`isotropic_curves`]) for
+/// `instrument` (in-plane detectors), and multiplies every BRDF by
+/// `1 + rel_sd · N(0, 1)` with the noise drawn by [`gaussian_noise`] from `noise_seed`.
+/// Each point's uncertainty is `sqrt((rel_sd · BRDF)² + se²)`, `se` the clean value's
+/// standard error from the map tiles (the sample is finite; `se` is left out where it
+/// cannot be estimated). Detectors that no ray reached are left out of the curve (counted
+/// in `dropped_points`). `progress(stage)` is told what is being done.
 ///
 /// # Errors
 /// [`ReproduceError`] for invalid parameters or a failing model.
@@ -167,33 +211,17 @@ pub fn synthetic_measurement(
             "relative noise {rel_sd} must be finite and ≥ 0"
         )));
     }
-    let mut maps: Vec<HeightMap> = Vec::with_capacity(sample.maps);
-    let mut visible_flakes = 0;
-    for k in 0..sample.maps {
-        progress(&format!(
-            "generating synthetic layer {}/{} ({}² pixels at {} µm)",
-            k + 1,
-            sample.maps,
-            sample.size,
-            sample.pitch_um
-        ));
-        let params = sample.layer_params(k)?;
-        let layer =
-            generate(&params).map_err(|source| ReproduceError::Synth { layer: k, source })?;
-        visible_flakes += layer.visible_flakes().count();
-        let mut height = layer.height;
-        height
-            .apply_intensity_cutoff(&layer.intensity, params.spec().intensity.midpoint())
-            .map_err(|source| ReproduceError::Mask { layer: k, source })?;
-        maps.push(height);
-    }
-    progress("tracing rays over the synthetic layers (topographic model)");
+    let (maps, visible_flakes) = sample.masked_maps(progress)?;
+    progress(
+        "tracing the rings of every pixel over the synthetic layers (isotropic topographic model)",
+    );
     let refs: Vec<&HeightMap> = maps.iter().collect();
-    let (clean, topo) = topographic_curves(
+    let (clean, topo) = isotropic_curves(
         coating,
         instrument,
         settings,
         &TopoSettings::default(),
+        None,
         &refs,
         &|_, _| {},
     )?;
@@ -207,7 +235,7 @@ pub fn synthetic_measurement(
             theta_i: r.theta_i,
             theta_s: theta_s[r.detector],
             value: r.brdf * (1.0 + rel_sd * z),
-            uncertainty: Some(r.brdf * rel_sd),
+            uncertainty: Some((r.brdf * rel_sd).hypot(r.std_err.unwrap_or(0.0))),
             line: k as u64 + 2,
         })
         .filter(|p| p.value > 0.0)
@@ -330,6 +358,14 @@ mod tests {
         assert!((mean - 1.0).abs() < 5.0 * 0.007 / n.sqrt(), "mean {mean}");
         // sd of a sample sd ≈ σ/sqrt(2(n−1)) ≈ 0.0006 for n = 81.
         assert!((sd - 0.007).abs() < 0.0025, "sd {sd}");
+        // Uncertainties: the 0.7 % noise and the clean value's tile standard error in
+        // quadrature, so never below either.
+        for p in &m.curve.points {
+            let r = &m.clean.rows[p.line as usize - 2];
+            let u = p.uncertainty.unwrap();
+            assert!(u >= 0.007 * r.brdf * (1.0 - 1e-12), "{u}");
+            assert!(u >= r.std_err.unwrap_or(0.0) * (1.0 - 1e-12), "{u}");
+        }
     }
 
     #[test]

@@ -9,7 +9,8 @@
 //! few times one map, whatever the number of slices.
 //!
 //! [`write_synthetic_stack`] writes a [`SyntheticStack`] of the synth crate as an
-//! ImageJ-style TIFF, so a stack with a known surface can go through the same path.
+//! ImageJ-style TIFF, so a stack with a known surface can go through the same path;
+//! [`covering_slices`] chooses slices that hold every pixel's axial peak.
 
 use std::io::{Read, Seek, Write};
 use std::path::{Path, PathBuf};
@@ -169,6 +170,32 @@ pub fn localise_reader<R: Read + Seek>(
     })
 }
 
+/// Slices `z_step_um` apart that cover `surface` (µm above the substrate) with
+/// `margin_um` to spare below its lowest and above its highest valid height: returns
+/// `(z_first_um, slices)`, the height of slice 0 (a multiple of the step at or below
+/// `min − margin`, to 1e-9 µm) and the number of slices (so that the last is at or above
+/// `max + margin`). A margin of a few axial FWHM keeps every peak off the first and
+/// last slice. `None` when the map has no valid point or the step or margin is not
+/// finite and positive (resp. non-negative).
+#[must_use]
+pub fn covering_slices(
+    surface: &HeightMap,
+    z_step_um: f64,
+    margin_um: f64,
+) -> Option<(f64, usize)> {
+    if !(z_step_um.is_finite() && z_step_um > 0.0 && margin_um.is_finite() && margin_um >= 0.0) {
+        return None;
+    }
+    let s = surface.summary()?;
+    // A whole number of steps, rounded to 1e-9 µm so that it reads as typed (−1.8, not
+    // −1.7999999999999998).
+    let first = (((s.min - margin_um) / z_step_um).floor() * z_step_um * 1e9).round() / 1e9;
+    let span = s.max + margin_um - first;
+    // The last slice, first + (slices − 1)·Δ, must reach max + margin.
+    let slices = (span / z_step_um - 1e-9).ceil().max(0.0) as usize + 1;
+    Some((first, slices.max(3)))
+}
+
 fn layout(stack: &SyntheticStack) -> StackLayout {
     let (nx, ny, nz) = stack.size();
     let (dx_um, dy_um) = stack.pitch_um();
@@ -190,9 +217,11 @@ fn write_slices<W: Write + Seek>(
     mut writer: ImageJStackWriter<W>,
     stack: &SyntheticStack,
     order: PageOrder,
+    progress: &dyn Fn(u64, u64),
 ) -> Result<(), StackPipelineError> {
     let nz = stack.size().2;
     for p in 0..nz {
+        progress(p as u64, nz as u64);
         let k = match order {
             PageOrder::BottomFirst => p,
             PageOrder::TopFirst => nz - 1 - p,
@@ -207,6 +236,7 @@ fn write_slices<W: Write + Seek>(
         }
     }
     writer.finish()?;
+    progress(nz as u64, nz as u64);
     Ok(())
 }
 
@@ -221,8 +251,22 @@ pub fn write_synthetic_stack(
     stack: &SyntheticStack,
     order: PageOrder,
 ) -> Result<(), StackPipelineError> {
+    write_synthetic_stack_with(path, stack, order, &|_, _| {})
+}
+
+/// As [`write_synthetic_stack`], calling `progress(done, total)` with the number of
+/// slices written before each slice and at the end.
+///
+/// # Errors
+/// [`StackPipelineError::Write`] if the file cannot be written.
+pub fn write_synthetic_stack_with(
+    path: impl AsRef<Path>,
+    stack: &SyntheticStack,
+    order: PageOrder,
+    progress: &dyn Fn(u64, u64),
+) -> Result<(), StackPipelineError> {
     let writer = ImageJStackWriter::create(path, layout(stack))?;
-    write_slices(writer, stack, order)
+    write_slices(writer, stack, order, progress)
 }
 
 /// As [`write_synthetic_stack`] into any seekable sink (e.g. `&mut Cursor<Vec<u8>>`).
@@ -235,5 +279,29 @@ pub fn write_synthetic_stack_to<W: Write + Seek>(
     order: PageOrder,
 ) -> Result<(), StackPipelineError> {
     let writer = ImageJStackWriter::new(sink, layout(stack))?;
-    write_slices(writer, stack, order)
+    write_slices(writer, stack, order, &|_, _| {})
+}
+
+#[cfg(test)]
+mod tests {
+    use super::covering_slices;
+    use flakescatter_stats::heightmap::HeightMap;
+
+    #[test]
+    fn covering_slices_reach_past_both_ends() {
+        // Heights 1..5 µm, step 0.3, margin 1.8: slice 0 at the multiple of 0.3 at or
+        // below −0.8, i.e. −0.9; the last slice must reach 6.8: −0.9 + 26·0.3 = 6.9, the
+        // first multiple of the step above it, so 27 slices.
+        let map = HeightMap::new(2, 1, 1.0, 1.0, vec![1.0, 5.0]).unwrap();
+        let (first, n) = covering_slices(&map, 0.3, 1.8).unwrap();
+        assert!((first + 0.9).abs() < 1e-12, "{first}");
+        assert_eq!(n, 27);
+        assert!(first + (n - 1) as f64 * 0.3 >= 6.8 - 1e-9);
+        assert!(first + (n - 2) as f64 * 0.3 < 6.8);
+        // No valid point, or a bad step: no answer.
+        let empty = HeightMap::new(1, 1, 1.0, 1.0, vec![f64::NAN]).unwrap();
+        assert!(covering_slices(&empty, 0.3, 1.0).is_none());
+        assert!(covering_slices(&map, 0.0, 1.0).is_none());
+        assert!(covering_slices(&map, 0.3, f64::NAN).is_none());
+    }
 }

@@ -5,6 +5,7 @@ pub mod info;
 pub mod model;
 pub mod reproduce;
 pub mod segment;
+pub mod stack;
 pub mod stats;
 pub mod synth;
 pub mod topo;

@@ -1,5 +1,6 @@
 //! `flakescatter topo MAP [MAP ...]`: the topographic model (physics.md §5) over one or
-//! more height maps, accumulated into one result.
+//! more height maps, accumulated into one result; with `--isotropic`, averaged over the
+//! sample's rotation about its normal (§5.1).
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -7,8 +8,8 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::chart::topographic_chart;
 use flakescatter::stats::heightmap::HeightMap;
-use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult, TopoWarning};
-use flakescatter::{Curves, TopoSettings, topographic_curves};
+use flakescatter::topo::{DEFAULT_BLOCK_UM, IsotropicResult, TopoResult, TopoWarning};
+use flakescatter::{Curves, TopoSettings, isotropic_curves, topographic_curves};
 use serde_json::{Value, json};
 
 use crate::flags::{InstrumentArgs, MapArgs};
@@ -24,6 +25,11 @@ use crate::tables::{curve_warnings, rows_json, units_json, write_curves};
 /// maps), relative (to the same detector at the specular direction), rays (rays counted
 /// in the detector) and std_err (standard error of brdf_per_sr, from the spread between
 /// map tiles of --tile-um; empty when not estimable: fewer than 2 tiles, or no ray).
+///
+/// With --isotropic every pixel sends a ring of rays, one per azimuth of the sample
+/// turned about its normal (exact, docs/physics.md §5.1): the same columns, `rays`
+/// counting the pixels whose ring meets the detector; --json adds each row's
+/// interpolation error estimate.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Height maps (X3P, SDF or plain text, recognised from the content); all are traced
@@ -46,6 +52,23 @@ pub struct Args {
     /// diameters).
     #[arg(long, value_name = "UM", default_value_t = DEFAULT_BLOCK_UM, allow_negative_numbers = true)]
     pub tile_um: f64,
+    /// Average over every rotation of the sample about its normal, exactly (the
+    /// goniometer's view of an isotropic sample, docs/physics.md §5.1): each pixel's
+    /// ray becomes the ring of its normal at every azimuth. The result does not depend
+    /// on how the map lies on its grid.
+    #[arg(long)]
+    pub isotropic: bool,
+    /// With --isotropic: spacing of the tilt nodes on which each detector's ring
+    /// response is tabulated, degrees, in (0, 0.572958] (0.01 rad); default the aperture
+    /// / 128 (0.0117° for 1.5°). Smaller is slower and more exact (the JSON gives the
+    /// interpolation error estimate).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "isotropic",
+        allow_negative_numbers = true
+    )]
+    pub node_spacing_deg: Option<f64>,
     #[command(flatten)]
     pub instrument: InstrumentArgs,
     /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
@@ -75,6 +98,14 @@ fn validate(args: &Args) -> anyhow::Result<()> {
         );
     }
     check_cutoff(args.cutoff)?;
+    if let Some(d) = args.node_spacing_deg {
+        let max = 0.01f64.to_degrees();
+        if !(d.is_finite() && d > 0.0 && d.to_radians() <= 0.01) {
+            bail!(
+                "--node-spacing-deg {d}: expected a spacing in (0, {max:.6}] degrees (at most 0.01 rad)"
+            );
+        }
+    }
     match (args.intensity.is_empty(), args.cutoff) {
         (true, Some(c)) => bail!("--cutoff {c} needs --intensity FILE (one per map)"),
         (false, None) => bail!("--intensity needs --cutoff X"),
@@ -165,21 +196,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             b.set_position(done);
         }
     };
-    let (curves, result) =
-        topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
-            .with_context(|| format!("--window {}, --tile-um {}", args.window, args.tile_um))?;
+    let context = || format!("--window {}, --tile-um {}", args.window, args.tile_um);
+    let (curves, result) = if args.isotropic {
+        let spacing = args.node_spacing_deg.map(f64::to_radians);
+        let (c, r) = isotropic_curves(
+            &coating,
+            &instrument,
+            &settings,
+            &topo,
+            spacing,
+            &refs,
+            &progress,
+        )
+        .with_context(context)?;
+        (c, Totals::Isotropic(r))
+    } else {
+        let (c, r) = topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
+            .with_context(context)?;
+        (c, Totals::Plain(r))
+    };
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
     let mut warnings: Vec<String> = result
-        .warnings
+        .warnings()
         .iter()
         .map(|w| format!("{w} (--tile-um {})", args.tile_um))
         .collect();
     // Rows without a standard error are counted unless the model already said that none
     // can be estimated.
     let all_missing = result
-        .warnings
+        .warnings()
         .iter()
         .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
     warnings.extend(curve_warnings(&curves, !all_missing));
@@ -209,7 +256,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let mut s = summary(&args, &maps, &result, &curves);
         s["warnings"] = json!(warnings);
         if table.is_none() {
-            s["rows"] = rows_json(&curves);
+            let mut rows = rows_json(&curves);
+            if let (Totals::Isotropic(r), Some(rows)) = (&result, rows.as_array_mut()) {
+                for (row, e) in rows.iter_mut().zip(&r.interpolation_error) {
+                    row["interpolation_error"] = json!(e.is_finite().then_some(*e));
+                }
+            }
+            s["rows"] = rows;
         } else {
             s["row_count"] = json!(curves.rows.len());
         }
@@ -218,8 +271,71 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What the model run gives besides the curves: the plain model's or the isotropic
+/// model's totals.
+enum Totals {
+    Plain(TopoResult),
+    Isotropic(IsotropicResult),
+}
+
+impl Totals {
+    fn warnings(&self) -> &[TopoWarning] {
+        match self {
+            Self::Plain(r) => &r.warnings,
+            Self::Isotropic(r) => &r.warnings,
+        }
+    }
+
+    /// The `counts` object of the JSON summary.
+    fn counts(&self) -> Value {
+        match self {
+            Self::Plain(r) => json!({
+                "maps": r.maps,
+                "pixels": r.pixels,
+                "usable_pixels": r.usable_pixels,
+                "usable_fraction": r.usable_fraction(),
+                "rays_traced": r.rays_traced,
+                "rays_lost_tir": r.rays_lost_tir,
+                "rays_lost_down": r.rays_lost_down,
+                "tiles": r.tiles,
+            }),
+            Self::Isotropic(r) => json!({
+                "maps": r.maps,
+                "pixels": r.pixels,
+                "usable_pixels": r.usable_pixels,
+                "usable_fraction": r.usable_fraction(),
+                "rings_traced": r.rings_traced,
+                "rings_lost_tir": r.rings_lost_tir,
+                "rings_lost_down": r.rings_lost_down,
+                "tiles": r.tiles,
+                "node_spacing_deg": r.node_spacing.to_degrees(),
+                "nodes": r.nodes,
+            }),
+        }
+    }
+}
+
+/// The largest interpolation error estimate of an isotropic run, absolute (reflectance
+/// units) and relative to the row's reflectance (over rows with light).
+fn interpolation_summary(r: &IsotropicResult) -> Value {
+    let max = r
+        .interpolation_error
+        .iter()
+        .copied()
+        .filter(|e| e.is_finite())
+        .fold(0.0, f64::max);
+    let max_relative = r
+        .interpolation_error
+        .iter()
+        .zip(&r.points)
+        .filter(|(e, p)| e.is_finite() && p.reflectance > 0.0)
+        .map(|(e, p)| e / p.reflectance)
+        .fold(0.0, f64::max);
+    json!({ "max": max, "max_relative": max_relative })
+}
+
 /// The `--json` summary (without the rows).
-fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> Value {
+fn summary(args: &Args, maps: &[HeightMap], r: &Totals, curves: &Curves) -> Value {
     let per_map: Vec<Value> = args
         .maps
         .iter()
@@ -235,7 +351,7 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
             })
         })
         .collect();
-    json!({
+    let mut s = json!({
         "version": env!("CARGO_PKG_VERSION"),
         "command": "topo",
         "model": curves.model,
@@ -247,19 +363,12 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
             "z_unit": args.calibration.z_unit,
             "window": args.window,
             "tile_um": args.tile_um,
+            "isotropic": args.isotropic,
+            "node_spacing_deg": args.node_spacing_deg,
             "instrument": args.instrument.echo(),
         },
-        "counts": {
-            "maps": r.maps,
-            "pixels": r.pixels,
-            "usable_pixels": r.usable_pixels,
-            "usable_fraction": r.usable_fraction(),
-            "rays_traced": r.rays_traced,
-            "rays_lost_tir": r.rays_lost_tir,
-            "rays_lost_down": r.rays_lost_down,
-            "tiles": r.tiles,
-        },
-        "warnings": r.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
+        "counts": r.counts(),
+        "warnings": r.warnings().iter().map(ToString::to_string).collect::<Vec<_>>(),
         "units": {
             "columns": units_json(),
             "rays": "number of rays counted in the detector",
@@ -268,5 +377,21 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
         },
         "out": args.out.as_ref().map(|p| p.display().to_string()),
         "plot": args.plot.as_ref().map(|p| p.display().to_string()),
-    })
+    });
+    if let Totals::Isotropic(iso) = r {
+        s["interpolation_error"] = interpolation_summary(iso);
+        let units = &mut s["units"];
+        units["rays"] = json!(
+            "number of usable pixels whose ring of exit directions (every azimuth of the sample) meets the detector"
+        );
+        units["interpolation_error"] = json!(
+            "fraction of the incident beam (reflectance units): estimated error of the row's reflectance from tabulating each ring response on tilt nodes (docs/physics.md §5.1); interpolation_error.max is the largest over the rows, max_relative the largest relative to the row's reflectance"
+        );
+        units["node_spacing_deg"] =
+            json!("degree, spacing of the tilt nodes of the ring-response table");
+        units["rings"] = json!(
+            "rings_traced: usable pixels x incidences; rings_lost_tir / rings_lost_down: summed azimuth fractions of the rings totally internally reflected / heading down (rays' worth)"
+        );
+    }
+    s
 }

@@ -41,6 +41,8 @@ pub enum Kind {
     Plot,
     /// A height or intensity map: `.x3p` or `.txt`.
     Map,
+    /// A confocal z-stack: `.tif` or `.tiff` (multi-page TIFF).
+    Stack,
 }
 
 /// Where an output goes.
@@ -192,6 +194,10 @@ impl Plan {
                 ),
                 Kind::Map => bail!(
                     "{} -: a map cannot go to stdout; give a file name ending in .x3p or .txt",
+                    out.flag
+                ),
+                Kind::Stack => bail!(
+                    "{} -: a stack cannot go to stdout; give a file name ending in .tif",
                     out.flag
                 ),
             }
@@ -365,6 +371,11 @@ fn check_target(flag: &str, path: &Path, kind: Kind, dir: bool) -> anyhow::Resul
                 bail!(
                     "{flag} {shown}: a map file must end in .x3p (ISO 25178-72) or .txt (plain text)"
                 );
+            }
+        }
+        Kind::Stack => {
+            if !matches!(ext.as_deref(), Some("tif" | "tiff")) {
+                bail!("{flag} {shown}: a stack file must end in .tif or .tiff (multi-page TIFF)");
             }
         }
     }

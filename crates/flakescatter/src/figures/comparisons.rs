@@ -1,4 +1,5 @@
-//! Figs. 9 and 10: the distribution model and the topographic model of the fixture maps
+//! Figs. 9 and 10: the distribution model, and the topographic model averaged over the
+//! sample's rotation on the confocal maps of a smooth-flake and a rough-flake sample,
 //! against the synthetic measured curve, with per-region residuals.
 
 use std::fmt::Write as _;
@@ -9,15 +10,15 @@ use serde_json::{Value, json};
 
 use super::paper::rows_at;
 use super::{
-    APERTURE_DEG, CUTOFF, Ctx, FIXTURES, FiguresError, INCIDENCES, Index, SYNTHETIC_NOTE, deg,
-    gaussian, micro, sig,
+    APERTURE_DEG, Ctx, FiguresError, INCIDENCES, Index, SYNTHETIC_NOTE, deg, gaussian, micro, sig,
 };
 use crate::PipelineError;
 use crate::chart::{Chart, Series, Style, THETA_S_LABEL};
 use crate::compare::{
     IncidenceComparison, MeasuredKind, ModelPoint, Region, compare, distribution_points,
 };
-use crate::pipeline::{Coating, TopoSettings, topographic_curves};
+use crate::pipeline::{Coating, CurveRow, TopoSettings, isotropic_curves};
+use crate::reproduce::SyntheticSample;
 
 /// The measured curve in the `compare --measured` format.
 pub(super) fn measured_csv(curve: &MeasuredCurve) -> String {
@@ -123,7 +124,8 @@ pub(super) fn fig9(
                 colour: c,
             });
         }
-        series.push(measured_series(measured, ti));
+        // The measured points first, so that the model lines are drawn over them.
+        series.insert(0, measured_series(measured, ti));
         let stem = format!("fig9_theta{ti}");
         report.chart(
             &stem,
@@ -159,11 +161,88 @@ pub(super) fn fig9(
     Ok(Value::Array(json_rows))
 }
 
-/// Fig. 10: topographic model of each fixture map (`masked`, clear coat on) against the
-/// measured curve.
+/// Height noise of the Fig. 10 maps, µm: the rms error with which the default sub-step
+/// estimator recovers heights from 0.3 µm confocal stacks (0.0068 µm at an axial FWHM of
+/// 0.6 µm with photon and read noise, `crates/flakescatter/tests/stack.rs`), standing in
+/// for rendering and localising the stacks themselves.
+pub const FIG10_HEIGHT_NOISE_UM: f64 = 0.007;
+/// Seed of the first layer of both Fig. 10 samples (the same flakes, with and without
+/// roughness: the flakes and the roughness have separate random streams).
+const FIG10_SEED: u64 = 20000;
+
+/// One sample of Fig. 10.
+#[derive(Debug, Clone, Copy)]
+pub struct Fig10Sample {
+    /// Short name (the `sample` column of `fig10.csv`).
+    pub name: &'static str,
+    /// Legend text.
+    pub label: &'static str,
+    /// How its maps are made.
+    pub sample: SyntheticSample,
+}
+
+/// The two samples of Fig. 10: the paper's acquisition, 512² maps at 0.18 µm (12 per
+/// sample, 4 with `quick`), of the "measured" coating's flakes (Gaussian hwhm 3°) with
+/// their within-flake roughness (`rough`) and without it (`smooth`), heights with
+/// [`FIG10_HEIGHT_NOISE_UM`] of noise, seeds from 20000.
+#[must_use]
+pub fn fig10_samples(quick: bool) -> [Fig10Sample; 2] {
+    let rough = SyntheticSample {
+        maps: if quick { 4 } else { 12 },
+        size: 512,
+        height_noise_um: FIG10_HEIGHT_NOISE_UM,
+        seed: FIG10_SEED,
+        ..SyntheticSample::reproduce_default()
+    };
+    let smooth = SyntheticSample {
+        roughness_rms_um: 0.0,
+        ..rough
+    };
+    [
+        Fig10Sample {
+            name: "smooth",
+            label: "smooth flakes",
+            sample: smooth,
+        },
+        Fig10Sample {
+            name: "rough",
+            label: "rough flakes",
+            sample: rough,
+        },
+    ]
+}
+
+/// Summary of normalised deviations `z` (deviation / standard uncertainty): their rms,
+/// largest magnitude, and the fractions within 1 and 2 (6 significant digits).
+fn ratio_stats(z: &[f64]) -> Value {
+    let n = z.len() as f64;
+    let frac = |k: f64| z.iter().filter(|x| x.abs() <= k).count() as f64 / n;
+    json!({
+        "points": z.len(),
+        "rms": sig((z.iter().map(|x| x * x).sum::<f64>() / n).sqrt()),
+        "max_abs": sig(z.iter().fold(0.0, |m: f64, x| m.max(x.abs()))),
+        "within_1": sig(frac(1.0)),
+        "within_2": sig(frac(2.0)),
+    })
+}
+
+/// The measured points of one incidence, by detector angle: `(θs, value, uncertainty)`.
+fn measured_at(curve: &MeasuredCurve, ti: f64) -> Vec<(f64, f64, f64)> {
+    curve
+        .points
+        .iter()
+        .filter(|p| (p.theta_i - ti).abs() < 1e-12)
+        .map(|p| (p.theta_s, p.value, p.uncertainty.unwrap_or(0.0)))
+        .collect()
+}
+
+/// Fig. 10: the topographic model averaged over the sample's rotation
+/// ([`isotropic_curves`], clear coat on) on the maps of each [`fig10_samples`] sample
+/// against the measured curve: BRDF charts with ± one standard error bands per
+/// incidence, the rough sample's ratio to the measured curve, CSV and comparison rows.
 pub(super) fn fig10(
     ctx: &Ctx,
-    masked: &[HeightMap],
+    quick: bool,
     measured: &MeasuredCurve,
     report: &mut super::Report,
     index: &mut Index,
@@ -171,35 +250,58 @@ pub(super) fn fig10(
 ) -> Result<Value, FiguresError> {
     let instrument = ctx.instrument()?;
     let settings = ctx.settings(true);
+    let samples = fig10_samples(quick);
     let mut json_rows = Vec::new();
     let mut per_incidence: Vec<Vec<Series>> = vec![Vec::new(); INCIDENCES.len()];
+    let mut ratio_series: Vec<Series> = Vec::new();
     let mut csv = String::from(
-        "map,theta_i_deg,theta_s_deg,region,measured_brdf_per_sr,model_scaled_brdf_per_sr,model_scaled_std_err_per_sr,rays,scale\n",
+        "sample,theta_i_deg,theta_s_deg,region,measured_brdf_per_sr,measured_uncertainty_per_sr,model_scaled_brdf_per_sr,model_scaled_std_err_per_sr,rays,scale\n",
     );
     let mut notes = Vec::new();
-    for (c, ((stem, _, label), map)) in FIXTURES.iter().zip(masked).enumerate() {
-        progress(&format!("  topographic model of {stem}"));
-        let (curves, topo) = topographic_curves(
+    // (ratio − 1) / combined uncertainty of the rough sample 5°–40° from specular.
+    let mut z_rough: Vec<f64> = Vec::new();
+    for (c, f) in samples.iter().enumerate() {
+        let (maps, flakes) = f
+            .sample
+            .masked_maps(&|m| progress(&format!("  {}: {m}", f.name)))?;
+        progress(&format!(
+            "  {}: isotropic topographic model of {} maps",
+            f.name, f.sample.maps
+        ));
+        let refs: Vec<&HeightMap> = maps.iter().collect();
+        let (curves, iso) = isotropic_curves(
             &Coating::default(),
             &instrument,
             &settings,
             &TopoSettings::default(),
-            &[map],
+            None,
+            &refs,
             &|_, _| {},
         )?;
+        // The largest interpolation error estimate within 40° of specular, relative.
+        let interp = curves
+            .rows
+            .iter()
+            .zip(&iso.interpolation_error)
+            .filter(|(r, _)| {
+                let ts = ctx.theta_s_deg[r.detector].to_radians();
+                Region::of(r.theta_i, ts) != Region::Far && r.reflectance.is_some_and(|x| x > 0.0)
+            })
+            .map(|(r, e)| e / r.reflectance.unwrap_or(f64::NAN))
+            .fold(0.0, f64::max);
         notes.push(format!(
-            "`{stem}`: {} usable pixels of {}",
-            topo.usable_pixels, topo.pixels
+            "{} sample: {} visible flakes, {} usable pixels of {}, {} tiles of 32 µm; largest interpolation error estimate within 40° of specular {:.1e} of the value",
+            f.name, flakes, iso.usable_pixels, iso.pixels, iso.tiles, interp
         ));
-        // The model at the measured points; detectors where no ray arrived are left out of
-        // the comparison (a zero cannot be compared on a log scale) and counted.
-        let lookup = |ti: f64, ts: f64| {
+        let lookup = |ti: f64, ts: f64| -> Option<&CurveRow> {
             curves.rows.iter().find(|r| {
                 (r.theta_i - ti).abs() < 1e-9
                     && (ctx.theta_s_deg[r.detector].to_radians() - ts).abs() < 1e-9
             })
         };
-        let mut kept = MeasuredCurve {
+        // Detectors no ring reached are left out of the comparison (a zero cannot be
+        // compared on a log scale) and counted.
+        let kept = MeasuredCurve {
             file: measured.file.clone(),
             points: measured
                 .points
@@ -208,25 +310,6 @@ pub(super) fn fig10(
                 .copied()
                 .collect(),
         };
-        // With ~70 flakes a map may send no ray at all 5°–40° from specular at some
-        // incidence (the smooth fixture's terraces send light to specular or far from
-        // it): there is no scale to fit, so that incidence is not shown for this map.
-        for ti in kept.incidences() {
-            let fittable = kept
-                .points
-                .iter()
-                .any(|p| p.theta_i == ti && Region::of(ti, p.theta_s) == Region::NearSpecular);
-            if !fittable {
-                kept.points.retain(|p| p.theta_i != ti);
-                notes.push(format!(
-                    "`{stem}` at θi = {}°: no ray 5°–40° from specular, so no scale to fit; not shown",
-                    deg(ti)
-                ));
-            }
-        }
-        if kept.points.is_empty() {
-            continue;
-        }
         let model = |ti: f64, ts: &[f64]| -> Result<Vec<ModelPoint>, PipelineError> {
             ts.iter()
                 .map(|&t| {
@@ -258,42 +341,79 @@ pub(super) fn fig10(
                     figure: "Fig. 10",
                     message: "compare returned an incidence the figure was not asked for".into(),
                 })?;
-            let total = measured
-                .points
-                .iter()
-                .filter(|p| (p.theta_i - r.theta_i).abs() < 1e-12)
-                .count();
-            let dropped = total - r.points.len();
-            json_rows.push(comparison_json(&format!("topographic, {stem}"), r, dropped));
+            let meas = measured_at(measured, r.theta_i);
+            let dropped = meas.len() - r.points.len();
+            let mut row_json = comparison_json(
+                &format!(
+                    "topographic isotropic, {} ({} maps)",
+                    f.label, f.sample.maps
+                ),
+                r,
+                dropped,
+            );
+            let mut ratio = Vec::new();
             for p in &r.points {
                 let row = lookup(p.theta_i, p.theta_s).copied();
-                // Empty when the map's tiles cannot give a standard error.
-                let se = row
-                    .and_then(|x| x.std_err)
-                    .map_or_else(String::new, |e| format!("{:.3e}", e * r.scale));
+                let unc = meas
+                    .iter()
+                    .find(|m| (m.0 - p.theta_s).abs() < 1e-12)
+                    .map_or(f64::NAN, |m| m.2);
+                // Empty when the tiles cannot give a standard error.
+                let se = row.and_then(|x| x.std_err).map(|e| e * r.scale);
                 let _ = writeln!(
                     csv,
-                    "{stem},{ti},{},{},{:.9e},{:.9e},{se},{},{:.6e}",
+                    "{},{ti},{},{},{:.9e},{:.3e},{:.9e},{},{},{:.6e}",
+                    f.name,
                     deg(p.theta_s),
                     p.region.name(),
                     p.measured,
+                    unc,
                     p.model,
+                    se.map_or_else(String::new, |e| format!("{e:.3e}")),
                     row.and_then(|x| x.rays).unwrap_or(0),
                     r.scale
                 );
+                if p.region == Region::NearSpecular {
+                    // The ratio's combined standard uncertainty: the sample's tiles and
+                    // the measurement's, in quadrature.
+                    let u = se.unwrap_or(f64::NAN).hypot(unc) / p.measured;
+                    let q = p.model / p.measured;
+                    ratio.push((deg(p.theta_s + p.theta_i), q, u));
+                }
             }
-            // Every detector, zeros included: the line breaks where no ray arrived.
-            let line = rows_at(&curves, ti)
+            let z: Vec<f64> = ratio
+                .iter()
+                .map(|&(_, q, u)| (q - 1.0) / u)
+                .filter(|z| z.is_finite())
+                .collect();
+            row_json["near_specular_ratio"] = ratio_stats(&z);
+            json_rows.push(row_json);
+            if f.name == "rough" {
+                z_rough.extend(&z);
+            }
+            // Every detector, zeros included: the line breaks where no ring arrived.
+            let rows = rows_at(&curves, ti);
+            let line = rows
                 .iter()
                 .map(|row| (ctx.theta_s_deg[row.detector], r.scale * row.brdf))
                 .collect();
-            let near = r
-                .regions
-                .iter()
-                .find(|x| x.region.name() == "near-specular");
+            let band = rows.iter().map(|row| {
+                let x = ctx.theta_s_deg[row.detector];
+                let e = row.std_err.unwrap_or(f64::NAN);
+                (x, r.scale * (row.brdf - e), r.scale * (row.brdf + e))
+            });
+            let near = r.regions.iter().find(|x| x.region == Region::NearSpecular);
+            let band_label = if c == 0 {
+                "± 1 standard error (map tiles)".to_owned()
+            } else {
+                String::new()
+            };
+            per_incidence[k].push(Series::band(band_label, c, band));
             per_incidence[k].push(Series {
                 label: format!(
-                    "{label} (× {:.3}; rms near {:.2})",
+                    "{}, {} maps (× {:.3}; rms near {:.3})",
+                    f.label,
+                    f.sample.maps,
                     r.scale,
                     near.and_then(|x| x.rms_log10).unwrap_or(f64::NAN)
                 ),
@@ -301,23 +421,56 @@ pub(super) fn fig10(
                 style: Style::Line,
                 colour: c,
             });
+            if f.name == "rough" {
+                // Two runs, below and above specular: the line breaks over the specular
+                // region, where the scale is not fitted (and the clear coat's peak is).
+                let gap = (0.0, f64::NAN, f64::NAN);
+                let sides = |v: &[(f64, f64, f64)]| -> Vec<(f64, f64, f64)> {
+                    let (below, above): (Vec<_>, Vec<_>) = v.iter().partition(|p| p.0 < 0.0);
+                    below.into_iter().chain([gap]).chain(above).collect()
+                };
+                let ratio = sides(&ratio);
+                let band_label = if k == 0 {
+                    "± 1 combined standard uncertainty (sample tiles, measurement)".to_owned()
+                } else {
+                    String::new()
+                };
+                ratio_series.push(Series::band(
+                    band_label,
+                    k,
+                    ratio.iter().map(|&(x, q, u)| (x, q - u, q + u)),
+                ));
+                ratio_series.push(Series {
+                    label: format!(
+                        "θi = {ti}°: rough sample ÷ \"measured\" (rms near {:.3} in log10)",
+                        near.and_then(|x| x.rms_log10).unwrap_or(f64::NAN)
+                    ),
+                    points: ratio.iter().map(|&(x, q, _)| (x, q)).collect(),
+                    style: Style::Line,
+                    colour: k,
+                });
+            }
             if dropped > 0 {
                 notes.push(format!(
-                    "`{stem}` at θi = {ti}°: {dropped} of {total} detectors received no ray"
+                    "{} sample at θi = {ti}°: {dropped} of {} detectors received no ray",
+                    f.name,
+                    meas.len()
                 ));
             }
         }
     }
     let mut files = vec!["fig10.csv".to_string()];
-    for (k, mut series) in per_incidence.into_iter().enumerate() {
+    for (k, models) in per_incidence.into_iter().enumerate() {
         let ti = INCIDENCES[k];
-        series.push(measured_series(measured, ti));
+        // The measured points first, so that the model lines are drawn over them.
+        let mut series = vec![measured_series(measured, ti)];
+        series.extend(models);
         let stem = format!("fig10_theta{ti}");
         report.chart(
             &stem,
             Chart {
                 title: format!(
-                    "Fig. 10 analogue: topographic model of the fixture maps vs \"measured\", θi = {ti}°\n{SYNTHETIC_NOTE}. Model: ~70 flakes per map, noisy"
+                    "Fig. 10 analogue: topographic model averaged over the sample's rotation vs \"measured\", θi = {ti}°\n{SYNTHETIC_NOTE}"
                 ),
                 x_label: THETA_S_LABEL.into(),
                 y_label: "BRDF (1/sr), models scaled 5°–40° from specular".into(),
@@ -328,28 +481,86 @@ pub(super) fn fig10(
         files.push(format!("{stem}.svg"));
         files.push(format!("{stem}.png"));
     }
+    ratio_series.push(Series {
+        label: "1 (agreement)".into(),
+        points: vec![(-40.0, 1.0), (40.0, 1.0)],
+        style: Style::Dashed,
+        colour: 5,
+    });
+    report.chart(
+        "fig10_ratio",
+        Chart {
+            title: format!(
+                "Fig. 10 analogue: rough-flake sample ÷ \"measured\", 5°–40° from specular\n{SYNTHETIC_NOTE}"
+            ),
+            x_label: "θs + θi, aspecular angle (degrees; 0 = specular)".into(),
+            y_label: "scaled model ÷ measured".into(),
+            log_y: false,
+            series: ratio_series,
+        },
+    );
+    files.push("fig10_ratio.svg".into());
+    files.push("fig10_ratio.png".into());
     report.text("fig10.csv", csv);
+    let stats = ratio_stats(&z_rough);
+    let pct = |key: &str| 100.0 * stats[key].as_f64().unwrap_or(f64::NAN);
+    let [_, rough] = samples;
     index.add(
-        "Fig. 10 — topographic model of the fixture maps against the \"measured\" curve",
+        "Fig. 10 — topographic model, averaged over the sample's rotation, of a smooth-flake and a rough-flake sample against the \"measured\" curve",
         &files,
         format!(
-            "The topographic model (physics.md §5: 5 × 5 least-squares normals, one ray \
-             per usable pixel, clear coat on) of each shipped fixture map alone (intensity \
-             cutoff {CUTOFF}), scaled to the SYNTHETIC measured curve 5°–40° from specular. \
-             Each map holds only ~70 flakes, so its curve is noisy (physics.md §5: ~10⁴ \
-             flakes give ~10 % rms in a small cone) and falls to zero where no flake \
-             sends a ray (gaps in the lines); the standard error of each point, from the \
-             spread over 32 µm tiles, is in `fig10.csv`. Detectors that received no ray \
-             are left out of the comparison. The smooth fixture's 0.3 µm z steps make \
-             flat terraces whose normals are exactly vertical: the huge specular peak of its \
-             curve is this artefact (the paper saw the same from its microscope's \
-             interpolation), on top of the clear coat's reflection. The smooth fixture \
-             (hwhm 3°, flat flakes) gives a curve narrower than the rough \"measured\" \
-             sample; the rough fixture is closer. {}. `fig10.csv`: `map, theta_i_deg, \
-             theta_s_deg, region, measured_brdf_per_sr, model_scaled_brdf_per_sr, \
-             model_scaled_std_err_per_sr` (sr⁻¹), `rays` (rays counted by the detector), \
-             `scale`.",
-            notes.join("; ")
+            "The topographic model averaged over the sample's rotation about its normal \
+             (physics.md §5.1: every pixel sends a ring of rays, one per azimuth, exactly — \
+             what a goniometer sees of an isotropic sample; 5 × 5 least-squares normals, \
+             clear coat on) on two samples of confocal maps of the paper's acquisition: \
+             {n} maps of 512² pixels at 0.18 µm each (92 µm square, about 70 flakes per \
+             map), intensity-masked at the midpoint, with {noise} µm of height noise — the \
+             rms error with which the default estimator recovers heights from 0.3 µm \
+             z-stacks (`flakescatter stack`; 0.0068 µm in `crates/flakescatter/tests/stack.rs`), \
+             standing in for rendering and localising the stacks themselves. Both samples \
+             hold the same flakes (Gaussian hwhm 3°, seeds {s0}–{s1}), those of the \
+             \"measured\" coating: the **rough** sample with their within-flake roughness \
+             (rms {rr} µm, correlation length {rc} µm), the **smooth** sample without it (what \
+             flake-level orientations alone describe). Each curve is scaled to the SYNTHETIC \
+             measured curve 5°–40° from specular (dots); the shaded bands are ± one \
+             standard error of the scaled model from the spread between 32 µm map tiles. \
+             As in the paper, the rough sample agrees with the measurement near specular \
+             and the smooth one is far too narrow. `fig10_ratio` shows the rough sample \
+             divided by the measured curve 5°–40° from specular (where the scale is \
+             fitted), with ± the combined standard uncertainty (sample tiles and \
+             measurement, in quadrature): {w1:.0} % of its points lie within one combined \
+             standard uncertainty of 1 and {w2:.0} % within two (68 % and 95 % for \
+             independent Gaussian errors; here the fitted scale absorbs the errors' common \
+             part, and neighbouring detectors share pixels, so deviations come in smooth \
+             runs; the largest is {zmax:.1} uncertainties). **What changed and why.** This figure used to show \
+             the plain model (one ray per pixel, one orientation) on each 512² fixture map \
+             alone: ~70 flakes at one azimuth left most detectors without a ray (238 of 281 \
+             at θi = 30° for the smooth fixture), and the fixtures' 0.3 µm z steps (argmax \
+             heights) made flat terraces whose exactly vertical normals gave the huge \
+             specular spike the paper attributes to its microscope's interpolation. Now a \
+             sample is 12 maps, as the paper's acquisition, the model is averaged over the \
+             rotation the paper checked its samples to be indifferent to, and heights come \
+             from sub-step localisation, so that the terraces and their spike are gone \
+             (issue 15: the argmax map's specular cone is several times the true map's). The \
+             \"measured\" curve itself is now the same model on the exact surfaces of six \
+             larger maps of the coating at the same 0.18 µm pitch (see above): at the former \
+             0.5 µm pitch the 5 × 5 window smoothed the 2 µm roughness, so a curve measured \
+             that way was narrower than any 0.18 µm map can give. The agreement is \
+             therefore a consistency check of the method on known surfaces, not a test \
+             against a measurement. {notes}. `fig10.csv`: `sample, theta_i_deg, theta_s_deg, \
+             region, measured_brdf_per_sr, measured_uncertainty_per_sr, \
+             model_scaled_brdf_per_sr, model_scaled_std_err_per_sr` (sr⁻¹), `rays` (pixels \
+             whose ring meets the detector), `scale`.",
+            n = rough.sample.maps,
+            noise = FIG10_HEIGHT_NOISE_UM,
+            s0 = rough.sample.seed,
+            s1 = rough.sample.seed + rough.sample.maps as u64 - 1,
+            rr = rough.sample.roughness_rms_um,
+            rc = rough.sample.roughness_correlation_um,
+            notes = notes.join("; "),
+            w1 = pct("within_1"),
+            w2 = pct("within_2"),
+            zmax = stats["max_abs"].as_f64().unwrap_or(f64::NAN),
         ),
     );
     Ok(Value::Array(json_rows))
