@@ -11,6 +11,7 @@ mod cmd;
 mod common;
 mod flags;
 mod maps;
+mod mueller;
 mod output;
 mod parse;
 mod plot;

@@ -8,13 +8,13 @@ use anyhow::{Context, bail};
 use flakescatter::chart::topographic_chart;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult, TopoWarning};
-use flakescatter::{Curves, TopoSettings, topographic_curves};
+use flakescatter::{Curves, TopoSettings, topographic_curves, topographic_mueller};
 use serde_json::{Value, json};
 
-use crate::flags::{InstrumentArgs, MapArgs};
+use crate::flags::{InstrumentArgs, MapArgs, PolarizationArgs};
 use crate::maps::{check_cutoff, read_masked};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
-use crate::tables::{curve_warnings, rows_json, units_json, write_curves};
+use crate::tables::{curve_warnings, rows_json, units_json, write_curves, write_curves_with};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -48,6 +48,10 @@ pub struct Args {
     pub tile_um: f64,
     #[command(flatten)]
     pub instrument: InstrumentArgs,
+    /// Polarisation (--polarization mueller, --incident, --analyzer): what the detectors
+    /// read for that polarisation, from each ray's Mueller matrix.
+    #[command(flatten)]
+    pub polarization: PolarizationArgs,
     /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -132,6 +136,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     let coating = args.instrument.optics.coating()?;
     let settings = args.instrument.settings();
+    let polarimetry = args.polarization.polarimetry(settings.transmission)?;
     validate(&args)?;
     if args.instrument.optics.aperture_rad()? <= 0.0 {
         bail!(
@@ -165,9 +170,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             b.set_position(done);
         }
     };
-    let (curves, result) =
-        topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
-            .with_context(|| format!("--window {}, --tile-um {}", args.window, args.tile_um))?;
+    let context = || format!("--window {}, --tile-um {}", args.window, args.tile_um);
+    let (curves, result, mueller) = match &polarimetry {
+        None => {
+            let (c, r) =
+                topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
+                    .with_context(context)?;
+            (c, r, None)
+        }
+        Some(p) => {
+            let (mu, r) =
+                topographic_mueller(&coating, &instrument, &settings, &topo, &refs, p, &progress)
+                    .with_context(context)?;
+            (mu.detected_curves(), r, Some(mu))
+        }
+    };
+    let elements = args.polarization.elements();
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -183,6 +201,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
     warnings.extend(curve_warnings(&curves, !all_missing));
+    if let Some(mu) = &mueller {
+        warnings.extend(crate::mueller::warnings(mu));
+    }
     for w in &warnings {
         warn(w);
     }
@@ -197,7 +218,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let rows = curves.rows.len();
         plan.write(
             dest,
-            |w| write_curves(w, &curves, true),
+            |w| match &mueller {
+                None => write_curves(w, &curves, true),
+                Some(mu) => {
+                    write_curves_with(w, &curves, true, &crate::mueller::header(elements), |k| {
+                        crate::mueller::cells(mu, k, elements)
+                    })
+                }
+            },
             Some(format!("{rows} rows")),
         )?;
     }
@@ -208,8 +236,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         let mut s = summary(&args, &maps, &result, &curves);
         s["warnings"] = json!(warnings);
+        if let Some(p) = &polarimetry {
+            s["inputs"]["polarimetry"] = args.polarization.echo(p);
+            s["polarimetry"] = json!({
+                "convention": crate::mueller::CONVENTION,
+                "units": crate::mueller::units(elements),
+                "std_err": "1/sr, standard error of the reading brdf_per_sr from the spread between map tiles (the elements' own errors are not written)",
+            });
+        }
         if table.is_none() {
-            s["rows"] = rows_json(&curves);
+            let mut rows = rows_json(&curves);
+            if let Some(mu) = &mueller {
+                crate::mueller::add_to_rows(&mut rows, mu, elements);
+            }
+            s["rows"] = rows;
         } else {
             s["row_count"] = json!(curves.rows.len());
         }
