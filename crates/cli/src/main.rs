@@ -48,6 +48,8 @@ enum Command {
     Synth(cmd::synth::Args),
     /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
     Stats(cmd::stats::Args),
+    /// Volume model: a 3-D flake layer with multiple scattering, curves split by history, energy balance.
+    Volume(cmd::volume::Args),
 }
 
 fn main() -> ExitCode {
@@ -62,6 +64,7 @@ fn main() -> ExitCode {
         Command::Segment(a) => cmd::segment::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stats(a) => cmd::stats::run(a),
+        Command::Volume(a) => cmd::volume::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -19,7 +19,7 @@ fn help_lists_the_subcommands_of_the_contract() {
     let (code, out, _) = run(&["--help"]);
     assert_eq!(code, 0);
     for sub in [
-        "model", "topo", "compare", "fit", "stats", "segment", "info", "synth",
+        "model", "topo", "compare", "fit", "stats", "segment", "info", "synth", "volume",
     ] {
         assert!(
             out.lines().any(|l| l.trim_start().starts_with(sub)),
@@ -64,6 +64,7 @@ fn every_subcommand_has_help() {
         "info",
         "synth",
         "reproduce",
+        "volume",
     ] {
         let (code, out, err) = run(&[sub, "--help"]);
         assert_eq!(code, 0, "{sub}: {err}");

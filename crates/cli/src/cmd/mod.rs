@@ -8,3 +8,4 @@ pub mod segment;
 pub mod stats;
 pub mod synth;
 pub mod topo;
+pub mod volume;
