@@ -296,11 +296,17 @@ fn multiple_scattering_is_consistent(out: &Path, index: &str, j: &serde_json::Va
             assert_eq!(inc["regions"][k]["region"], *name);
             let want = sums[k][0] / sums[k][1];
             // JSON has 6 significant digits, the CSV 10.
-            assert!((got - want).abs() <= 1e-5 * want, "θi {ti} {name}: {got} vs {want}");
+            assert!(
+                (got - want).abs() <= 1e-5 * want,
+                "θi {ti} {name}: {got} vs {want}"
+            );
             assert!(inc["regions"][k]["std_err"].as_f64().unwrap() > 0.0);
         }
         let far = inc["regions"][2]["multiple_share"].as_f64().unwrap();
-        assert!(index.contains(&format!("{:.1}", 100.0 * far)), "index.md states {far}");
+        assert!(
+            index.contains(&format!("{:.1}", 100.0 * far)),
+            "index.md states {far}"
+        );
     }
     assert!(index.contains("region 3") && index.contains("**Answer:**"));
 }
