@@ -118,7 +118,9 @@ fn the_figures_are_composed_without_the_cli() {
             "fig9_theta30",
             "fig9_theta60",
             "fig10_theta30",
-            "fig10_theta60"
+            "fig10_theta60",
+            "multiple_scattering_share",
+            "multiple_scattering_brdf"
         ]
     );
     for name in [
@@ -127,6 +129,7 @@ fn the_figures_are_composed_without_the_cli() {
         "measured.csv",
         "fig9.csv",
         "fig10.csv",
+        "multiple_scattering.csv",
         "comparison.json",
         "index.md",
     ] {
