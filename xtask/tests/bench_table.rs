@@ -290,7 +290,8 @@ fn the_real_table_is_consistent() {
             assert!(f.rsplit('/').next().unwrap().starts_with("floor_"), "{f}");
         }
         assert_eq!(r.target.is_some(), !r.target_note.is_empty(), "{}", r.id);
-        assert!(r.work > 0.0);
+        // Segments are counted by their bench and read from criterion's output.
+        assert_eq!(r.work > 0.0, r.unit != Unit::Segments, "{}", r.id);
     }
     // The issue's targets are all present.
     let target = |id: &str| ROWS.iter().find(|r| r.id == id).unwrap().target;
@@ -316,6 +317,10 @@ fn the_real_table_is_consistent() {
         Some(Target::MaxSeconds(2.0))
     );
     assert_eq!(
+        target("volume/trace_1e5_flakes/cell_one_diameter"),
+        Some(Target::MinPerSecond(1e7))
+    );
+    assert_eq!(
         target("gaussian/point_mueller_x1000"),
         Some(Target::MaxTimes {
             of: "gaussian/point_brdf_x1000",
@@ -335,4 +340,45 @@ fn the_real_table_is_consistent() {
         .unwrap()
         .work;
     assert_eq!(rays, 83_722_320.0);
+}
+
+#[test]
+fn segments_are_read_from_criterions_throughput() {
+    // The volume bench gives criterion its segment count as `Throughput::Elements`;
+    // criterion 0.8 writes it into `<id>/new/benchmark.json` as `"throughput":
+    // {"Elements": n}`. 6e6 segments in a median of 0.5 s is 1.2e7 segments/s, above
+    // the 1e7 target; 4e6 in 0.5 s (8e6/s) is below it.
+    let dir = temp_dir("segments");
+    let write_bench = |id: &str, n: u64| {
+        let d = dir.join(id).join("new");
+        std::fs::create_dir_all(&d).unwrap();
+        let json = format!(
+            r#"{{"group_id":"volume","function_id":"f","value_str":null,"throughput":{{"Elements":{n}}},"full_id":"{id}","directory_name":"{id}","title":"{id}"}}"#
+        );
+        std::fs::write(d.join("benchmark.json"), json).unwrap();
+    };
+    write_estimate(&dir, "volume/a", 5e8);
+    write_bench("volume/a", 6_000_000);
+    write_estimate(&dir, "volume/b", 5e8);
+    write_bench("volume/b", 4_000_000);
+    write_estimate(&dir, "volume/c", 5e8);
+    let mut specs: Vec<RowSpec> = ["volume/a", "volume/b", "volume/c"]
+        .iter()
+        .map(|&id| spec(id, None, 0.0, Unit::Segments))
+        .collect();
+    for s in &mut specs {
+        s.target = Some(Target::MinPerSecond(1e7));
+        s.target_note = "≥ 10⁷ segments/s";
+    }
+    let rows = build_rows(&dir, &specs, None);
+    assert!((rows[0].per_second().unwrap() - 1.2e7).abs() < 1e-3);
+    assert_eq!(rows[0].met(), Some(true));
+    assert_eq!(rows[1].met(), Some(false));
+    // No benchmark.json: no rate and no verdict, and the table says why.
+    assert_eq!(rows[2].per_second(), None);
+    assert_eq!(rows[2].met(), None);
+    let table = render_table(&rows);
+    assert!(table.contains("12.0 M segments/s"), "{table}");
+    assert!(table.contains("volume/c/new/benchmark.json"), "{table}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -11,6 +11,7 @@ mod cmd;
 mod common;
 mod flags;
 mod maps;
+mod mueller;
 mod output;
 mod parse;
 mod plot;
@@ -49,6 +50,8 @@ enum Command {
     Stack(cmd::stack::Args),
     /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
     Stats(cmd::stats::Args),
+    /// Volume model: a 3-D flake layer with multiple scattering, curves split by history, energy balance.
+    Volume(cmd::volume::Args),
 }
 
 fn main() -> ExitCode {
@@ -64,6 +67,7 @@ fn main() -> ExitCode {
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stack(a) => cmd::stack::run(a),
         Command::Stats(a) => cmd::stats::run(a),
+        Command::Volume(a) => cmd::volume::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

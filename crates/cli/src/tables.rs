@@ -54,6 +54,18 @@ pub fn write_curves(
     curves: &Curves,
     topo_columns: bool,
 ) -> anyhow::Result<()> {
+    write_curves_with(out, curves, topo_columns, &[], |_| Vec::new())
+}
+
+/// [`write_curves`] with more columns after the standard ones: `extra_header`, and
+/// `extra(k)` for the cells of row `k`.
+pub fn write_curves_with(
+    out: &mut dyn Write,
+    curves: &Curves,
+    topo_columns: bool,
+    extra_header: &[String],
+    extra: impl Fn(usize) -> Vec<String>,
+) -> anyhow::Result<()> {
     let mut w = csv::Writer::from_writer(out);
     let mut header = vec![
         "theta_i_deg",
@@ -67,9 +79,10 @@ pub fn write_curves(
     if topo_columns {
         header.extend(["rays", "std_err"]);
     }
+    header.extend(extra_header.iter().map(String::as_str));
     w.write_record(&header).map_err(csv_error)?;
     let aperture = deg(curves.instrument.aperture());
-    for row in &curves.rows {
+    for (k, row) in curves.rows.iter().enumerate() {
         let (ts, ps) = detector_rad(&curves.instrument, row.detector);
         let mut rec = vec![
             deg(row.theta_i),
@@ -84,6 +97,7 @@ pub fn write_curves(
             rec.push(row.rays.map(|r| r.to_string()).unwrap_or_default());
             rec.push(opt(row.std_err));
         }
+        rec.extend(extra(k));
         w.write_record(&rec).map_err(csv_error)?;
     }
     w.flush()?;

@@ -19,7 +19,7 @@ fn help_lists_the_subcommands_of_the_contract() {
     let (code, out, _) = run(&["--help"]);
     assert_eq!(code, 0);
     for sub in [
-        "model", "topo", "compare", "fit", "stats", "segment", "info", "synth", "stack",
+        "model", "topo", "compare", "fit", "stats", "segment", "info", "synth", "stack", "volume",
     ] {
         assert!(
             out.lines().any(|l| l.trim_start().starts_with(sub)),
@@ -65,6 +65,7 @@ fn every_subcommand_has_help() {
         "synth",
         "stack",
         "reproduce",
+        "volume",
     ] {
         let (code, out, err) = run(&[sub, "--help"]);
         assert_eq!(code, 0, "{sub}: {err}");

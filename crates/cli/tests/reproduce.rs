@@ -72,6 +72,8 @@ fn quick_run_writes_every_figure() {
         "fig10_theta30",
         "fig10_theta60",
         "fig10_ratio",
+        "multiple_scattering_share",
+        "multiple_scattering_brdf",
     ];
     for stem in plots {
         for ext in ["svg", "png"] {
@@ -236,7 +238,87 @@ fn quick_run_writes_every_figure() {
             "θi = {ti}"
         );
     }
+    multiple_scattering_is_consistent(&out, &index, &j);
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The multiple-scattering figure: per detector the share is M/(S + M) of the written
+/// means; a region's share is the power-weighted ratio, with the projected solid angle
+/// of an in-plane cone `cos θs π sin²α` (closed form) and the regions' boundaries at 5°
+/// and 40° from specular computed here; index.md states the far-region numbers.
+fn multiple_scattering_is_consistent(out: &Path, index: &str, j: &serde_json::Value) {
+    let (h, rows) = read_csv(&out.join("multiple_scattering.csv"));
+    assert_eq!(
+        h,
+        [
+            "theta_i_deg",
+            "theta_s_deg",
+            "aspecular_deg",
+            "region",
+            "single_bounce_brdf_per_sr",
+            "single_bounce_std_err_per_sr",
+            "multiple_bounce_brdf_per_sr",
+            "multiple_bounce_std_err_per_sr",
+            "multiple_share",
+            "multiple_share_std_err"
+        ]
+    );
+    // 2 incidences × θs = −84:84:3.
+    assert_eq!(rows.len(), 2 * 57);
+    let num = |r: &[String], k: usize| r[k].parse::<f64>().unwrap_or(f64::NAN);
+    let alpha = 1.5f64.to_radians();
+    let ms = &j["multiple_scattering"];
+    assert!(ms["layers"].as_u64().unwrap() >= 2);
+    for ti in [30.0, 60.0] {
+        let mut sums = [[0.0; 2]; 3];
+        for r in rows.iter().filter(|r| num(r, 0) == ti) {
+            let (ts, a) = (num(r, 1), num(r, 2));
+            assert_eq!(a, ts + ti);
+            let d = a.abs();
+            let region = if d < 5.0 {
+                0
+            } else if d <= 40.0 {
+                1
+            } else {
+                2
+            };
+            assert_eq!(r[3], ["specular", "near-specular", "far"][region]);
+            let (s, m, share) = (num(r, 4), num(r, 6), num(r, 8));
+            assert!(s >= 0.0 && m >= 0.0, "{r:?}");
+            if s + m > 0.0 {
+                assert!((share - m / (s + m)).abs() < 1e-8, "{r:?}");
+                assert!((0.0..=1.0).contains(&share));
+            } else {
+                assert!(share.is_nan(), "{r:?}");
+            }
+            let proj = ts.to_radians().cos() * std::f64::consts::PI * alpha.sin().powi(2);
+            sums[region][0] += m * proj;
+            sums[region][1] += (s + m) * proj;
+        }
+        let inc = ms["incidences"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|x| x["theta_i_deg"] == ti)
+            .unwrap();
+        for (k, name) in ["specular", "near-specular", "far"].iter().enumerate() {
+            let got = inc["regions"][k]["multiple_share"].as_f64().unwrap();
+            assert_eq!(inc["regions"][k]["region"], *name);
+            let want = sums[k][0] / sums[k][1];
+            // JSON has 6 significant digits, the CSV 10.
+            assert!(
+                (got - want).abs() <= 1e-5 * want,
+                "θi {ti} {name}: {got} vs {want}"
+            );
+            assert!(inc["regions"][k]["std_err"].as_f64().unwrap() > 0.0);
+        }
+        let far = inc["regions"][2]["multiple_share"].as_f64().unwrap();
+        assert!(
+            index.contains(&format!("{:.1}", 100.0 * far)),
+            "index.md states {far}"
+        );
+    }
+    assert!(index.contains("region 3") && index.contains("**Answer:**"));
 }
 
 /// Fig. 10's claim, checked from its CSV alone. If the scaled model and the measurement

@@ -377,6 +377,20 @@ fn node_spacing_is_checked_and_needs_isotropic() {
             stderr(&o)
         );
     }
+    // The rotation average is scalar: the polarisation flags are refused beside it.
+    for pol in [
+        &["--polarization", "mueller"][..],
+        &["--incident", "s"][..],
+        &["--analyzer", "p"][..],
+    ] {
+        let o = run(&[&[p][..], &base, &["--isotropic"], pol].concat());
+        assert_eq!(o.status.code(), Some(2), "{pol:?}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--isotropic"),
+            "{pol:?}: {}",
+            stderr(&o)
+        );
+    }
     // A valid spacing is used and echoed.
     let o = run(&[
         &[p][..],

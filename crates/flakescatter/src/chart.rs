@@ -11,6 +11,7 @@
 use crate::compare::{IncidenceComparison, MeasuredKind};
 use crate::instrument::DetectorSet;
 use crate::pipeline::{Curves, p_tilde_about_specular};
+use crate::volume::VolumeCurves;
 use flakescatter_stats::Orientation;
 
 /// How a series is drawn.
@@ -212,6 +213,53 @@ pub fn topographic_chart(curves: &Curves) -> Chart {
         }
     }
     chart
+}
+
+/// The volume model's chart (`volume --plot`): per incidence the collected power
+/// relative to the specular detector (solid, coat reflection included) and the part of
+/// it that multiple scattering brings, on the same scale (dashed: `relative` times the
+/// multiple-bounce share of the cone's BRDF), log axis.
+#[must_use]
+pub fn volume_chart(curves: &VolumeCurves) -> Chart {
+    let detectors = curves.instrument.detectors();
+    let x = |j: usize| match detectors {
+        DetectorSet::InPlane(ts) => ts[j].to_degrees(),
+        DetectorSet::OutOfPlane(d) => d[j].0.to_degrees(),
+    };
+    let mut series = Vec::new();
+    for (k, &ti) in curves.instrument.theta_i().iter().enumerate() {
+        let rows = || curves.rows.iter().filter(move |r| r.theta_i == ti);
+        series.push(Series {
+            label: format!("total, θi = {:.1}°", ti.to_degrees()),
+            points: rows().map(|r| (x(r.detector), r.relative)).collect(),
+            style: Style::Line,
+            colour: k,
+        });
+        series.push(Series {
+            label: format!("multiple scattering, θi = {:.1}°", ti.to_degrees()),
+            points: rows()
+                .map(|r| (x(r.detector), r.relative * r.multiple_bounce_brdf / r.brdf))
+                .collect(),
+            style: Style::Dashed,
+            colour: k,
+        });
+    }
+    Chart {
+        title: format!(
+            "Volume model, n = {}, film {} µm, {} flakes, aperture {:.2}°",
+            curves.coating.n,
+            curves.settings.film_um,
+            curves.layer.flakes,
+            curves.instrument.aperture().to_degrees()
+        ),
+        x_label: match detectors {
+            DetectorSet::InPlane(_) => THETA_S_LABEL.into(),
+            DetectorSet::OutOfPlane(_) => "θr, detector polar angle (degrees)".into(),
+        },
+        y_label: "relative reflectance (1 at specular)".into(),
+        log_y: true,
+        series,
+    }
 }
 
 /// Measured points and scaled model lines per incidence, log axis (`compare --plot`);

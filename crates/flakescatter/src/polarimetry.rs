@@ -22,7 +22,9 @@ use flakescatter_topo::{TopoModel, TopoOptions, TopoResult};
 
 use crate::PipelineError;
 use crate::instrument::Instrument;
-use crate::pipeline::{Coating, OrientationSource, Settings, TopoSettings, distribution_model};
+use crate::pipeline::{
+    Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_model,
+};
 
 /// The polarisation of the incident beam and what stands in front of the detectors.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -76,6 +78,10 @@ pub struct MuellerRow {
     pub detected_brdf: f64,
     /// Standard error of `detected_brdf` (as `brdf_std_err`), sr⁻¹.
     pub detected_std_err: Option<f64>,
+    /// The fraction of the incident beam the detector reads for the incident
+    /// polarisation and analyser, `a · R · s` of `reflectance`; `None` for point
+    /// detectors.
+    pub detected_reflectance: Option<f64>,
     /// The detected power relative to that of the same detector at the specular
     /// direction (the `relative` of the scalar curves for this polarisation).
     pub relative: f64,
@@ -103,6 +109,36 @@ pub struct MuellerCurves {
     pub rows: Vec<MuellerRow>,
     /// Free-form description of the source, for metadata.
     pub source: String,
+}
+
+impl MuellerCurves {
+    /// What the detectors read for [`MuellerCurves::polarimetry`], as scalar curves:
+    /// per row `detected_brdf`, `detected_reflectance`, `relative`, `rays` and
+    /// `detected_std_err` in the fields of [`CurveRow`] (for unpolarised light and no
+    /// analyser these are the scalar curves of the same model, `m00`).
+    #[must_use]
+    pub fn detected_curves(&self) -> Curves {
+        Curves {
+            model: self.model,
+            instrument: self.instrument.clone(),
+            coating: self.coating,
+            settings: self.settings,
+            rows: self
+                .rows
+                .iter()
+                .map(|r| CurveRow {
+                    theta_i: r.theta_i,
+                    detector: r.detector,
+                    brdf: r.detected_brdf,
+                    reflectance: r.detected_reflectance,
+                    relative: r.relative,
+                    rays: r.rays,
+                    std_err: r.detected_std_err,
+                })
+                .collect(),
+            source: self.source.clone(),
+        }
+    }
 }
 
 /// Refuses settings whose polarisation bookkeeping has no Mueller form (module docs).
@@ -175,6 +211,7 @@ pub fn distribution_mueller(
                 brdf_std_err: exact.then_some([err; 16]),
                 detected_brdf: detected,
                 detected_std_err: exact.then(|| err * weights.iter().map(|w| w.abs()).sum::<f64>()),
+                detected_reflectance: c.reflectance.as_ref().map(|r| polarimetry.detect(r)),
                 relative: if s > 0.0 {
                     polarimetry.detect(&c.power_per_sr) / s
                 } else {
@@ -253,6 +290,7 @@ pub fn topographic_mueller(
                 brdf_std_err: p.brdf_std_err.as_ref().map(row_major),
                 detected_brdf: p.readout * inv_proj,
                 detected_std_err: p.readout_std_err.map(|e| e * inv_proj),
+                detected_reflectance: Some(polarimetry.detect(&p.reflectance)),
                 relative: p.relative,
                 dop_unpolarized: p.brdf.dop_unpolarized(),
                 rays: Some(p.rays),

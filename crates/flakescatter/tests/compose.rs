@@ -119,7 +119,9 @@ fn the_figures_are_composed_without_the_cli() {
             "fig9_theta60",
             "fig10_theta30",
             "fig10_theta60",
-            "fig10_ratio"
+            "fig10_ratio",
+            "multiple_scattering_share",
+            "multiple_scattering_brdf"
         ]
     );
     for name in [
@@ -128,6 +130,7 @@ fn the_figures_are_composed_without_the_cli() {
         "measured.csv",
         "fig9.csv",
         "fig10.csv",
+        "multiple_scattering.csv",
         "comparison.json",
         "index.md",
     ] {

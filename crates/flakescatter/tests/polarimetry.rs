@@ -68,16 +68,22 @@ fn unpolarised_and_s_light_read_what_the_scalar_curves_give() {
             )
             .unwrap();
             assert_eq!(mu.rows.len(), scalar.rows.len());
-            for (a, b) in mu.rows.iter().zip(&scalar.rows) {
+            // The detected reading as scalar curves (what the CLI writes) row by row.
+            let detected = mu.detected_curves();
+            assert_eq!(detected.rows.len(), scalar.rows.len());
+            for ((a, b), m) in detected.rows.iter().zip(&scalar.rows).zip(&mu.rows) {
                 assert_eq!((a.theta_i, a.detector), (b.theta_i, b.detector));
                 assert!(
-                    (a.detected_brdf - b.brdf).abs() < 1e-10 * b.brdf.max(1e-300),
+                    (a.brdf - b.brdf).abs() < 1e-10 * b.brdf.max(1e-300),
                     "{transmission:?}: {} vs {}",
-                    a.detected_brdf,
+                    a.brdf,
                     b.brdf
                 );
+                let (ra, rb) = (a.reflectance.unwrap(), b.reflectance.unwrap());
+                assert!((ra - rb).abs() < 1e-10 * rb.max(1e-300), "{ra} vs {rb}");
                 assert!((a.relative - b.relative).abs() < 1e-9 * b.relative.abs().max(1e-300));
-                assert!(a.brdf_std_err.unwrap()[0] >= 0.0 && a.detected_std_err.unwrap() >= 0.0);
+                assert_eq!(a.std_err, m.detected_std_err);
+                assert!(m.brdf_std_err.unwrap()[0] >= 0.0 && a.std_err.unwrap() >= 0.0);
             }
         }
     }
@@ -204,6 +210,8 @@ fn the_topographic_mueller_curves_read_the_scalar_curves() {
     for (a, b) in mu.rows.iter().zip(&scalar.rows) {
         assert_eq!(a.rays, b.rays);
         assert!((a.detected_brdf - b.brdf).abs() <= 1e-12 * b.brdf);
+        let (ra, rb) = (a.detected_reflectance.unwrap(), b.reflectance.unwrap());
+        assert!((ra - rb).abs() <= 1e-12 * rb, "{ra} vs {rb}");
         // Both absent (a detector no ray reached) or equal to rounding.
         match (a.detected_std_err, b.std_err) {
             (Some(x), Some(y)) => assert!((x - y).abs() <= 1e-9 * y + 1e-18),

@@ -58,9 +58,13 @@ pub fn render_table(rows: &[Row]) -> String {
     let mut missing = Vec::new();
     for row in rows {
         let spec = &row.spec;
-        let (median, rate) = match &row.median_s {
-            Ok(t) => (format_time(*t), format_rate(spec.work / t, spec.unit)),
-            Err(why) => {
+        let (median, rate) = match (&row.median_s, &row.work) {
+            (Ok(t), Ok(w)) => (format_time(*t), format_rate(w / t, spec.unit)),
+            (Ok(t), Err(why)) => {
+                missing.push(format!("`{}` work: {why}", spec.id));
+                (format_time(*t), "—".to_owned())
+            }
+            (Err(why), _) => {
                 missing.push(format!("`{}`: {why}", spec.id));
                 ("not measured".to_owned(), "—".to_owned())
             }
@@ -129,7 +133,9 @@ pub fn render_document(rows: &[Row], machine: &[(String, String)], quick: bool) 
     s.push_str(&render_table(rows));
     s.push_str(
         "\nRays = usable pixels (complete 5 × 5 window) × incidences; detectors = \
-         incidences × detector cones; MB = 10⁶ bytes of float64 heights. A load average \
+         incidences × detector cones; MB = 10⁶ bytes of float64 heights; segments = \
+         straight ray segments of the volume model (one nearest-surface query each, \
+         counted by the bench). A load average \
          above the number of cores means other work shared the machine: compare the \
          `time / floor` column rather than absolute times. Reproduce with \
          `cargo xtask bench` (about 5 minutes on 2 cores once the benches are built) or \

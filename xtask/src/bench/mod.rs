@@ -33,7 +33,7 @@ use anyhow::{Context, bail};
 
 pub use format::{format_rate, format_time, render_document, render_table};
 pub use rows::{BenchTarget, ROWS, Row, RowSpec, TARGETS, Target, Unit};
-pub use runner::{build_rows, machine_description, read_median, utc_date};
+pub use runner::{build_rows, machine_description, read_elements, read_median, utc_date};
 use runner::{parse, run_benches, target_dir};
 
 /// Entry point of `cargo xtask bench`.

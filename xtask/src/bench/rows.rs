@@ -14,6 +14,11 @@ pub enum Unit {
     Detectors,
     /// Bytes of data: MB/s (10⁶ bytes per second).
     Bytes,
+    /// Straight ray segments of the volume model: segments/s. The bench counts them
+    /// (deterministic for its seed) and gives the count to criterion as the
+    /// benchmark's throughput; the table reads it from criterion's `benchmark.json`
+    /// ([`crate::bench::read_elements`]), so [`RowSpec::work`] is 0 for such rows.
+    Segments,
 }
 
 impl Unit {
@@ -26,6 +31,7 @@ impl Unit {
             Self::Evaluations => "evaluations/s",
             Self::Detectors => "detectors/s",
             Self::Bytes => "MB/s",
+            Self::Segments => "segments/s",
         }
     }
 }
@@ -58,7 +64,8 @@ pub struct RowSpec {
     pub id: &'static str,
     /// Criterion id of the floor measured on the same input, if any.
     pub floor: Option<&'static str>,
-    /// Work done by one iteration, in `unit`.
+    /// Work done by one iteration, in `unit` (0 for [`Unit::Segments`]: read from
+    /// criterion's output).
     pub work: f64,
     /// Unit of `work`.
     pub unit: Unit,
@@ -104,6 +111,10 @@ pub const TARGETS: &[BenchTarget] = &[
     BenchTarget {
         package: "flakescatter-synth",
         bench: "generate",
+    },
+    BenchTarget {
+        package: "flakescatter-volume",
+        bench: "volume",
     },
 ];
 
@@ -344,6 +355,17 @@ pub const ROWS: &[RowSpec] = &[
         target_note: "",
         quick: false,
     },
+    RowSpec {
+        operation: "Volume model, paper's coating, 64 000 rays at 45° × 281 cones (columns one diameter wide)",
+        size: "10⁵ flakes",
+        id: "volume/trace_1e5_flakes/cell_one_diameter",
+        floor: None,
+        work: 0.0,
+        unit: Unit::Segments,
+        target: Some(Target::MinPerSecond(1e7)),
+        target_note: "≥ 10⁷ segments/s, 2 cores",
+        quick: true,
+    },
 ];
 
 /// A measured row: the spec with what criterion reported.
@@ -351,6 +373,9 @@ pub const ROWS: &[RowSpec] = &[
 pub struct Row {
     /// The row's specification.
     pub spec: RowSpec,
+    /// Work of one iteration in the row's unit: [`RowSpec::work`], or for
+    /// [`Unit::Segments`] the count criterion recorded (`Err`: why it is missing).
+    pub work: Result<f64, String>,
     /// Median time per iteration, seconds (`Err`: why it is missing).
     pub median_s: Result<f64, String>,
     /// Median time of the floor, seconds (`None` without a floor; `Err`: missing).
@@ -364,7 +389,8 @@ impl Row {
     /// Throughput in units per second (bytes per second for [`Unit::Bytes`]).
     #[must_use]
     pub fn per_second(&self) -> Option<f64> {
-        self.median_s.as_ref().ok().map(|&t| self.spec.work / t)
+        let w = *self.work.as_ref().ok()?;
+        self.median_s.as_ref().ok().map(|&t| w / t)
     }
 
     /// Whether the target is met: `None` without a target or a measurement.
@@ -373,7 +399,7 @@ impl Row {
         let t = *self.median_s.as_ref().ok()?;
         match self.spec.target? {
             Target::MaxSeconds(max) => Some(t <= max),
-            Target::MinPerSecond(min) => Some(self.spec.work / t >= min),
+            Target::MinPerSecond(min) => Some(*self.work.as_ref().ok()? / t >= min),
             Target::MaxTimes { times, .. } => {
                 let r = *self.reference_s.as_ref()?.as_ref().ok()?;
                 Some(t <= times * r)

@@ -7,7 +7,7 @@ use std::time::{Instant, SystemTime};
 
 use anyhow::{Context, bail};
 
-use super::rows::{BenchTarget, Row, RowSpec, TARGETS, Target};
+use super::rows::{BenchTarget, Row, RowSpec, TARGETS, Target, Unit};
 
 /// Median seconds per iteration of benchmark `id`, read from
 /// `<criterion_dir>/<id>/new/estimates.json` (`median.point_estimate`, nanoseconds).
@@ -54,6 +54,35 @@ pub fn read_median(
     Ok(ns * 1e-9)
 }
 
+/// Elements per iteration that benchmark `id` gave criterion as its throughput, read
+/// from `<criterion_dir>/<id>/new/benchmark.json` (`throughput.Elements`).
+///
+/// # Errors
+/// A message naming the file and what is wrong with it.
+pub fn read_elements(criterion_dir: &Path, id: &str) -> Result<f64, String> {
+    let path = criterion_dir.join(id).join("new").join("benchmark.json");
+    let text = std::fs::read_to_string(&path).map_err(|_| {
+        format!(
+            "not measured: {} does not exist (bench not run, failed or renamed)",
+            path.display()
+        )
+    })?;
+    let json: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| format!("{} is not valid JSON: {e}", path.display()))?;
+    let n = json
+        .get("throughput")
+        .and_then(|t| t.get("Elements"))
+        .and_then(serde_json::Value::as_f64)
+        .ok_or_else(|| format!("{} has no number at throughput.Elements", path.display()))?;
+    if !(n.is_finite() && n > 0.0) {
+        return Err(format!(
+            "{}: throughput.Elements = {n} is not a positive count",
+            path.display()
+        ));
+    }
+    Ok(n)
+}
+
 /// Reads every row of `specs` from `criterion_dir`, pairing each with its floor.
 #[must_use]
 pub fn build_rows(criterion_dir: &Path, specs: &[RowSpec], since: Option<SystemTime>) -> Vec<Row> {
@@ -61,6 +90,10 @@ pub fn build_rows(criterion_dir: &Path, specs: &[RowSpec], since: Option<SystemT
         .iter()
         .map(|&spec| Row {
             spec,
+            work: match spec.unit {
+                Unit::Segments => read_elements(criterion_dir, spec.id),
+                _ => Ok(spec.work),
+            },
             median_s: read_median(criterion_dir, spec.id, since),
             floor_s: spec.floor.map(|f| read_median(criterion_dir, f, since)),
             reference_s: match spec.target {

@@ -9,3 +9,4 @@ pub mod stack;
 pub mod stats;
 pub mod synth;
 pub mod topo;
+pub mod volume;

@@ -6,13 +6,13 @@ use anyhow::{Context, bail};
 use flakescatter::chart::distribution_chart;
 use flakescatter::gaussian::ConeMethod;
 use flakescatter::multiangle::{MultiAngle, multi_angle_at};
-use flakescatter::{OrientationSource, distribution_curves};
+use flakescatter::{OrientationSource, distribution_curves, distribution_mueller};
 use serde_json::json;
 
-use crate::flags::{InstrumentArgs, OrientationArgs};
+use crate::flags::{InstrumentArgs, OrientationArgs, PolarizationArgs};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
 use crate::parse::{angles, check_range, deg, deg_num, shortest};
-use crate::tables::{num, rows_json, units_json, write_curves};
+use crate::tables::{num, rows_json, units_json, write_curves, write_curves_with};
 
 /// How detector cones are integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -29,13 +29,17 @@ pub enum ConeKind {
 /// Writes one CSV row per incidence × detector: theta_i_deg, theta_s_deg, phi_s_deg,
 /// aperture_deg, brdf_per_sr, reflectance (fraction of the beam), relative (to the same
 /// detector at the specular direction). With no flags: the defaults below and a hwhm 6°
-/// Gaussian.
+/// Gaussian. With --polarization mueller, --incident or --analyzer: what the detectors
+/// read for that polarisation (exact Jones/Mueller path, SCATMECH's bases), and the
+/// Mueller columns.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     pub instrument: InstrumentArgs,
     #[command(flatten)]
     pub source: OrientationArgs,
+    #[command(flatten)]
+    pub polarization: PolarizationArgs,
     /// Cone integration.
     #[arg(long, value_enum, default_value = "exact")]
     pub cone: ConeKind,
@@ -75,7 +79,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ConeKind::Exact => ConeMethod::Exact,
         ConeKind::Constant => ConeMethod::ConstantIntegrand,
     };
+    let polarimetry = args.polarization.polarimetry(settings.transmission)?;
     if args.multi_angle {
+        if polarimetry.is_some() {
+            bail!(
+                "--polarization/--incident/--analyzer do not apply to --multi-angle: its readout is for unpolarised light (--transmission s|p give a polarised beam)"
+            );
+        }
         if plot.is_some() {
             bail!("--plot draws curves; it does not apply to --multi-angle");
         }
@@ -107,8 +117,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     plan.check()?;
     let (orientation, orientation_echo) = args.source.orientation()?;
     let source = OrientationSource::Distribution(orientation.clone());
-    let curves = distribution_curves(&coating, &instrument, &settings, &source)?;
-    let warnings = crate::tables::curve_warnings(&curves, false);
+    let (curves, mueller) = match &polarimetry {
+        None => (
+            distribution_curves(&coating, &instrument, &settings, &source)?,
+            None,
+        ),
+        Some(p) => {
+            let mu = distribution_mueller(&coating, &instrument, &settings, &source, p)?;
+            (mu.detected_curves(), Some(mu))
+        }
+    };
+    let elements = args.polarization.elements();
+    let mut warnings = crate::tables::curve_warnings(&curves, false);
+    if let Some(mu) = &mueller {
+        warnings.extend(crate::mueller::warnings(mu));
+    }
     for w in &warnings {
         warn(w);
     }
@@ -123,7 +146,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let rows = curves.rows.len();
         plan.write(
             dest,
-            |w| write_curves(w, &curves, false),
+            |w| match &mueller {
+                None => write_curves(w, &curves, false),
+                Some(mu) => {
+                    write_curves_with(w, &curves, false, &crate::mueller::header(elements), |k| {
+                        crate::mueller::cells(mu, k, elements)
+                    })
+                }
+            },
             Some(format!("{rows} rows")),
         )?;
     }
@@ -145,8 +175,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "out": args.out.as_ref().map(|p| p.display().to_string()),
             "plot": args.plot.as_ref().map(|p| p.display().to_string()),
         });
+        if let Some(p) = &polarimetry {
+            summary["inputs"]["polarimetry"] = args.polarization.echo(p);
+            summary["polarimetry"] = json!({
+                "convention": crate::mueller::CONVENTION,
+                "units": crate::mueller::units(elements),
+            });
+        }
         if table.is_none() {
-            summary["rows"] = rows_json(&curves);
+            let mut rows = rows_json(&curves);
+            if let Some(mu) = &mueller {
+                crate::mueller::add_to_rows(&mut rows, mu, elements);
+            }
+            summary["rows"] = rows;
         } else {
             summary["row_count"] = json!(curves.rows.len());
         }

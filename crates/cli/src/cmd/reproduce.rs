@@ -20,8 +20,9 @@ use flakescatter::optics::polarization::Weighting;
 use crate::common::Failure;
 use crate::output::{Plan, note, temp_dir_beside};
 
-/// Reproduces the paper's figures in kind (Figs. 4, 7, 9, 10) into a directory: CSV for
-/// every curve, SVG and PNG plots, `index.md` and `comparison.json`. Deterministic
+/// Reproduces the paper's figures in kind (Figs. 4, 7, 9, 10) and the volume model's
+/// answer to its multiple-scattering question into a directory: CSV for every curve, SVG
+/// and PNG plots, `index.md` and `comparison.json`. Deterministic
 /// (fixed seeds); run from the repository root (or give --fixtures).
 #[derive(Debug, clap::Args)]
 pub struct Args {

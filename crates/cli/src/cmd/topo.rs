@@ -9,13 +9,15 @@ use anyhow::{Context, bail};
 use flakescatter::chart::topographic_chart;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::topo::{DEFAULT_BLOCK_UM, IsotropicResult, TopoResult, TopoWarning};
-use flakescatter::{Curves, TopoSettings, isotropic_curves, topographic_curves};
+use flakescatter::{
+    Curves, TopoSettings, isotropic_curves, topographic_curves, topographic_mueller,
+};
 use serde_json::{Value, json};
 
-use crate::flags::{InstrumentArgs, MapArgs};
+use crate::flags::{InstrumentArgs, MapArgs, PolarizationArgs};
 use crate::maps::{check_cutoff, read_masked};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
-use crate::tables::{curve_warnings, rows_json, units_json, write_curves};
+use crate::tables::{curve_warnings, rows_json, units_json, write_curves, write_curves_with};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -71,6 +73,10 @@ pub struct Args {
     pub node_spacing_deg: Option<f64>,
     #[command(flatten)]
     pub instrument: InstrumentArgs,
+    /// Polarisation (--polarization mueller, --incident, --analyzer): what the detectors
+    /// read for that polarisation, from each ray's Mueller matrix.
+    #[command(flatten)]
+    pub polarization: PolarizationArgs,
     /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -163,6 +169,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     let coating = args.instrument.optics.coating()?;
     let settings = args.instrument.settings();
+    let polarimetry = args.polarization.polarimetry(settings.transmission)?;
+    if args.isotropic && polarimetry.is_some() {
+        bail!(
+            "--isotropic with --polarization/--incident/--analyzer: the rotation average is scalar (unpolarised, or --transmission s|p); the Mueller form is computed for the map as it lies (leave out --isotropic)"
+        );
+    }
     validate(&args)?;
     if args.instrument.optics.aperture_rad()? <= 0.0 {
         bail!(
@@ -197,24 +209,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     let context = || format!("--window {}, --tile-um {}", args.window, args.tile_um);
-    let (curves, result) = if args.isotropic {
-        let spacing = args.node_spacing_deg.map(f64::to_radians);
-        let (c, r) = isotropic_curves(
-            &coating,
-            &instrument,
-            &settings,
-            &topo,
-            spacing,
-            &refs,
-            &progress,
-        )
-        .with_context(context)?;
-        (c, Totals::Isotropic(r))
-    } else {
-        let (c, r) = topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
+    let (curves, result, mueller) = match (&polarimetry, args.isotropic) {
+        (None, true) => {
+            let spacing = args.node_spacing_deg.map(f64::to_radians);
+            let (c, r) = isotropic_curves(
+                &coating,
+                &instrument,
+                &settings,
+                &topo,
+                spacing,
+                &refs,
+                &progress,
+            )
             .with_context(context)?;
-        (c, Totals::Plain(r))
+            (c, Totals::Isotropic(r), None)
+        }
+        (None, false) => {
+            let (c, r) =
+                topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
+                    .with_context(context)?;
+            (c, Totals::Plain(r), None)
+        }
+        (Some(p), _) => {
+            let (mu, r) =
+                topographic_mueller(&coating, &instrument, &settings, &topo, &refs, p, &progress)
+                    .with_context(context)?;
+            (mu.detected_curves(), Totals::Plain(r), Some(mu))
+        }
     };
+    let elements = args.polarization.elements();
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -230,6 +253,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
     warnings.extend(curve_warnings(&curves, !all_missing));
+    if let Some(mu) = &mueller {
+        warnings.extend(crate::mueller::warnings(mu));
+    }
     for w in &warnings {
         warn(w);
     }
@@ -244,7 +270,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let rows = curves.rows.len();
         plan.write(
             dest,
-            |w| write_curves(w, &curves, true),
+            |w| match &mueller {
+                None => write_curves(w, &curves, true),
+                Some(mu) => {
+                    write_curves_with(w, &curves, true, &crate::mueller::header(elements), |k| {
+                        crate::mueller::cells(mu, k, elements)
+                    })
+                }
+            },
             Some(format!("{rows} rows")),
         )?;
     }
@@ -255,12 +288,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         let mut s = summary(&args, &maps, &result, &curves);
         s["warnings"] = json!(warnings);
+        if let Some(p) = &polarimetry {
+            s["inputs"]["polarimetry"] = args.polarization.echo(p);
+            s["polarimetry"] = json!({
+                "convention": crate::mueller::CONVENTION,
+                "units": crate::mueller::units(elements),
+                "std_err": "1/sr, standard error of the reading brdf_per_sr from the spread between map tiles (the elements' own errors are not written)",
+            });
+        }
         if table.is_none() {
             let mut rows = rows_json(&curves);
             if let (Totals::Isotropic(r), Some(rows)) = (&result, rows.as_array_mut()) {
                 for (row, e) in rows.iter_mut().zip(&r.interpolation_error) {
                     row["interpolation_error"] = json!(e.is_finite().then_some(*e));
                 }
+            }
+            if let Some(mu) = &mueller {
+                crate::mueller::add_to_rows(&mut rows, mu, elements);
             }
             s["rows"] = rows;
         } else {

@@ -34,8 +34,9 @@ pub struct OpticsArgs {
         allow_negative_numbers = true
     )]
     pub aperture: f64,
-    /// Fresnel bookkeeping: exact-unpolarized, paper (T_av at each crossing, eq. 10), s
-    /// or p (polarised beam).
+    /// Fresnel bookkeeping: exact-unpolarized (m00), s or p (a polarised beam, m00 ± m01;
+    /// both exact in every direction), or paper (T_av at each crossing, eq. 10). Any
+    /// other polarisation, and analysers: --incident, --analyzer (model, topo).
     #[arg(long, value_name = "K", default_value = "exact-unpolarized")]
     pub transmission: Transmission,
     /// Ray weighting: physical, or paper-printed (the printed eqs. 9/13/14; breaks

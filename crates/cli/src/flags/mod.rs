@@ -1,15 +1,17 @@
 //! Flag groups shared by several subcommands (docs/cli.md "Instrument flags"): the
 //! coating and model settings, the instrument's angles, the measured curve, the
-//! orientation source, map calibration and segmentation.
+//! orientation source, map calibration and segmentation, polarisation.
 //!
 //! Degrees on the command line; every method here hands radians to the library.
 
 mod instrument;
 mod measured;
+mod polarization;
 mod source;
 
 pub use instrument::{InstrumentArgs, OpticsArgs};
 pub use measured::MeasuredArgs;
+pub use polarization::PolarizationArgs;
 pub use source::{MapArgs, OrientationArgs, SegmentArgs, width};
 
 /// Default incidences of `model` and `topo`, degrees.
