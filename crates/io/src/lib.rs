@@ -1,5 +1,6 @@
 //! File formats for flakescatter: height maps (X3P, ISO 25178-71 SDF, plain-text
-//! matrices with Gwyddion headers) and flake tables.
+//! matrices with Gwyddion headers), flake tables and spectral files (optical constants,
+//! reflectance spectra, measured multi-angle colour).
 //!
 //! Only this crate (and the CLI) touches files. Every height-map reader returns a
 //! [`HeightMap`](flakescatter_stats::heightmap::HeightMap) in micrometres (heights and
@@ -25,6 +26,7 @@ pub mod flakes;
 pub mod map;
 pub mod measured;
 pub mod sdf;
+pub mod spectral;
 pub mod stack;
 pub mod text;
 pub mod units;
