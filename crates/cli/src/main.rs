@@ -14,6 +14,7 @@ mod maps;
 mod output;
 mod parse;
 mod plot;
+mod spectra;
 mod tables;
 
 /// Predict how a metallic (aluminium-flake) coating reflects light at every angle.
@@ -47,6 +48,8 @@ enum Command {
     Synth(cmd::synth::Args),
     /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
     Stats(cmd::stats::Args),
+    /// Colour of reflectance spectra (XYZ, CIELAB, L*C*h) and ΔE from a reference, per geometry for multi-angle files.
+    Colour(cmd::colour::Args),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         Command::Segment(a) => cmd::segment::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stats(a) => cmd::stats::run(a),
+        Command::Colour(a) => cmd::colour::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

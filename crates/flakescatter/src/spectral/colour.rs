@@ -24,7 +24,7 @@ use flakescatter_colour::{
     Cie94, Geometry, GeometrySet, Illuminant, Lab, Observer, TristimulusWeights, Xyz, delta_e_94,
     delta_e_2000, delta_e_ab,
 };
-use flakescatter_io::spectral::{MultiAngleData, MultiAngleFile};
+use flakescatter_io::spectral::{MultiAngleData, MultiAngleFile, SpectraFile};
 use flakescatter_stats::heightmap::HeightMap;
 
 use super::{SpectralCoating, spectral_distribution_curves, spectral_topographic_curves};
@@ -181,9 +181,9 @@ pub fn multi_angle_colour(
             let rays = rows[0].rays;
             if rays == Some(0) {
                 warnings.push(format!(
-                    "geometry θi {:.6}° aspecular {:.6}°: no ray reached the detector; its colour is black (L* = 0)",
-                    ti.to_degrees(),
-                    geoms[k].aspecular().to_degrees()
+                    "geometry θi {}° aspecular {}°: no ray reached the detector; its colour is black (L* = 0)",
+                    shown_deg(ti),
+                    shown_deg(geoms[k].aspecular())
                 ));
             }
             out[k] = Some(GeometryColour {
@@ -219,6 +219,12 @@ pub fn multi_angle_colour(
         dispersive: !coating.is_wavelength_independent(),
         warnings,
     })
+}
+
+/// An angle in degrees for messages, rounded to 1e-6° (so `45`, not `45.00000000000001`).
+fn shown_deg(rad: f64) -> f64 {
+    let d = (rad.to_degrees() * 1e6).round() / 1e6;
+    if d == 0.0 { 0.0 } else { d }
 }
 
 /// `dL*/d(Y/Yn)` (CIE 1976 lightness): `(116/3) t^(−2/3)` above `(6/29)³`,
@@ -354,6 +360,8 @@ impl GeometryDifference {
 /// A model's multi-angle colour against a measurement.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MultiAngleComparison {
+    /// The measured geometries and colours, in the file's order.
+    pub measured: Vec<MeasuredGeometry>,
     /// The model's colour at the measured geometries.
     pub model: MultiAngleColour,
     /// Per geometry, in the file's order.
@@ -366,15 +374,15 @@ pub struct MultiAngleComparison {
     pub measured_flop_index: Option<f64>,
 }
 
-/// The spectral model at the geometries of `measured` (the set is the file's, in its
-/// order), against the measured colours.
+/// The spectral model at the geometries of the measured multi-angle `file` (the set is
+/// the file's, in its order), against the measured colours ([`measured_colours`] under
+/// the same illuminant and observer).
 ///
 /// # Errors
-/// As [`multi_angle_colour`]; [`PipelineError::Measurement`] for an empty or repeated
-/// geometry list.
+/// As [`measured_colours`] and [`multi_angle_colour`].
 #[allow(clippy::too_many_arguments)]
 pub fn compare_multi_angle(
-    measured: &[MeasuredGeometry],
+    file: &MultiAngleFile,
     coating: &SpectralCoating,
     settings: &Settings,
     source: MultiAngleSource<'_>,
@@ -384,6 +392,7 @@ pub fn compare_multi_angle(
     observer: Observer,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<MultiAngleComparison, PipelineError> {
+    let measured = measured_colours(file, illuminant, observer)?;
     let set = GeometrySet::new("measured", measured.iter().map(|m| m.geometry).collect())
         .map_err(|e| PipelineError::Measurement(format!("measured geometries: {e}")))?;
     let model = multi_angle_colour(
@@ -416,9 +425,184 @@ pub fn compare_multi_angle(
     let l: Vec<f64> = measured.iter().map(|m| m.lab.l).collect();
     Ok(MultiAngleComparison {
         measured_flop_index: set.flop_index(&l),
+        measured,
         model,
         rows,
         mean_delta_e_2000: mean,
         max_delta_e_2000: max,
     })
+}
+
+/// The colour differences of a sample from a standard (reference).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColourDifference {
+    /// `L*_sample − L*_standard`.
+    pub delta_l: f64,
+    /// `a*_sample − a*_standard`.
+    pub delta_a: f64,
+    /// `b*_sample − b*_standard`.
+    pub delta_b: f64,
+    /// ΔE*ab.
+    pub delta_e_ab: f64,
+    /// ΔE*94 (graphic-arts constants; weights from the standard's chroma).
+    pub delta_e_94: f64,
+    /// CIEDE2000.
+    pub delta_e_2000: f64,
+}
+
+impl ColourDifference {
+    /// The differences of `sample` from `standard`.
+    #[must_use]
+    pub fn new(standard: &Lab, sample: &Lab) -> Self {
+        Self {
+            delta_l: sample.l - standard.l,
+            delta_a: sample.a - standard.a,
+            delta_b: sample.b - standard.b,
+            delta_e_ab: delta_e_ab(standard, sample),
+            delta_e_94: delta_e_94(standard, sample, Cie94::GRAPHIC_ARTS),
+            delta_e_2000: delta_e_2000(standard, sample),
+        }
+    }
+}
+
+/// The colour of one spectrum of a file, with its reference and difference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpectrumColour {
+    /// The geometry, when the file has geometry columns.
+    pub geometry: Option<Geometry>,
+    /// CIE XYZ.
+    pub xyz: Xyz,
+    /// CIELAB.
+    pub lab: Lab,
+    /// The reference's XYZ and CIELAB at the same geometry, when a reference is given.
+    pub reference: Option<(Xyz, Lab)>,
+    /// The sample's difference from the reference.
+    pub difference: Option<ColourDifference>,
+    /// 1-based line where the spectrum starts.
+    pub line: u64,
+}
+
+/// What `colour` reports: every spectrum's colour, and the flop indices of
+/// multi-angle files.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColourReport {
+    /// One entry per spectrum of the sample file, in its order.
+    pub spectra: Vec<SpectrumColour>,
+    /// The sample's flop index (`None` without the 45° / 15°, 45°, 110° geometries).
+    pub flop_index: Option<f64>,
+    /// The reference's flop index.
+    pub reference_flop_index: Option<f64>,
+}
+
+/// XYZ and CIELAB of each spectrum of `file` at its own sampling (ASTM E308 weights).
+fn colours_of(
+    file: &SpectraFile,
+    illuminant: Illuminant,
+    observer: Observer,
+) -> Result<Vec<(Option<Geometry>, Xyz, Lab, u64)>, PipelineError> {
+    file.spectra
+        .iter()
+        .map(|s| {
+            let line = s.lines[0];
+            let err = |e: String| {
+                PipelineError::Measurement(format!(
+                    "{}: the spectrum starting on line {line}: {e}",
+                    file.file
+                ))
+            };
+            let w = TristimulusWeights::new(&s.wavelengths_nm, illuminant, observer)
+                .map_err(|e| err(e.to_string()))?;
+            let xyz = w.xyz(&s.reflectance).map_err(|e| err(e.to_string()))?;
+            let geometry = match (s.theta_i, s.aspecular) {
+                (Some(t), Some(a)) => Some(Geometry::new(t, a).map_err(|e| err(e.to_string()))?),
+                _ => None,
+            };
+            Ok((geometry, xyz, xyz.to_lab(&w.white_point()), line))
+        })
+        .collect()
+}
+
+/// The flop index of a list of geometries with their lightness (`None` without
+/// geometries or the needed ones).
+fn flop_of(rows: &[(Option<Geometry>, Xyz, Lab, u64)]) -> Option<f64> {
+    let geoms: Option<Vec<Geometry>> = rows.iter().map(|r| r.0).collect();
+    let set = GeometrySet::new("file", geoms?).ok()?;
+    set.flop_index(&rows.iter().map(|r| r.2.l).collect::<Vec<_>>())
+}
+
+/// The colour of every spectrum of `sample` under `illuminant` / `observer`, and with
+/// `reference` the differences of each from the reference spectrum at the same geometry
+/// (files without geometry columns hold one spectrum each).
+///
+/// # Errors
+/// [`PipelineError::Measurement`] naming the file and line for a spectrum colorimetry
+/// cannot integrate (coverage 400–700 nm, steps ≤ 20 nm, within 360–830 nm), a
+/// reference with or without geometry columns where the sample has the other, or a
+/// geometry of the sample missing from the reference.
+pub fn colour_report(
+    sample: &SpectraFile,
+    reference: Option<&SpectraFile>,
+    illuminant: Illuminant,
+    observer: Observer,
+) -> Result<ColourReport, PipelineError> {
+    let rows = colours_of(sample, illuminant, observer)?;
+    let refs = reference
+        .map(|r| colour_ref(sample, r, illuminant, observer))
+        .transpose()?;
+    let mut spectra = Vec::with_capacity(rows.len());
+    for (geometry, xyz, lab, line) in &rows {
+        let matched = match (&refs, geometry) {
+            (None, _) => None,
+            (Some((r, _)), None) => Some(r[0]),
+            (Some((r, file)), Some(g)) => Some(
+                r.iter()
+                    .find(|x| x.0 == Some(*g))
+                    .copied()
+                    .ok_or_else(|| {
+                        PipelineError::Measurement(format!(
+                            "{file}: no spectrum at the geometry θi {}° aspecular {}° of {} (line {line})",
+                            shown_deg(g.theta_i()),
+                            shown_deg(g.aspecular()),
+                            sample.file
+                        ))
+                    })?,
+            ),
+        };
+        spectra.push(SpectrumColour {
+            geometry: *geometry,
+            xyz: *xyz,
+            lab: *lab,
+            reference: matched.map(|m| (m.1, m.2)),
+            difference: matched.map(|m| ColourDifference::new(&m.2, lab)),
+            line: *line,
+        });
+    }
+    Ok(ColourReport {
+        flop_index: flop_of(&rows),
+        reference_flop_index: refs.as_ref().and_then(|(r, _)| flop_of(r)),
+        spectra,
+    })
+}
+
+/// The reference's colours, checked to match the sample's layout.
+fn colour_ref(
+    sample: &SpectraFile,
+    reference: &SpectraFile,
+    illuminant: Illuminant,
+    observer: Observer,
+) -> Result<(Vec<(Option<Geometry>, Xyz, Lab, u64)>, String), PipelineError> {
+    if sample.has_geometry != reference.has_geometry {
+        let (with, without) = if sample.has_geometry {
+            (&sample.file, &reference.file)
+        } else {
+            (&reference.file, &sample.file)
+        };
+        return Err(PipelineError::Measurement(format!(
+            "{with} has geometry columns (theta_i_deg, aspecular_deg) and {without} has not: compare spectra of the same kind"
+        )));
+    }
+    Ok((
+        colours_of(reference, illuminant, observer)?,
+        reference.file.clone(),
+    ))
 }

@@ -26,7 +26,9 @@ use flakescatter_stats::{GaussianWidth, Orientation};
 use nalgebra::{DMatrix, DVector};
 
 use super::SpectralCoating;
-use super::colour::{MeasuredGeometry, MultiAngleSource, multi_angle_colour};
+use flakescatter_io::spectral::MultiAngleFile;
+
+use super::colour::{MultiAngleSource, measured_colours, multi_angle_colour};
 use crate::PipelineError;
 use crate::fit::{MIN_POINTS_PER_PARAMETER, UncertaintyBasis, chi2_per_dof_999};
 use crate::pipeline::{OrientationSource, Settings};
@@ -158,17 +160,19 @@ pub struct LightnessFit {
 }
 
 /// Fit the Gaussian hwhm (start `hwhm_start`, radians), a common scale and, with
-/// `fit_n`, the coat's index to the measured `L*` (module docs).
+/// `fit_n`, the coat's index to the measured `L*` of the multi-angle `file` (its CIELAB,
+/// or its spectra through the setup's colorimetry; module docs).
 ///
 /// # Errors
-/// [`PipelineError::Measurement`] for too few geometries, a geometry that sees the
+/// As [`measured_colours`]; [`PipelineError::Measurement`] for too few geometries, a geometry that sees the
 /// specular reflection, or `fit_n` with a dispersive coat; [`PipelineError::Fit`] when
 /// the iteration does not converge or the width is not determined; the model's errors.
 pub fn fit_lightness(
-    measured: &[MeasuredGeometry],
+    file: &MultiAngleFile,
     setup: &LightnessFitSetup<'_>,
     hwhm_start: f64,
 ) -> Result<LightnessFit, PipelineError> {
+    let measured = &measured_colours(file, setup.illuminant, setup.observer)?[..];
     let n0 = match (&setup.coating.coat, setup.fit_n) {
         (CoatIndex::Constant(n), _) => Some(*n),
         (_, true) => {

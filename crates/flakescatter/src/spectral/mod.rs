@@ -53,8 +53,9 @@ pub mod colour;
 pub mod fit;
 
 pub use colour::{
-    GeometryColour, GeometryDifference, MeasuredGeometry, MultiAngleColour, MultiAngleComparison,
-    MultiAngleSource, compare_multi_angle, measured_colours, multi_angle_colour,
+    ColourDifference, ColourReport, GeometryColour, GeometryDifference, MeasuredGeometry,
+    MultiAngleColour, MultiAngleComparison, MultiAngleSource, SpectrumColour, colour_report,
+    compare_multi_angle, measured_colours, multi_angle_colour,
 };
 pub use fit::{LightnessFit, LightnessFitSetup, LightnessFitWarning, fit_lightness};
 
