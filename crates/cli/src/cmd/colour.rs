@@ -133,10 +133,10 @@ fn summary(args: &Args, r: &ColourReport) -> Value {
         if args.reference.is_some() {
             v["reference_flop_index"] = json!(r.reference_flop_index);
         }
-    } else if let Some(s) = r.spectra.first() {
-        if let (Value::Object(into), Value::Object(from)) = (&mut v, spectrum_json(s)) {
-            into.extend(from);
-        }
+    } else if let (Some(s), Value::Object(into)) = (r.spectra.first(), &mut v)
+        && let Value::Object(from) = spectrum_json(s)
+    {
+        into.extend(from);
     }
     v
 }

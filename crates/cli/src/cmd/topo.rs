@@ -288,7 +288,7 @@ fn spectral_curves(
     args.calibration.read_options()?;
     plan.check()?;
     let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
-    let maps = load_maps(&args)?;
+    let maps = load_maps(args)?;
     let refs: Vec<&HeightMap> = maps.iter().collect();
     let runs = if coating.is_wavelength_independent() {
         1
@@ -350,7 +350,7 @@ fn spectral_curves(
     }
     plan.finish()?;
     if args.json {
-        let mut j = summary(&args, &maps, &s.topo[0], &s.curves[0]);
+        let mut j = summary(args, &maps, &s.topo[0], &s.curves[0]);
         j["command"] = json!("topo --wavelengths");
         j["inputs"]["spectral"] = coating_echo;
         j["inputs"]["wavelengths_nm"] = json!(args.spectral.wavelengths_text(""));
@@ -396,7 +396,7 @@ fn multi_angle(
     args.calibration.read_options()?;
     plan.check()?;
     let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
-    let maps = load_maps(&args)?;
+    let maps = load_maps(args)?;
     let refs: Vec<&HeightMap> = maps.iter().collect();
     let runs = if coating.is_wavelength_independent() {
         1

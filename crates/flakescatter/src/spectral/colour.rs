@@ -494,12 +494,15 @@ pub struct ColourReport {
     pub reference_flop_index: Option<f64>,
 }
 
+/// One spectrum's geometry, XYZ, CIELAB and first line.
+type Colour = (Option<Geometry>, Xyz, Lab, u64);
+
 /// XYZ and CIELAB of each spectrum of `file` at its own sampling (ASTM E308 weights).
 fn colours_of(
     file: &SpectraFile,
     illuminant: Illuminant,
     observer: Observer,
-) -> Result<Vec<(Option<Geometry>, Xyz, Lab, u64)>, PipelineError> {
+) -> Result<Vec<Colour>, PipelineError> {
     file.spectra
         .iter()
         .map(|s| {
@@ -524,7 +527,7 @@ fn colours_of(
 
 /// The flop index of a list of geometries with their lightness (`None` without
 /// geometries or the needed ones).
-fn flop_of(rows: &[(Option<Geometry>, Xyz, Lab, u64)]) -> Option<f64> {
+fn flop_of(rows: &[Colour]) -> Option<f64> {
     let geoms: Option<Vec<Geometry>> = rows.iter().map(|r| r.0).collect();
     let set = GeometrySet::new("file", geoms?).ok()?;
     set.flop_index(&rows.iter().map(|r| r.2.l).collect::<Vec<_>>())
@@ -590,7 +593,7 @@ fn colour_ref(
     reference: &SpectraFile,
     illuminant: Illuminant,
     observer: Observer,
-) -> Result<(Vec<(Option<Geometry>, Xyz, Lab, u64)>, String), PipelineError> {
+) -> Result<(Vec<Colour>, String), PipelineError> {
     if sample.has_geometry != reference.has_geometry {
         let (with, without) = if sample.has_geometry {
             (&sample.file, &reference.file)

@@ -301,8 +301,9 @@ pub fn fit_lightness(
         let ratios: Vec<f64> = xyz
             .iter()
             .zip(measured)
-            .filter(|(x, _)| x.y > 0.0)
-            .map(|(x, m)| (inverse_lightness(m.lab.l) * white.y / x.y).ln())
+            .map(|(x, m)| inverse_lightness(m.lab.l) * white.y / x.y)
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .map(f64::ln)
             .collect();
         if !ratios.is_empty() {
             q[1] = ratios.iter().sum::<f64>() / ratios.len() as f64;
@@ -347,6 +348,10 @@ pub fn fit_lightness(
                 continue;
             };
             let mut qn: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+            if qn.iter().any(|v| !v.is_finite()) {
+                lambda *= 10.0;
+                continue;
+            }
             clamp(&mut qn);
             let rn = residuals(&qn)?;
             let c1 = chi(&rn);
