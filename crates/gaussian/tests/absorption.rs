@@ -49,6 +49,12 @@ fn point_brdf_is_multiplied_by_the_path_factor() {
                 "θi {theta_i} θs {theta_s}: ratio {} vs {want}",
                 fa / fc
             );
+            // The Mueller BRDF carries the same factor.
+            let (ma, mc) = (
+                absorbing.brdf_mueller(&inc_a, &r),
+                clear.brdf_mueller(&inc_c, &r),
+            );
+            assert!((ma.m00() / mc.m00() - want).abs() < 1e-13 * want);
         }
     }
 }
