@@ -15,6 +15,7 @@ mod mueller;
 mod output;
 mod parse;
 mod plot;
+mod spectra;
 mod tables;
 
 /// Predict how a metallic (aluminium-flake) coating reflects light at every angle.
@@ -52,6 +53,8 @@ enum Command {
     Stats(cmd::stats::Args),
     /// Volume model: a 3-D flake layer with multiple scattering, curves split by history, energy balance.
     Volume(cmd::volume::Args),
+    /// Colour of reflectance spectra (XYZ, CIELAB, L*C*h) and ΔE from a reference, per geometry for multi-angle files.
+    Colour(cmd::colour::Args),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +71,7 @@ fn main() -> ExitCode {
         Command::Stack(a) => cmd::stack::run(a),
         Command::Stats(a) => cmd::stats::run(a),
         Command::Volume(a) => cmd::volume::run(a),
+        Command::Colour(a) => cmd::colour::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -433,6 +433,10 @@ fn bad_polarisation_flags_exit_2_naming_the_flag_and_write_nothing() {
         ),
         (vec!["--polarization", "jones"], "--polarization"),
         (vec!["--multi-angle", "--incident", "s"], "--multi-angle"),
+        (
+            vec!["--wavelengths", "500,600", "--polarization", "mueller"],
+            "--wavelengths",
+        ),
     ] {
         let mut a = vec!["model", "--out", o];
         a.extend(&args);
@@ -456,5 +460,21 @@ fn bad_polarisation_flags_exit_2_naming_the_flag_and_write_nothing() {
         "{err}"
     );
     assert!(!out.exists());
+    // topo's multi-angle and spectral runs are scalar too.
+    for extra in [
+        &["--multi-angle", "--analyzer", "s"][..],
+        &["--wavelengths", "500", "--polarization", "mueller"][..],
+        &["--multi-angle", "--isotropic"][..],
+    ] {
+        let mut a = vec!["topo", height.to_str().unwrap(), "--out", o];
+        a.extend(extra);
+        let (code, _, err) = run(&a);
+        assert_eq!(code, 2, "{extra:?}: {err}");
+        assert!(
+            err.contains("--multi-angle") || err.contains("--wavelengths"),
+            "{extra:?}: {err}"
+        );
+        assert!(!out.exists(), "{extra:?} left {o}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -303,7 +303,7 @@ impl std::fmt::Display for FitWarning {
 /// The 99.9 % point of `χ²_k / k` by the Wilson–Hilferty cube approximation
 /// `(1 − 2/(9k) + z sqrt(2/(9k)))³`, `z = 3.0902`: above the exact quantile (scipy) by
 /// 3.0 % at `k = 1`, 1.2 % at 5, 0.6 % at 10, 0.04 % at 100.
-fn chi2_per_dof_999(dof: usize) -> f64 {
+pub(crate) fn chi2_per_dof_999(dof: usize) -> f64 {
     let k = dof as f64;
     let a = 2.0 / (9.0 * k);
     (1.0 - a + 3.090_232_306_167_813 * a.sqrt()).powi(3)

@@ -12,7 +12,9 @@
 //! [`isotropic_curves`] ([`topo`] is the topographic layer); the pixel-level
 //! distribution of normals and the flake- against pixel-level width in [`pixels`];
 //! measurement against model in [`compare`], fitting of the orientation distribution in
-//! [`fit`], multi-angle readouts in [`multiangle`], Mueller matrices, polariser/analyser
+//! [`fit`], multi-angle readouts in [`multiangle`] (single wavelength) and
+//! [`spectral`] (per-wavelength models, CIELAB per geometry, ΔE against measured
+//! multi-angle colour, the width fitted to `L*`), Mueller matrices, polariser/analyser
 //! readings and the degree of polarisation in [`polarimetry`], the three-dimensional
 //! layer with multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is
 //! its crate), what a plot shows in [`chart`], and the paper's figures in kind in
@@ -83,6 +85,7 @@ pub mod pipeline;
 pub mod pixels;
 pub mod polarimetry;
 pub mod reproduce;
+pub mod spectral;
 pub mod stack;
 pub mod volume;
 
@@ -134,4 +137,8 @@ pub enum PipelineError {
     /// A polarisation setting that cannot be honoured.
     #[error("polarisation: {0}")]
     Polarization(String),
+    /// A spectral setting (wavelengths, dispersion, absorption, colorimetry) that cannot
+    /// be honoured.
+    #[error("{0}")]
+    Spectral(String),
 }

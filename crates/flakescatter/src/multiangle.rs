@@ -12,6 +12,8 @@
 //! wavelength stands in for the luminance factor `Y`, which is a weighted integral over
 //! the visible spectrum. For neutral (grey) aluminium coatings the spectrum is nearly flat
 //! and the approximation is fair; for coloured coatings it is not a colorimetric value.
+//! The spectral readout with real colorimetry (what `flakescatter model --multi-angle`
+//! computes) is [`crate::spectral::multi_angle_colour`].
 
 use crate::PipelineError;
 use crate::instrument::{DetectorSet, Instrument};

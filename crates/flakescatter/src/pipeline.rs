@@ -6,6 +6,7 @@
 //! specular direction (physics.md §4).
 
 use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
+use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::polarization::{Transmission, Weighting};
 use flakescatter_stats::heightmap::HeightMap;
@@ -148,9 +149,24 @@ pub fn distribution_curves(
     settings: &Settings,
     source: &OrientationSource,
 ) -> Result<Curves, PipelineError> {
-    let orientation = source.orientation()?;
+    distribution_curves_of(coating, instrument, settings, source.orientation()?, None)
+}
+
+/// [`distribution_curves`] for an orientation distribution, with the binder's absorption
+/// along each ray's path when `absorption` is given (physics.md §8.1; `None` is exactly
+/// [`distribution_curves`]).
+pub(crate) fn distribution_curves_of(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    orientation: Orientation,
+    absorption: Option<PathAbsorption>,
+) -> Result<Curves, PipelineError> {
     let description = describe(&orientation);
-    let model = distribution_model(coating, settings, orientation)?;
+    let mut model = distribution_model(coating, settings, orientation)?;
+    if let Some(a) = absorption {
+        model = model.with_absorption(a);
+    }
     let points = flakescatter_gaussian::curve(
         &model,
         instrument.theta_i(),
@@ -230,13 +246,27 @@ pub fn topographic_curves(
     maps: &[&HeightMap],
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(Curves, TopoResult), PipelineError> {
+    topographic_curves_of(coating, None, instrument, settings, topo, maps, progress)
+}
+
+/// [`topographic_curves`] with the binder's absorption along each ray's path when
+/// `absorption` is given (physics.md §8.1; `None` is exactly [`topographic_curves`]).
+pub(crate) fn topographic_curves_of(
+    coating: &Coating,
+    absorption: Option<PathAbsorption>,
+    instrument: &Instrument,
+    settings: &Settings,
+    topo: &TopoSettings,
+    maps: &[&HeightMap],
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(Curves, TopoResult), PipelineError> {
     if instrument.aperture() <= 0.0 {
         return Err(PipelineError::Instrument(
             "the topographic model counts rays into detector cones: the aperture must be > 0"
                 .into(),
         ));
     }
-    let model = TopoModel::new(TopoOptions {
+    let mut model = TopoModel::new(TopoOptions {
         n: coating.n,
         transmission: settings.transmission,
         weighting: settings.weighting,
@@ -245,6 +275,9 @@ pub fn topographic_curves(
         window: topo.window,
     })?
     .with_block_um(topo.tile_um)?;
+    if let Some(a) = absorption {
+        model = model.with_absorption(a);
+    }
     let result =
         model.run_with_progress(maps, instrument.theta_i(), instrument.cones(), progress)?;
     let nd = instrument.cones().len();

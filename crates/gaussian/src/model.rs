@@ -20,7 +20,13 @@
 //! rest. With [`Weighting::PaperPrinted`] `f` is multiplied by `cos θ2 / cos θo`, the
 //! printed eq. 9/13 weight, which breaks energy conservation (physics.md §4). The full
 //! Mueller matrix of the point BRDF is in [`crate::mueller`].
+//!
+//! With binder absorption ([`DistributionModel::with_absorption`], physics.md §8.1) every
+//! ray's power, scalar or Mueller, is multiplied by the factor
+//! [`PathAbsorption::factor`]`(cos θt, cos θ2)` of its path inside the film; without it
+//! nothing is multiplied (the default path is unchanged to the bit).
 
+use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel::{self, FresnelPower};
 use flakescatter_optics::jones::{self, PathAmplitudes, RayPath, Transfer};
@@ -70,6 +76,7 @@ pub struct DistributionModel {
     n: f64,
     options: ModelOptions,
     inv_mean_cos: f64,
+    absorption: Option<PathAbsorption>,
 }
 
 /// Everything about one incidence angle that does not depend on the exit direction.
@@ -122,7 +129,29 @@ impl DistributionModel {
             n,
             options,
             inv_mean_cos,
+            absorption: None,
         })
+    }
+
+    /// The same model with the binder absorbing along each ray's path inside the film
+    /// (module docs; physics.md §8.1).
+    #[must_use]
+    pub fn with_absorption(mut self, absorption: PathAbsorption) -> Self {
+        self.absorption = Some(absorption);
+        self
+    }
+
+    /// The binder absorption, if any.
+    #[must_use]
+    pub fn absorption(&self) -> Option<&PathAbsorption> {
+        self.absorption.as_ref()
+    }
+
+    /// The absorption factor of a ray with inside cosines `cos_t`, `cos_2`; `None`
+    /// without absorption (so that nothing is multiplied).
+    #[inline]
+    pub(crate) fn absorption_factor(&self, cos_t: f64, cos_2: f64) -> Option<f64> {
+        self.absorption.as_ref().map(|a| a.factor(cos_t, cos_2))
     }
 
     /// The coating index.
@@ -210,6 +239,9 @@ impl DistributionModel {
         let mut f = factor * p2 * self.inv_mean_cos / (4.0 * n * n * inc.cos_t * c2);
         if self.options.weighting == Weighting::PaperPrinted {
             f *= c2 / r.z;
+        }
+        if let Some(a) = self.absorption_factor(inc.cos_t, c2) {
+            f *= a;
         }
         f
     }
@@ -343,6 +375,9 @@ impl DistributionModel {
         let mut w = self.path_factor(inc, m, gamma, &k2, &out) * gamma / inc.cos_t;
         if self.options.weighting == Weighting::PaperPrinted {
             w *= k2.z / out.z;
+        }
+        if let Some(a) = self.absorption_factor(inc.cos_t, k2.z) {
+            w *= a;
         }
         Some((w, out))
     }

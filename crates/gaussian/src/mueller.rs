@@ -193,6 +193,9 @@ impl DistributionModel {
         if self.options().weighting == Weighting::PaperPrinted {
             k *= c2 / r.z;
         }
+        if let Some(a) = self.absorption_factor(inc.cos_t, c2) {
+            k *= a;
+        }
         let jones = match frame {
             Some(u) => t.jones.rotate_out(exit_frame(&r, u)),
             None => t.jones,
@@ -221,6 +224,9 @@ impl DistributionModel {
         let mut w = t.power_scale * gamma / inc.cos_t;
         if self.options().weighting == Weighting::PaperPrinted {
             w *= k2.z / out.z;
+        }
+        if let Some(a) = self.absorption_factor(inc.cos_t, k2.z) {
+            w *= a;
         }
         Some((t.jones.mueller() * w, out))
     }

@@ -1,6 +1,7 @@
 //! File formats for flakescatter: height maps (X3P, ISO 25178-71 SDF, plain-text
-//! matrices with Gwyddion headers), flake tables, histograms, measured curves and
-//! detector lists.
+//! matrices with Gwyddion headers), flake tables, histograms, measured curves,
+//! detector lists and spectral files (optical constants, reflectance spectra, measured
+//! multi-angle colour).
 //!
 //! Only this crate (and the CLI) touches files. Every height-map reader returns a
 //! [`HeightMap`](flakescatter_stats::heightmap::HeightMap) in micrometres (heights and
@@ -36,6 +37,7 @@ pub mod map;
 pub mod measured;
 pub mod reader;
 pub mod sdf;
+pub mod spectral;
 pub mod stack;
 pub mod table;
 pub mod text;

@@ -13,6 +13,9 @@
 //! * [`flake`]: flake reflectance (perfect conductor or complex index);
 //! * [`material`]: optical constants of flake metals versus wavelength (built-in
 //!   aluminium tables, user tables);
+//! * [`dispersion`]: the clear coat's real index versus wavelength (constant, Cauchy,
+//!   table) and tables of real quantities versus wavelength;
+//! * [`absorption`]: the binder's absorption along a ray's path inside the film;
 //! * [`polarization`]: how Fresnel factors combine (`exact-unpolarized`, `paper`, `s`,
 //!   `p`), the `physical` vs `paper-printed` weighting, and the clear coat's own
 //!   specular reflectance (physics.md §6);
@@ -52,7 +55,9 @@
 //! assert!((t0 - 0.96).abs() < 1e-12);
 //! ```
 
+pub mod absorption;
 pub mod detector;
+pub mod dispersion;
 pub mod flake;
 pub mod fresnel;
 pub mod jones;

@@ -996,6 +996,11 @@ impl TopoModel {
         options: &IsotropicOptions,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<IsotropicResult, TopoError> {
+        if self.absorption().is_some() {
+            return Err(TopoError::Unsupported(
+                "the isotropic average does not include binder absorption (its weight is integrated around each ring without the path factor); use the plain topographic model",
+            ));
+        }
         self.check_run(maps, theta_i, cones)?;
         let opts = self.options();
         let n = opts.n;

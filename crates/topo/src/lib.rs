@@ -129,6 +129,9 @@ pub enum TopoError {
     /// The statistics tile size is not finite and positive.
     #[error("tile size {0} um is not valid: expected a finite number > 0")]
     BlockSize(f64),
+    /// An option the requested computation does not implement (instead of ignoring it).
+    #[error("{0}")]
+    Unsupported(&'static str),
     /// The histogram bin width is not finite, not positive or above π/4.
     #[error("bin width {0} rad is not valid: expected a finite number in (0, pi/4]")]
     BinWidth(f64),

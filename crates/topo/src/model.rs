@@ -30,6 +30,10 @@
 //!    cones each count), found through a grid index over `(k_out.x, k_out.y)`.
 //! 5. With the clear coat on, `R(θi)` ([`Transmission::clearcoat_reflectance`]) is added
 //!    to every cone that contains the specular direction (physics.md §6).
+//! 6. With binder absorption ([`TopoModel::with_absorption`], physics.md §8.1) each ray's
+//!    contribution (scalar or Mueller) is multiplied by
+//!    [`PathAbsorption::factor`]`(cos θt, k2.z)`; the flakes' depth is the absorption's
+//!    depth model, not read from the map. Without it nothing is multiplied.
 //!
 //! On a map of flat flakes whose normals follow a distribution, the pixel normals are
 //! projected-area weighted (density `D(m) m.z` per usable pixel), so the expected
@@ -68,6 +72,7 @@
 //! per-tile sums are reduced in tile order: the result is bit-identical for any number of
 //! rayon threads.
 
+use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::detector::{self, Cone};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel::{self, FresnelPower};
@@ -168,6 +173,7 @@ impl Default for TopoOptions {
 pub struct TopoModel {
     options: TopoOptions,
     block_um: f64,
+    absorption: Option<PathAbsorption>,
 }
 
 /// One incidence × one detector of a [`TopoResult`].
@@ -383,6 +389,7 @@ struct Setup<'a> {
     scale: Vec<f64>,
     ndet: usize,
     options: &'a TopoOptions,
+    absorption: Option<PathAbsorption>,
 }
 
 /// What the tiles of a run add up to, before the per-detector values are formed.
@@ -427,7 +434,22 @@ impl TopoModel {
         Ok(Self {
             options,
             block_um: DEFAULT_BLOCK_UM,
+            absorption: None,
         })
+    }
+
+    /// The same model with the binder absorbing along each ray's path inside the film
+    /// (module docs, step 6). The isotropic average refuses a model with absorption.
+    #[must_use]
+    pub fn with_absorption(mut self, absorption: PathAbsorption) -> Self {
+        self.absorption = Some(absorption);
+        self
+    }
+
+    /// The binder absorption, if any.
+    #[must_use]
+    pub fn absorption(&self) -> Option<&PathAbsorption> {
+        self.absorption.as_ref()
     }
 
     /// The same model with statistics tiles of side `block_um` µm.
@@ -682,6 +704,7 @@ impl TopoModel {
             scale,
             ndet,
             options: &self.options,
+            absorption: self.absorption,
         };
 
         let jobs: Vec<(usize, Rect)> = maps
@@ -824,6 +847,7 @@ fn trace_tile<A: Accumulator>(
             }
             let oz = (1.0 - s2).sqrt();
             let mut weight = None;
+            let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, k2z));
             for e in setup.index.candidates(ox, oy) {
                 if e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha {
                     let ray = Ray {
@@ -834,11 +858,15 @@ fn trace_tile<A: Accumulator>(
                     };
                     let w = weight.get_or_insert_with(|| acc.weigh(opts, inc, &ray));
                     let d = e.index as usize;
+                    let scale = match absorbed {
+                        Some(a) => setup.scale[d] * a,
+                        None => setup.scale[d],
+                    };
                     acc.add(
                         w,
                         &ray,
                         &setup.cones[d],
-                        setup.scale[d],
+                        scale,
                         &mut sums[d * channels..(d + 1) * channels],
                     );
                     counts[d] += 1;

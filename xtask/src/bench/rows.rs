@@ -116,6 +116,10 @@ pub const TARGETS: &[BenchTarget] = &[
         package: "flakescatter-volume",
         bench: "volume",
     },
+    BenchTarget {
+        package: "flakescatter",
+        bench: "spectral",
+    },
 ];
 
 /// Usable pixels of an `n × n` map with the default 5 × 5 normal window: `(n − 4)²`.
@@ -219,6 +223,17 @@ pub const ROWS: &[RowSpec] = &[
         unit: Unit::Detectors,
         target: Some(Target::MaxSeconds(0.020)),
         target_note: "< 20 ms, 1 thread",
+        quick: true,
+    },
+    RowSpec {
+        operation: "Spectral distribution model, ASTM E2194 set + colorimetry",
+        size: "41 λ × 6",
+        id: "spectral/multi_angle_41wl_e2194",
+        floor: None,
+        work: 246.0,
+        unit: Unit::Detectors,
+        target: None,
+        target_note: "",
         quick: true,
     },
     RowSpec {

@@ -11,7 +11,7 @@ use flakescatter::compare::{
 use flakescatter::io::curves::read_curve;
 use serde_json::{Value, json};
 
-use crate::flags::{MeasuredArgs, OrientationArgs};
+use crate::flags::{ColourArgs, DEFAULT_WAVELENGTHS, MeasuredArgs, OrientationArgs, SpectralArgs};
 use crate::output::{Dest, Kind, Plan, print, print_json, warn};
 use crate::parse::{deg, deg_num, fixed};
 use crate::tables::write_compared;
@@ -30,12 +30,16 @@ pub struct Args {
     pub measured: MeasuredArgs,
     #[command(flatten)]
     pub orientation: OrientationArgs,
+    #[command(flatten)]
+    pub spectral: SpectralArgs,
+    #[command(flatten)]
+    pub colour: ColourArgs,
     /// Compare against a result CSV written by `model` or `topo` (columns theta_i_deg,
     /// theta_s_deg, aperture_deg, brdf_per_sr, relative) instead of computing the model;
     /// the model flags do not apply then and are refused.
     #[arg(long, value_name = "FILE", conflicts_with_all = [
         "hwhm", "sigma", "rms_tilt", "distribution", "orientation", "n", "clearcoat",
-        "no_clearcoat", "transmission", "weighting", "flake_index",
+        "no_clearcoat", "transmission", "weighting", "flake_index", "measured_multiangle",
     ])]
     pub model: Option<PathBuf>,
     /// Write one CSV row per measured point: theta_i_deg, theta_s_deg, region, measured,
@@ -100,6 +104,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan.stdout("the table");
     }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
+    args.spectral.inputs(&mut plan);
+    if args.measured.measured_multiangle.is_some() {
+        return multi_angle(&args, plan, out, plot.is_some());
+    }
+    if args.spectral.any() || args.colour.any() {
+        bail!(
+            "{}: the spectral and colour flags apply to --measured-multiangle",
+            args.spectral
+                .first_flag()
+                .unwrap_or("--illuminant/--observer")
+        );
+    }
     args.measured.validate()?;
     let coating = args.measured.optics.coating()?;
     let settings = args.measured.settings();
@@ -181,6 +197,58 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print(&table_text(&results))?;
     }
     Ok(())
+}
+
+/// `--measured-multiangle`: the spectral distribution model's CIELAB at the measured
+/// geometries against the measured colour, ΔE per geometry.
+fn multi_angle(args: &Args, plan: Plan, out: Option<Dest>, plot: bool) -> anyhow::Result<()> {
+    let Some(path) = &args.measured.measured_multiangle else {
+        bail!("--measured-multiangle FILE is needed here");
+    };
+    if plot {
+        bail!("--plot draws curves; it does not apply to --measured-multiangle");
+    }
+    args.orientation.validate()?;
+    args.spectral.validate()?;
+    let aperture = args.measured.optics.aperture_rad()?;
+    if aperture <= 0.0 {
+        bail!(
+            "--aperture 0: multi-angle colour is a reflectance factor over the detector cone; give the instrument's half-angle (> 0)"
+        );
+    }
+    let wavelengths = args
+        .spectral
+        .wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
+        .unwrap_or_default();
+    plan.check()?;
+    let file = flakescatter::io::spectral::read_multiangle(path)
+        .with_context(|| format!("reading --measured-multiangle {}", path.display()))?;
+    let (coating, coating_echo) = args.spectral.coating(&args.measured.optics)?;
+    let (orientation, orientation_echo) = args.orientation.orientation()?;
+    let source = flakescatter::OrientationSource::Distribution(orientation);
+    let settings = args.measured.settings();
+    let c = flakescatter::spectral::compare_multi_angle(
+        &file,
+        &coating,
+        &settings,
+        flakescatter::spectral::MultiAngleSource::Distribution(&source),
+        aperture,
+        &wavelengths,
+        args.colour.illuminant(),
+        args.colour.observer(),
+        &|_, _| {},
+    )
+    .with_context(|| format!("--measured-multiangle {}", path.display()))?;
+    let inputs = json!({
+        "measured_multiangle": path.display().to_string(),
+        "measured_kind": match file.data { flakescatter::io::spectral::MultiAngleData::Lab(_) => "cielab", _ => "spectra" },
+        "orientation": orientation_echo,
+        "coating": args.measured.optics.echo(settings.clearcoat),
+        "spectral": coating_echo,
+        "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
+        "colorimetry": args.colour.echo(),
+    });
+    crate::spectra::comparison_outputs(plan, &c, inputs, out.as_ref(), args.json)
 }
 
 /// The measured points whose model value is zero or undefined, `(θi, θs)` radians.

@@ -5,14 +5,16 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::chart::distribution_chart;
 use flakescatter::gaussian::ConeMethod;
-use flakescatter::multiangle::{MultiAngle, multi_angle_at};
+use flakescatter::spectral::{MultiAngleSource, multi_angle_colour, spectral_distribution_curves};
 use flakescatter::{OrientationSource, distribution_curves, distribution_mueller};
 use serde_json::json;
 
-use crate::flags::{InstrumentArgs, OrientationArgs, PolarizationArgs};
+use crate::flags::{
+    ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, OrientationArgs,
+    PolarizationArgs, SpectralArgs,
+};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
-use crate::parse::{angles, check_range, deg, deg_num, shortest};
-use crate::tables::{num, rows_json, units_json, write_curves, write_curves_with};
+use crate::tables::{rows_json, units_json, write_curves, write_curves_with};
 
 /// How detector cones are integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -43,12 +45,18 @@ pub struct Args {
     /// Cone integration.
     #[arg(long, value_enum, default_value = "exact")]
     pub cone: ConeKind,
-    /// Multi-angle readout instead of a curve: 45° incidence (or the one --theta-i),
-    /// aspecular −15°, 15°, 25°, 45°, 75°, 110°, reflectance factors (π × BRDF over the
-    /// --aperture cone) and the flop index (single-wavelength approximation; see
-    /// docs/physics.md).
+    #[command(flatten)]
+    pub spectral: SpectralArgs,
+    /// Multi-angle colour instead of a curve: the --geometry-set (ASTM E2194: 45°
+    /// incidence, or the one --theta-i, aspecular −15°, 15°, 25°, 45°, 75°, 110°) or
+    /// --aspecular angles; spectral reflectance factors (π × BRDF over the --aperture
+    /// cone) at --wavelengths, CIELAB per geometry and the flop index.
     #[arg(long)]
     pub multi_angle: bool,
+    #[command(flatten)]
+    pub geometry: GeometryArgs,
+    #[command(flatten)]
+    pub colour: ColourArgs,
     /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -67,6 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
     args.instrument.inputs(&mut plan);
     args.source.inputs(&mut plan);
+    args.spectral.inputs(&mut plan);
     let table = plan.table("--out", args.out.as_deref(), args.json);
     if args.json {
         plan.stdout("--json");
@@ -86,32 +95,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "--polarization/--incident/--analyzer do not apply to --multi-angle: its readout is for unpolarised light (--transmission s|p give a polarised beam)"
             );
         }
-        if plot.is_some() {
-            bail!("--plot draws curves; it does not apply to --multi-angle");
-        }
-        if args.instrument.theta_s.is_some() || args.instrument.detectors.is_some() {
+        return multi_angle(&args, plan, table, plot.is_some(), &settings);
+    }
+    if args.geometry.any() || args.colour.any() {
+        bail!(
+            "--geometry-set/--aspecular/--spectra-out/--illuminant/--observer apply to --multi-angle"
+        );
+    }
+    if args.spectral.any() {
+        if polarimetry.is_some() {
             bail!(
-                "--theta-s/--detectors do not apply to --multi-angle: its detectors are the six aspecular angles"
+                "--polarization/--incident/--analyzer do not apply to --wavelengths: the spectral curves are for unpolarised light (or --transmission s|p)"
             );
         }
-        let text = args.instrument.theta_i.as_deref().unwrap_or("45");
-        let ti = angles("--theta-i", text)?;
-        check_range("--theta-i", &ti, 0.0, 90.0, false, true)?;
-        let [theta_i] = ti.as_slice() else {
-            bail!("--theta-i {text}: --multi-angle gives one readout; give one incidence");
-        };
-        let aperture = args.instrument.optics.aperture_rad()?;
-        plan.check()?;
-        let (orientation, echo) = args.source.orientation()?;
-        let m = multi_angle_at(
-            &coating,
-            &settings,
-            &OrientationSource::Distribution(orientation),
-            theta_i.to_radians(),
-            aperture,
-        )
-        .context("--multi-angle (needs --aperture > 0)")?;
-        return multi_angle_out(&args, plan, table, &m, echo);
+        return spectral_curves(&args, plan, table, plot.is_some(), &settings);
     }
     let instrument = args.instrument.instrument()?;
     plan.check()?;
@@ -197,56 +194,154 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     plan.finish()
 }
 
-/// Writes `--multi-angle`: the six-angle readout and the flop index.
-fn multi_angle_out(
+/// `--wavelengths` without `--multi-angle`: the curves at every wavelength.
+fn spectral_curves(
     args: &Args,
     mut plan: Plan,
     table: Option<Dest>,
-    m: &MultiAngle,
-    orientation_echo: serde_json::Value,
+    plot: bool,
+    settings: &flakescatter::Settings,
 ) -> anyhow::Result<()> {
-    let ti = deg(m.theta_i);
-    let aperture = deg(m.aperture);
-    if let Some(dest) = &table {
-        let mut text = String::from(
-            "theta_i_deg,aspecular_deg,theta_s_deg,aperture_deg,reflectance_factor,lightness_l_star\n",
+    let Some(wavelengths) = args.spectral.wavelengths_nm(None)? else {
+        bail!(
+            "{} describes the coating versus wavelength: give --wavelengths LIST (nm), e.g. 380:780:10, or --multi-angle",
+            args.spectral.first_flag().unwrap_or("a spectral flag")
         );
-        for r in &m.readouts {
-            text.push_str(&format!(
-                "{ti},{},{},{aperture},{},{}\n",
-                deg(r.aspecular),
-                shortest(deg_num(r.aspecular) - deg_num(m.theta_i)),
-                num(r.reflectance_factor),
-                num(r.lightness)
-            ));
+    };
+    if plot {
+        bail!("--plot draws the curves of one wavelength; it does not apply to --wavelengths");
+    }
+    args.spectral.validate()?;
+    let instrument = args.instrument.instrument()?;
+    let rows = instrument.theta_i().len() as f64
+        * instrument.detectors().len() as f64
+        * wavelengths.len() as f64;
+    if rows > crate::flags::MAX_ROWS as f64 {
+        bail!(
+            "--wavelengths with --theta-i and --theta-s: {rows:e} rows is more than the limit of {}",
+            crate::flags::MAX_ROWS
+        );
+    }
+    plan.check()?;
+    let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
+    let (orientation, orientation_echo) = args.source.orientation()?;
+    let s = spectral_distribution_curves(
+        &coating,
+        &wavelengths,
+        &instrument,
+        settings,
+        &OrientationSource::Distribution(orientation),
+    )?;
+    let mut warnings = Vec::new();
+    for (w, c) in s.wavelengths_nm.iter().zip(&s.curves) {
+        for msg in crate::tables::curve_warnings(c, false) {
+            let msg = format!("{w} nm: {msg}");
+            if !warnings.contains(&msg) {
+                warnings.push(msg);
+            }
         }
+    }
+    for w in &warnings {
+        warn(w);
+    }
+    if let Some(dest) = &table {
+        let n: usize = s.curves.iter().map(|c| c.rows.len()).sum();
         plan.write(
             dest,
-            |w| Ok(w.write_all(text.as_bytes())?),
-            Some(format!("{} rows", m.readouts.len())),
+            |w| crate::spectra::write_spectral_curves(w, &s, false),
+            Some(format!("{n} rows")),
         )?;
     }
     plan.finish()?;
     if args.json {
-        let summary = json!({
+        let mut summary = json!({
             "version": env!("CARGO_PKG_VERSION"),
-            "command": "model --multi-angle",
-            "inputs": {"instrument": args.instrument.optics.echo(args.instrument.clearcoat), "orientation": orientation_echo},
-            "theta_i_deg": deg_num(m.theta_i),
-            "aperture_deg": deg_num(m.aperture),
-            "readouts": m.readouts.iter().map(|r| json!({
-                "aspecular_deg": deg_num(r.aspecular),
-                "theta_s_deg": deg_num(r.aspecular) - deg_num(m.theta_i),
-                "reflectance_factor": r.reflectance_factor,
-                "lightness_l_star": r.lightness,
-            })).collect::<Vec<_>>(),
-            "flop_index": m.flop_index,
-            "flop_index_formula": "2.69 (L*15 - L*110)^1.11 / (L*45)^0.86, L* = CIE 1976 lightness of the reflectance factor (standardised for 45° incidence)",
-            "approximation": "single wavelength: the monochromatic reflectance factor stands in for the luminance factor Y",
-            "units": {"reflectance_factor": "pi x BRDF averaged over the detector cone (1 for a perfect diffuser)"},
+            "command": "model --wavelengths",
+            "model": "distribution",
+            "inputs": {
+                "instrument": args.instrument.echo(),
+                "orientation": orientation_echo,
+                "spectral": coating_echo,
+                "wavelengths_nm": args.spectral.wavelengths_text(""),
+            },
+            "units": units_json(),
+            "warnings": warnings,
             "out": args.out.as_ref().map(|p| p.display().to_string()),
         });
+        if table.is_none() {
+            summary["rows"] = crate::spectra::spectral_rows_json(&s);
+        } else {
+            summary["row_count"] = json!(s.curves.iter().map(|c| c.rows.len()).sum::<usize>());
+        }
         print_json(&summary)?;
     }
     Ok(())
+}
+
+/// `--multi-angle`: CIELAB per geometry of the set, from the spectral model.
+fn multi_angle(
+    args: &Args,
+    mut plan: Plan,
+    table: Option<Dest>,
+    plot: bool,
+    settings: &flakescatter::Settings,
+) -> anyhow::Result<()> {
+    if plot {
+        bail!("--plot draws curves; it does not apply to --multi-angle");
+    }
+    if args.instrument.theta_s.is_some() || args.instrument.detectors.is_some() {
+        bail!(
+            "--theta-s/--detectors do not apply to --multi-angle: its detectors are the geometry set's aspecular angles"
+        );
+    }
+    let spectra = plan.output(
+        "--spectra-out",
+        args.geometry.spectra_out.as_deref(),
+        Kind::Table,
+    );
+    let set = args.geometry.set(args.instrument.theta_i.as_deref())?;
+    let aperture = args.instrument.optics.aperture_rad()?;
+    if aperture <= 0.0 {
+        bail!(
+            "--aperture 0: --multi-angle gives reflectance factors over the detector cone; give a half-angle > 0"
+        );
+    }
+    let wavelengths = args
+        .spectral
+        .wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
+        .unwrap_or_default();
+    args.spectral.validate()?;
+    plan.check()?;
+    let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
+    let (orientation, orientation_echo) = args.source.orientation()?;
+    let source = OrientationSource::Distribution(orientation);
+    let m = multi_angle_colour(
+        &coating,
+        settings,
+        MultiAngleSource::Distribution(&source),
+        &set,
+        aperture,
+        &wavelengths,
+        args.colour.illuminant(),
+        args.colour.observer(),
+        &|_, _| {},
+    )
+    .context("--multi-angle")?;
+    let inputs = json!({
+        "instrument": args.instrument.optics.echo(args.instrument.clearcoat),
+        "orientation": orientation_echo,
+        "spectral": coating_echo,
+        "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
+        "colorimetry": args.colour.echo(),
+    });
+    crate::spectra::multi_angle_outputs(
+        plan,
+        "model --multi-angle",
+        &m,
+        inputs,
+        table.as_ref(),
+        spectra.as_ref(),
+        args.json,
+        args.out.as_deref(),
+    )
 }

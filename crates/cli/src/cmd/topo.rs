@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::chart::topographic_chart;
+use flakescatter::spectral::{MultiAngleSource, multi_angle_colour, spectral_topographic_curves};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::topo::{DEFAULT_BLOCK_UM, IsotropicResult, TopoResult, TopoWarning};
 use flakescatter::{
@@ -14,7 +15,10 @@ use flakescatter::{
 };
 use serde_json::{Value, json};
 
-use crate::flags::{InstrumentArgs, MapArgs, PolarizationArgs};
+use crate::flags::{
+    ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, MapArgs, PolarizationArgs,
+    SpectralArgs,
+};
 use crate::maps::{check_cutoff, read_masked};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
 use crate::tables::{curve_warnings, rows_json, units_json, write_curves, write_curves_with};
@@ -77,6 +81,18 @@ pub struct Args {
     /// read for that polarisation, from each ray's Mueller matrix.
     #[command(flatten)]
     pub polarization: PolarizationArgs,
+    #[command(flatten)]
+    pub spectral: SpectralArgs,
+    /// Multi-angle colour instead of a curve: the --geometry-set (ASTM E2194: 45°
+    /// incidence, or the one --theta-i) or --aspecular angles; spectral reflectance
+    /// factors over the --aperture cone at --wavelengths, CIELAB per geometry (with the
+    /// standard error of L* from the map tiles) and the flop index.
+    #[arg(long)]
+    pub multi_angle: bool,
+    #[command(flatten)]
+    pub geometry: GeometryArgs,
+    #[command(flatten)]
+    pub colour: ColourArgs,
     /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -162,6 +178,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan.input("--intensity", i);
     }
     args.instrument.inputs(&mut plan);
+    args.spectral.inputs(&mut plan);
     let table = plan.table("--out", args.out.as_deref(), args.json);
     if args.json {
         plan.stdout("--json");
@@ -175,11 +192,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--isotropic with --polarization/--incident/--analyzer: the rotation average is scalar (unpolarised, or --transmission s|p); the Mueller form is computed for the map as it lies (leave out --isotropic)"
         );
     }
+    if (args.multi_angle || args.spectral.any()) && (args.isotropic || polarimetry.is_some()) {
+        bail!(
+            "--multi-angle and --wavelengths run the plain topographic model for unpolarised light: leave out --isotropic, --polarization, --incident and --analyzer"
+        );
+    }
     validate(&args)?;
     if args.instrument.optics.aperture_rad()? <= 0.0 {
         bail!(
             "--aperture 0: the topographic model counts rays into detector cones; give a half-angle > 0"
         );
+    }
+    if args.multi_angle {
+        return multi_angle(&args, plan, table, plot.is_some(), &settings);
+    }
+    if args.geometry.any() || args.colour.any() {
+        bail!(
+            "--geometry-set/--aspecular/--spectra-out/--illuminant/--observer apply to --multi-angle"
+        );
+    }
+    if args.spectral.any() {
+        return spectral_curves(&args, plan, table, plot.is_some(), &settings);
     }
     let instrument = args.instrument.instrument()?;
     args.calibration.read_options()?;
@@ -376,6 +409,222 @@ fn interpolation_summary(r: &IsotropicResult) -> Value {
         .map(|(e, p)| e / p.reflectance)
         .fold(0.0, f64::max);
     json!({ "max": max, "max_relative": max_relative })
+}
+
+/// A progress bar on stderr when it is a terminal and `work` (pixels × runs) is large.
+fn progress_bar(work: f64) -> Option<indicatif::ProgressBar> {
+    (std::io::stderr().is_terminal() && work > 2e7).then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("tracing {bar:40} {pos}/{len} tiles {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    })
+}
+
+/// `--wavelengths` without `--multi-angle`: the curves at every wavelength.
+fn spectral_curves(
+    args: &Args,
+    mut plan: Plan,
+    table: Option<Dest>,
+    plot: bool,
+    settings: &flakescatter::Settings,
+) -> anyhow::Result<()> {
+    let Some(wavelengths) = args.spectral.wavelengths_nm(None)? else {
+        bail!(
+            "{} describes the coating versus wavelength: give --wavelengths LIST (nm), e.g. 380:780:10, or --multi-angle",
+            args.spectral.first_flag().unwrap_or("a spectral flag")
+        );
+    };
+    if plot {
+        bail!("--plot draws the curves of one wavelength; it does not apply to --wavelengths");
+    }
+    args.spectral.validate()?;
+    let instrument = args.instrument.instrument()?;
+    let rows = instrument.theta_i().len() as f64
+        * instrument.detectors().len() as f64
+        * wavelengths.len() as f64;
+    if rows > crate::flags::MAX_ROWS as f64 {
+        bail!(
+            "--wavelengths with --theta-i and --theta-s: {rows:e} rows is more than the limit of {}",
+            crate::flags::MAX_ROWS
+        );
+    }
+    args.calibration.read_options()?;
+    plan.check()?;
+    let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
+    let maps = load_maps(args)?;
+    let refs: Vec<&HeightMap> = maps.iter().collect();
+    let runs = if coating.is_wavelength_independent() {
+        1
+    } else {
+        wavelengths.len()
+    };
+    let pixels: usize = maps.iter().map(HeightMap::len).sum();
+    let bar = progress_bar(pixels as f64 * instrument.theta_i().len() as f64 * runs as f64);
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    };
+    let topo = TopoSettings {
+        window: args.window,
+        tile_um: args.tile_um,
+    };
+    let s = spectral_topographic_curves(
+        &coating,
+        &wavelengths,
+        &instrument,
+        settings,
+        &topo,
+        &refs,
+        &progress,
+    )
+    .with_context(|| format!("--window {}, --tile-um {}", args.window, args.tile_um))?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let mut warnings: Vec<String> = s.topo[0]
+        .warnings
+        .iter()
+        .map(|w| format!("{w} (--tile-um {})", args.tile_um))
+        .collect();
+    let all_missing = s.topo[0]
+        .warnings
+        .iter()
+        .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
+    for (w, c) in s.wavelengths_nm.iter().zip(&s.curves) {
+        for msg in curve_warnings(c, !all_missing) {
+            let msg = format!("{w} nm: {msg}");
+            if !warnings.contains(&msg) {
+                warnings.push(msg);
+            }
+        }
+    }
+    for w in &warnings {
+        warn(w);
+    }
+    if let Some(dest) = &table {
+        let n: usize = s.curves.iter().map(|c| c.rows.len()).sum();
+        plan.write(
+            dest,
+            |w| crate::spectra::write_spectral_curves(w, &s, true),
+            Some(format!("{n} rows")),
+        )?;
+    }
+    plan.finish()?;
+    if args.json {
+        let mut j = summary(args, &maps, &Totals::Plain(s.topo[0].clone()), &s.curves[0]);
+        j["command"] = json!("topo --wavelengths");
+        j["inputs"]["spectral"] = coating_echo;
+        j["inputs"]["wavelengths_nm"] = json!(args.spectral.wavelengths_text(""));
+        j["warnings"] = json!(warnings);
+        if table.is_none() {
+            j["rows"] = crate::spectra::spectral_rows_json(&s);
+        } else {
+            j["row_count"] = json!(s.curves.iter().map(|c| c.rows.len()).sum::<usize>());
+        }
+        print_json(&j)?;
+    }
+    Ok(())
+}
+
+/// `--multi-angle`: CIELAB per geometry of the set, from the spectral topographic model.
+fn multi_angle(
+    args: &Args,
+    mut plan: Plan,
+    table: Option<Dest>,
+    plot: bool,
+    settings: &flakescatter::Settings,
+) -> anyhow::Result<()> {
+    if plot {
+        bail!("--plot draws curves; it does not apply to --multi-angle");
+    }
+    if args.instrument.theta_s.is_some() || args.instrument.detectors.is_some() {
+        bail!(
+            "--theta-s/--detectors do not apply to --multi-angle: its detectors are the geometry set's aspecular angles"
+        );
+    }
+    let spectra = plan.output(
+        "--spectra-out",
+        args.geometry.spectra_out.as_deref(),
+        Kind::Table,
+    );
+    let set = args.geometry.set(args.instrument.theta_i.as_deref())?;
+    let aperture = args.instrument.optics.aperture_rad()?;
+    let wavelengths = args
+        .spectral
+        .wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
+        .unwrap_or_default();
+    args.spectral.validate()?;
+    args.calibration.read_options()?;
+    plan.check()?;
+    let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
+    let maps = load_maps(args)?;
+    let refs: Vec<&HeightMap> = maps.iter().collect();
+    let runs = if coating.is_wavelength_independent() {
+        1
+    } else {
+        wavelengths.len()
+    };
+    let pixels: usize = maps.iter().map(HeightMap::len).sum();
+    let bar = progress_bar(pixels as f64 * set.incidences().len() as f64 * runs as f64);
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    };
+    let topo = TopoSettings {
+        window: args.window,
+        tile_um: args.tile_um,
+    };
+    let m = multi_angle_colour(
+        &coating,
+        settings,
+        MultiAngleSource::Topographic {
+            topo: &topo,
+            maps: &refs,
+        },
+        &set,
+        aperture,
+        &wavelengths,
+        args.colour.illuminant(),
+        args.colour.observer(),
+        &progress,
+    )
+    .with_context(|| {
+        format!(
+            "--multi-angle (--window {}, --tile-um {})",
+            args.window, args.tile_um
+        )
+    })?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let inputs = json!({
+        "maps": args.maps.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "intensity": args.intensity.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "cutoff": args.cutoff,
+        "window": args.window,
+        "tile_um": args.tile_um,
+        "instrument": args.instrument.optics.echo(args.instrument.clearcoat),
+        "spectral": coating_echo,
+        "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
+        "colorimetry": args.colour.echo(),
+    });
+    crate::spectra::multi_angle_outputs(
+        plan,
+        "topo --multi-angle",
+        &m,
+        inputs,
+        table.as_ref(),
+        spectra.as_ref(),
+        args.json,
+        args.out.as_deref(),
+    )
 }
 
 /// The `--json` summary (without the rows).

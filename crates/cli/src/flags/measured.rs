@@ -24,8 +24,18 @@ struct Selection {
 pub struct MeasuredArgs {
     /// Measured curve, CSV with header `theta_i_deg, theta_s_deg, value` and optionally
     /// `uncertainty` (one standard uncertainty, same unit as value).
-    #[arg(long, value_name = "FILE")]
-    pub measured: PathBuf,
+    #[arg(
+        long,
+        value_name = "FILE",
+        required_unless_present = "measured_multiangle"
+    )]
+    pub measured: Option<PathBuf>,
+    /// Measured multi-angle colour instead of a curve: CSV `theta_i_deg, aspecular_deg`
+    /// with `L, a, b` (optionally `L_uncertainty`) or with `wavelength_nm,
+    /// reflectance_factor` (one row per geometry and wavelength). `compare` gives ΔE per
+    /// geometry, `fit` fits the width to L*.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["measured", "measured_kind", "theta_i", "theta_s"])]
+    pub measured_multiangle: Option<PathBuf>,
     /// What `value` is: brdf (1/sr), reflectance-factor (π × BRDF) or relative (1 at
     /// specular).
     #[arg(long, value_name = "KIND", default_value = "brdf")]
@@ -51,9 +61,14 @@ pub struct MeasuredArgs {
 }
 
 impl MeasuredArgs {
-    /// Registers `--measured` as an input.
+    /// Registers `--measured` or `--measured-multiangle` as an input.
     pub fn inputs(&self, plan: &mut Plan) {
-        plan.input("--measured", &self.measured);
+        if let Some(m) = &self.measured {
+            plan.input("--measured", m);
+        }
+        if let Some(m) = &self.measured_multiangle {
+            plan.input("--measured-multiangle", m);
+        }
     }
 
     /// The `--theta-i` / `--theta-s` selections in degrees (`None` = all).
@@ -88,8 +103,11 @@ impl MeasuredArgs {
     /// Reads the measured file and keeps the selected points; says on stderr what was
     /// selected. Returns the curve and the JSON echo of the selection.
     pub fn read(&self) -> anyhow::Result<(MeasuredCurve, Value)> {
-        let all = read_measured(&self.measured)
-            .with_context(|| format!("reading --measured {}", self.measured.display()))?;
+        let Some(path) = &self.measured else {
+            anyhow::bail!("give --measured FILE (a goniometric curve)");
+        };
+        let all = read_measured(path)
+            .with_context(|| format!("reading --measured {}", path.display()))?;
         let Selection {
             theta_i: ti,
             theta_s: ts,
@@ -116,7 +134,7 @@ impl MeasuredArgs {
             "using {} of {} measured points of {} ({})",
             curve.points.len(),
             all.points.len(),
-            self.measured.display(),
+            path.display(),
             what.join(", ")
         ));
         let echo = json!({

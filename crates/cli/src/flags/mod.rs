@@ -1,6 +1,7 @@
 //! Flag groups shared by several subcommands (docs/cli.md "Instrument flags"): the
 //! coating and model settings, the instrument's angles, the measured curve, the
-//! orientation source, map calibration and segmentation, polarisation.
+//! orientation source, map calibration and segmentation, polarisation, the spectral
+//! models and the colorimetry.
 //!
 //! Degrees on the command line; every method here hands radians to the library.
 
@@ -8,11 +9,13 @@ mod instrument;
 mod measured;
 mod polarization;
 mod source;
+mod spectral;
 
-pub use instrument::{InstrumentArgs, OpticsArgs};
+pub use instrument::{InstrumentArgs, MAX_ROWS, OpticsArgs};
 pub use measured::MeasuredArgs;
 pub use polarization::PolarizationArgs;
 pub use source::{MapArgs, OrientationArgs, SegmentArgs, width};
+pub use spectral::{ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, SpectralArgs};
 
 /// Default incidences of `model` and `topo`, degrees.
 pub const DEFAULT_THETA_I: &str = "0,30,45,60,75";

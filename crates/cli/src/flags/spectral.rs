@@ -1,0 +1,445 @@
+//! Spectral flags (docs/cli.md "Spectral flags"): the wavelengths, the flakes' optical
+//! constants, the clear coat's dispersion, the binder's absorption; the colorimetry
+//! (illuminant, observer); the multi-angle geometry set.
+//!
+//! Wavelengths in nanometres and angles in degrees here; the library gets nanometres
+//! and radians.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use flakescatter::colour::{GeometrySet, Illuminant, Observer};
+use flakescatter::io::spectral::{read_absorption, read_coat_index, read_complex_index};
+use flakescatter::optics::absorption::FlakeDepth;
+use flakescatter::optics::dispersion::{Cauchy, CoatIndex, SpectralTable};
+use flakescatter::optics::material::ComplexIndexTable;
+use flakescatter::spectral::{BinderAbsorption, FlakeSpectrum, MAX_WAVELENGTHS, SpectralCoating};
+use serde_json::{Value, json};
+
+use super::OpticsArgs;
+use crate::output::Plan;
+use crate::parse::{angles, check_range};
+
+/// Default wavelengths of a colour computation, nm (CIE 015's 380–780 nm at 10 nm).
+pub const DEFAULT_WAVELENGTHS: &str = "380:780:10";
+
+/// Built-in optical constants of the flakes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum FlakeMaterial {
+    /// Aluminium, the built-in default table (Rakić 1995).
+    Aluminium,
+    /// Aluminium after Rakić, Appl. Opt. 34, 4755 (1995).
+    Rakic,
+    /// Aluminium after McPeak et al., ACS Photonics 2, 326 (2015).
+    Mcpeak,
+}
+
+impl FlakeMaterial {
+    fn table(self) -> &'static ComplexIndexTable {
+        match self {
+            Self::Aluminium | Self::Rakic => ComplexIndexTable::aluminium_rakic_1995(),
+            Self::Mcpeak => ComplexIndexTable::aluminium_mcpeak_2015(),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Aluminium | Self::Rakic => "aluminium-rakic-1995",
+            Self::Mcpeak => "aluminium-mcpeak-2015",
+        }
+    }
+}
+
+/// The spectral flags of `model`, `topo`, `compare` and `fit`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SpectralArgs {
+    /// Wavelengths in nm, a list or an inclusive range `start:stop:step` (e.g.
+    /// `380:780:10`): the model runs at each [default with --multi-angle and
+    /// --measured-multiangle: 380:780:10].
+    #[arg(long, value_name = "LIST")]
+    pub wavelengths: Option<String>,
+    /// Built-in optical constants of the flakes versus wavelength: aluminium (Rakić
+    /// 1995), rakic, mcpeak (McPeak et al. 2015). Default: a perfect conductor, or
+    /// --flake-index at every wavelength.
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["flake_nk", "flake_index"])]
+    pub flake_material: Option<FlakeMaterial>,
+    /// Optical constants of the flakes from a CSV `wavelength_nm,n,k`.
+    #[arg(long, value_name = "FILE", conflicts_with = "flake_index")]
+    pub flake_nk: Option<PathBuf>,
+    /// Clear-coat dispersion n(λ) = A + B/λ² + C/λ⁴ with λ in µm: `A,B` or `A,B,C`, B in
+    /// µm², C in µm⁴ (e.g. 1.49,0.0045). Replaces --n.
+    #[arg(long, value_name = "A,B[,C]", allow_hyphen_values = true, conflicts_with_all = ["coat_index", "n"])]
+    pub coat_cauchy: Option<String>,
+    /// Clear-coat index from a CSV `wavelength_nm,n` (linear between rows). Replaces --n.
+    #[arg(long, value_name = "FILE", conflicts_with = "n")]
+    pub coat_index: Option<PathBuf>,
+    /// Absorption of the binder along each ray's path inside the film: CSV
+    /// `wavelength_nm,alpha_per_um` (Napierian, for intensity, 1/µm). Needs
+    /// --flake-depth-um or --film-um.
+    #[arg(long, value_name = "FILE")]
+    pub binder_absorption: Option<PathBuf>,
+    /// With --binder-absorption: every flake at this depth below the top surface, µm
+    /// (path d/cos θt + d/cos θ2).
+    #[arg(
+        long,
+        value_name = "UM",
+        allow_negative_numbers = true,
+        requires = "binder_absorption",
+        conflicts_with = "film_um"
+    )]
+    pub flake_depth_um: Option<f64>,
+    /// With --binder-absorption: flakes spread uniformly over the depth of a film this
+    /// thick, µm (the depth average of the path factor).
+    #[arg(
+        long,
+        value_name = "UM",
+        allow_negative_numbers = true,
+        requires = "binder_absorption"
+    )]
+    pub film_um: Option<f64>,
+}
+
+impl SpectralArgs {
+    /// Registers the files as inputs.
+    pub fn inputs(&self, plan: &mut Plan) {
+        for (flag, p) in [
+            ("--flake-nk", &self.flake_nk),
+            ("--coat-index", &self.coat_index),
+            ("--binder-absorption", &self.binder_absorption),
+        ] {
+            if let Some(p) = p {
+                plan.input(flag, p);
+            }
+        }
+    }
+
+    /// Whether any spectral flag is given.
+    pub fn any(&self) -> bool {
+        self.wavelengths.is_some() || self.describes_a_spectrum()
+    }
+
+    /// Whether a flag makes the coating depend on wavelength.
+    pub fn describes_a_spectrum(&self) -> bool {
+        self.flake_material.is_some()
+            || self.flake_nk.is_some()
+            || self.coat_cauchy.is_some()
+            || self.coat_index.is_some()
+            || self.binder_absorption.is_some()
+    }
+
+    /// The first spectral flag given, for messages.
+    pub fn first_flag(&self) -> Option<&'static str> {
+        [
+            ("--wavelengths", self.wavelengths.is_some()),
+            ("--flake-material", self.flake_material.is_some()),
+            ("--flake-nk", self.flake_nk.is_some()),
+            ("--coat-cauchy", self.coat_cauchy.is_some()),
+            ("--coat-index", self.coat_index.is_some()),
+            ("--binder-absorption", self.binder_absorption.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(f, on)| on.then_some(f))
+    }
+
+    /// The `--wavelengths` list (or `default`), nm, checked: finite, > 0, strictly
+    /// increasing, at most [`MAX_WAVELENGTHS`]. `None` when neither is given.
+    pub fn wavelengths_nm(&self, default: Option<&str>) -> anyhow::Result<Option<Vec<f64>>> {
+        let Some(text) = self.wavelengths.as_deref().or(default) else {
+            return Ok(None);
+        };
+        let w = angles("--wavelengths", text)?;
+        if w.len() > MAX_WAVELENGTHS {
+            bail!(
+                "--wavelengths {text}: {} wavelengths is more than the limit of {MAX_WAVELENGTHS}",
+                w.len()
+            );
+        }
+        check_range("--wavelengths", &w, 0.0, f64::INFINITY, true, true)
+            .map_err(|e| anyhow::anyhow!("{e} (nanometres)"))?;
+        if let Some(p) = w.windows(2).find(|p| p[1] <= p[0]) {
+            bail!(
+                "--wavelengths {text}: {} nm does not follow {} nm; give strictly increasing wavelengths",
+                p[1],
+                p[0]
+            );
+        }
+        Ok(Some(w))
+    }
+
+    /// The text of the wavelength list used (for echoes).
+    pub fn wavelengths_text<'a>(&'a self, default: &'a str) -> &'a str {
+        self.wavelengths.as_deref().unwrap_or(default)
+    }
+
+    /// Checks the flags that need no file.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        if let Some(c) = &self.coat_cauchy {
+            cauchy(c)?;
+        }
+        if self.binder_absorption.is_some()
+            && self.flake_depth_um.is_none()
+            && self.film_um.is_none()
+        {
+            bail!(
+                "--binder-absorption needs where the flakes are: --flake-depth-um D (all at depth D) or --film-um T (spread over a film T thick)"
+            );
+        }
+        for (flag, v, zero_ok) in [
+            ("--flake-depth-um", self.flake_depth_um, true),
+            ("--film-um", self.film_um, false),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0)))
+            {
+                bail!(
+                    "{flag} {v}: expected a finite thickness {} µm",
+                    if zero_ok { ">= 0" } else { "> 0" }
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// The coating the flags describe with the coat and flake flags of `optics`
+    /// (`--n`, `--flake-index` at every wavelength when no spectral flag replaces them),
+    /// reading the files through `io`. Returns the JSON echo too.
+    pub fn coating(&self, optics: &OpticsArgs) -> anyhow::Result<(SpectralCoating, Value)> {
+        self.validate()?;
+        let base = optics.coating()?;
+        let (coat, coat_echo) = match (&self.coat_cauchy, &self.coat_index) {
+            (Some(c), _) => {
+                let k = cauchy(c)?;
+                (
+                    CoatIndex::Cauchy(k),
+                    json!({"cauchy": {"a": k.a(), "b_um2": k.b_um2(), "c_um4": k.c_um4()}}),
+                )
+            }
+            (None, Some(path)) => {
+                let f = read_coat_index(path)
+                    .with_context(|| format!("reading --coat-index {}", path.display()))?;
+                let t = SpectralTable::new(f.wavelengths_nm, f.values, "index", 1.0)
+                    .with_context(|| format!("--coat-index {}", path.display()))?;
+                (
+                    CoatIndex::Table(t),
+                    json!({"file": path.display().to_string()}),
+                )
+            }
+            (None, None) => (CoatIndex::Constant(base.n), json!({"n": base.n})),
+        };
+        let (flake, flake_echo) = match (self.flake_material, &self.flake_nk) {
+            (Some(m), _) => (FlakeSpectrum::Table(m.table().clone()), json!(m.name())),
+            (None, Some(path)) => {
+                let f = read_complex_index(path)
+                    .with_context(|| format!("reading --flake-nk {}", path.display()))?;
+                let t = ComplexIndexTable::new(f.wavelengths_nm, f.n, f.k)
+                    .with_context(|| format!("--flake-nk {}", path.display()))?;
+                (
+                    FlakeSpectrum::Table(t),
+                    json!({"file": path.display().to_string()}),
+                )
+            }
+            (None, None) => (
+                FlakeSpectrum::Fixed(base.flake),
+                json!(
+                    optics
+                        .flake_index
+                        .clone()
+                        .unwrap_or_else(|| "perfect-conductor".into())
+                ),
+            ),
+        };
+        let (binder, binder_echo) = match &self.binder_absorption {
+            None => (None, Value::Null),
+            Some(path) => {
+                let f = read_absorption(path)
+                    .with_context(|| format!("reading --binder-absorption {}", path.display()))?;
+                let t =
+                    SpectralTable::new(f.wavelengths_nm, f.values, "absorption coefficient", 0.0)
+                        .with_context(|| format!("--binder-absorption {}", path.display()))?;
+                let (depth, echo) = match (self.flake_depth_um, self.film_um) {
+                    (Some(d), _) => (FlakeDepth::At { depth_um: d }, json!({"flake_depth_um": d})),
+                    (None, Some(t)) => (
+                        FlakeDepth::UniformInFilm { film_um: t },
+                        json!({"film_um": t, "depths": "uniform over the film"}),
+                    ),
+                    (None, None) => {
+                        bail!("--binder-absorption needs --flake-depth-um D or --film-um T")
+                    }
+                };
+                let mut e = json!({"file": path.display().to_string(), "alpha": "Napierian, 1/um"});
+                e["depth"] = echo;
+                (
+                    Some(BinderAbsorption {
+                        alpha_per_um: t,
+                        depth,
+                    }),
+                    e,
+                )
+            }
+        };
+        Ok((
+            SpectralCoating {
+                coat,
+                flake,
+                binder,
+            },
+            json!({"clear_coat": coat_echo, "flake": flake_echo, "binder_absorption": binder_echo}),
+        ))
+    }
+}
+
+/// `A,B[,C]` of `--coat-cauchy`.
+fn cauchy(text: &str) -> anyhow::Result<Cauchy> {
+    let parsed: Option<Vec<f64>> = text
+        .split(',')
+        .map(|p| p.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect();
+    let (a, b, c) = match parsed.as_deref() {
+        Some([a, b]) => (*a, *b, 0.0),
+        Some([a, b, c]) => (*a, *b, *c),
+        _ => bail!(
+            "--coat-cauchy {text}: expected two or three finite numbers `A,B[,C]` (B in µm², C in µm⁴; e.g. 1.49,0.0045)"
+        ),
+    };
+    if a < 1.0 {
+        bail!("--coat-cauchy {text}: A = {a} is below 1; a clear coat has n >= 1");
+    }
+    Ok(Cauchy::new(a, b, c)?)
+}
+
+/// The illuminant of `--illuminant`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum IlluminantArg {
+    /// CIE D65 (daylight, 6504 K).
+    D65,
+    /// CIE D50 (horizon daylight, graphic arts).
+    D50,
+    /// CIE illuminant A (incandescent, 2856 K).
+    A,
+}
+
+/// The observer of `--observer`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ObserverArg {
+    /// CIE 1931 2° standard observer.
+    #[value(name = "2")]
+    Two,
+    /// CIE 1964 10° standard observer.
+    #[value(name = "10")]
+    Ten,
+}
+
+/// Colorimetry flags.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ColourArgs {
+    /// Illuminant of the colorimetry: D65, D50 or A [default: D65].
+    #[arg(long, value_enum, value_name = "NAME", ignore_case = true)]
+    pub illuminant: Option<IlluminantArg>,
+    /// Standard observer: 2 (CIE 1931) or 10 (CIE 1964) [default: 10].
+    #[arg(long, value_enum, value_name = "DEG")]
+    pub observer: Option<ObserverArg>,
+}
+
+impl ColourArgs {
+    /// Whether either flag is given.
+    pub fn any(&self) -> bool {
+        self.illuminant.is_some() || self.observer.is_some()
+    }
+
+    /// The illuminant (D65 by default).
+    pub fn illuminant(&self) -> Illuminant {
+        match self.illuminant.unwrap_or(IlluminantArg::D65) {
+            IlluminantArg::D65 => Illuminant::D65,
+            IlluminantArg::D50 => Illuminant::D50,
+            IlluminantArg::A => Illuminant::A,
+        }
+    }
+
+    /// The observer (10° by default).
+    pub fn observer(&self) -> Observer {
+        match self.observer.unwrap_or(ObserverArg::Ten) {
+            ObserverArg::Two => Observer::Cie1931TwoDegree,
+            ObserverArg::Ten => Observer::Cie1964TenDegree,
+        }
+    }
+
+    /// The JSON echo.
+    pub fn echo(&self) -> Value {
+        json!({
+            "illuminant": self.illuminant().label(),
+            "observer_deg": match self.observer() { Observer::Cie1931TwoDegree => 2, _ => 10 },
+        })
+    }
+}
+
+/// The built-in geometry sets of `--geometry-set`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum GeometrySetArg {
+    /// ASTM E2194: 45° incidence, aspecular −15°, 15°, 25°, 45°, 75°, 110°.
+    #[value(name = "astm-e2194")]
+    AstmE2194,
+}
+
+/// Multi-angle geometry flags of `model` and `topo`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct GeometryArgs {
+    /// Multi-angle geometry set: astm-e2194 (45° incidence; with --theta-i X its six
+    /// aspecular angles at incidence X). Instrument sets with a second, 15° incidence are
+    /// not built in (docs/cli.md); give them in a measured file or as --aspecular.
+    #[arg(long, value_enum, value_name = "NAME", conflicts_with = "aspecular")]
+    pub geometry_set: Option<GeometrySetArg>,
+    /// Custom aspecular angles, degrees (list or range), at the one incidence --theta-i
+    /// gives (default 45); measured from the specular direction, positive toward the
+    /// normal.
+    #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+    pub aspecular: Option<String>,
+    /// --multi-angle: also write the spectra, CSV `theta_i_deg,aspecular_deg,
+    /// wavelength_nm,reflectance_factor[,std_err]` (what `colour --reflectance` reads).
+    #[arg(long, value_name = "FILE")]
+    pub spectra_out: Option<PathBuf>,
+}
+
+impl GeometryArgs {
+    /// Whether a geometry flag is given.
+    pub fn any(&self) -> bool {
+        self.geometry_set.is_some() || self.aspecular.is_some() || self.spectra_out.is_some()
+    }
+
+    /// The geometry set for the incidence text `theta_i` (degrees; `None`: 45).
+    pub fn set(&self, theta_i: Option<&str>) -> anyhow::Result<GeometrySet> {
+        let text = theta_i.unwrap_or("45");
+        let ti = angles("--theta-i", text)?;
+        check_range("--theta-i", &ti, 0.0, 90.0, false, true)?;
+        let [theta_i] = ti.as_slice() else {
+            bail!(
+                "--theta-i {text}: --multi-angle gives one readout; give one incidence (sets with several incidences come from a measured file)"
+            );
+        };
+        let aspecular = match &self.aspecular {
+            Some(t) => angles("--aspecular", t)?,
+            None => flakescatter::colour::geometry::ASTM_E2194_ASPECULAR_DEG.to_vec(),
+        };
+        for a in &aspecular {
+            let ts = a - theta_i;
+            if !(ts.abs() < 90.0) {
+                bail!(
+                    "--theta-i {text}: the aspecular angle {a}° puts the detector at theta_s = {ts}°, beyond the horizon{}",
+                    if self.aspecular.is_none() {
+                        " (the ASTM E2194 angles need 20° < theta_i < 75°)"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        let rad: Vec<f64> = aspecular.iter().map(|a| a.to_radians()).collect();
+        let set = if self.aspecular.is_none() && *theta_i == 45.0 {
+            GeometrySet::astm_e2194()
+        } else {
+            GeometrySet::custom(theta_i.to_radians(), &rad).with_context(|| {
+                format!("--aspecular {}", self.aspecular.as_deref().unwrap_or(""))
+            })?
+        };
+        Ok(set)
+    }
+}
