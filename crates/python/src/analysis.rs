@@ -5,7 +5,9 @@
 //! CLI reads or a dict of arrays read by the same reader.
 #![allow(clippy::too_many_arguments)] // One keyword per CLI flag.
 
-use flakescatter::compare::{IncidenceComparison, MeasuredKind, compare as facade_compare, distribution_points, select};
+use flakescatter::compare::{
+    IncidenceComparison, MeasuredKind, compare as facade_compare, distribution_points, select,
+};
 use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
 use flakescatter::io::flakes::{FlakeTableError, read_flakes, read_flakes_from, write_histogram};
 use flakescatter::io::measured::MeasuredCurve;
@@ -15,7 +17,10 @@ use flakescatter::stats::segment::{SegmentParams, segment as facade_segment};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::convert::{Columns, coating, floats, measured as measured_curve, path_of, settings, table_csv, typed_degrees};
+use crate::convert::{
+    Columns, coating, floats, measured as measured_curve, path_of, settings, table_csv,
+    typed_degrees,
+};
 use crate::errors::{Kind, input, raise, released, to_py, warn};
 use crate::map::Map;
 
@@ -37,26 +42,39 @@ pub fn segment<'py>(
     min_pixels: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     if !(z_step_um.is_finite() && z_step_um >= 0.0) {
-        return Err(input(py, format!("z_step_um={z_step_um}: must be finite and >= 0 µm")));
+        return Err(input(
+            py,
+            format!("z_step_um={z_step_um}: must be finite and >= 0 µm"),
+        ));
     }
     if !(noise_um.is_finite() && noise_um >= 0.0) {
-        return Err(input(py, format!("noise_um={noise_um}: must be finite and >= 0 µm")));
+        return Err(input(
+            py,
+            format!("noise_um={noise_um}: must be finite and >= 0 µm"),
+        ));
     }
     if min_pixels < 3 {
-        return Err(input(py, format!("min_pixels={min_pixels}: must be at least 3")));
+        return Err(input(
+            py,
+            format!("min_pixels={min_pixels}: must be at least 3"),
+        ));
     }
     let mut params = SegmentParams::for_instrument(z_step_um, noise_um);
     params.min_pixels = min_pixels;
     let m = map.get();
     let seg = released(py, || facade_segment(&m.map, &params))?
-        .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+        .map_err(|e| to_py(py, Kind::Input, &e))?;
     if let Some(w) = &seg.warning {
         warn(py, &format!("{w}; the flake table is empty"))?;
     }
     let f = &seg.flakes;
-    let col = |g: fn(&flakescatter::stats::segment::SegmentedFlake) -> f64| f.iter().map(g).collect::<Vec<f64>>();
+    let col = |g: fn(&flakescatter::stats::segment::SegmentedFlake) -> f64| {
+        f.iter().map(g).collect::<Vec<f64>>()
+    };
     let int = |g: fn(&flakescatter::stats::segment::SegmentedFlake) -> usize| {
-        f.iter().map(|x| i64::try_from(g(x)).unwrap_or(i64::MAX)).collect::<Vec<i64>>()
+        f.iter()
+            .map(|x| i64::try_from(g(x)).unwrap_or(i64::MAX))
+            .collect::<Vec<i64>>()
     };
     Ok(Columns::new(py)
         .f64("x_um", col(|x| x.centre_um[0]))?
@@ -73,16 +91,23 @@ pub fn segment<'py>(
         .f64("tilt_se_deg", col(|x| x.tilt_se.to_degrees()))?
         .i64("pixels", int(|x| x.pixels))?
         .i64("inliers", int(|x| x.inliers))?
-        .bool("touches_border", f.iter().map(|x| x.touches_border).collect())?
+        .bool(
+            "touches_border",
+            f.iter().map(|x| x.touches_border).collect(),
+        )?
         .f64("quality", col(|x| x.quality))?
         .done())
 }
 
 /// A flake-table error: `FileError` when the file cannot be read, `FileFormatError`
 /// for its content.
-fn table_error(py: Python<'_>, e: &FlakeTableError, file: &str) -> PyErr {
-    let kind = if matches!(e, FlakeTableError::Io { .. }) { Kind::File } else { Kind::Content };
-    to_py(py, kind, e, Some(file))
+fn table_error(py: Python<'_>, e: &FlakeTableError) -> PyErr {
+    let kind = if matches!(e, FlakeTableError::Io { .. }) {
+        Kind::File
+    } else {
+        Kind::Content
+    };
+    to_py(py, kind, e)
 }
 
 /// The histogram CSV text as columns (it was written by `io`, so every cell is a number).
@@ -93,7 +118,12 @@ fn histogram_columns<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, Py
     for line in lines.filter(|l| !l.is_empty()) {
         for (c, cell) in cols.iter_mut().zip(line.split(',')) {
             c.push(cell.parse().map_err(|_| {
-                raise(py, Kind::Internal, format!("internal error: histogram cell {cell:?}"), None, None)
+                raise(
+                    py,
+                    Kind::Internal,
+                    format!("internal error: histogram cell {cell:?}"),
+                    None,
+                )
             })?);
         }
     }
@@ -118,7 +148,10 @@ pub fn orientation_stats<'py>(
     bin_deg: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     if !(bin_deg.is_finite() && (0.001..=45.0).contains(&bin_deg)) {
-        return Err(input(py, format!("bin_deg={bin_deg}: the bin width must be in [0.001, 45] degrees")));
+        return Err(input(
+            py,
+            format!("bin_deg={bin_deg}: the bin width must be in [0.001, 45] degrees"),
+        ));
     }
     let (name, table) = if let Ok(d) = flakes.cast::<PyDict>() {
         let text = table_csv(py, "flakes", d, &["nx", "ny", "nz", "area_um2"], &[])?;
@@ -130,15 +163,30 @@ pub fn orientation_stats<'py>(
         let name = path.display().to_string();
         (name, read_flakes(&path))
     };
-    let table = table.map_err(|e| table_error(py, &e, &name))?;
+    let table = table.map_err(|e| table_error(py, &e))?;
     let flakes = table.flakes;
-    let hist = AreaHistogram::from_flakes(&flakes, bin_deg.to_radians())
-        .map_err(|e| raise(py, Kind::Input, format!("histogram of {name}: {}", crate::errors::message(&e)), None, None))?;
+    let hist = AreaHistogram::from_flakes(&flakes, bin_deg.to_radians()).map_err(|e| {
+        raise(
+            py,
+            Kind::Input,
+            format!("histogram of {name}: {}", crate::errors::message(&e)),
+            None,
+        )
+    })?;
     let samples: Vec<(f64, f64)> = flakes.iter().map(|f| (f.theta_n(), f.area_um2)).collect();
-    let fit = released(py, || fit_gaussian_ml(&samples))?
-        .map_err(|e| raise(py, Kind::Input, format!("fitting a Gaussian to {name}: {}", crate::errors::message(&e)), None, None))?;
+    let fit = released(py, || fit_gaussian_ml(&samples))?.map_err(|e| {
+        raise(
+            py,
+            Kind::Input,
+            format!(
+                "fitting a Gaussian to {name}: {}",
+                crate::errors::message(&e)
+            ),
+            None,
+        )
+    })?;
     let mut text = Vec::new();
-    write_histogram(&mut text, &name, &hist).map_err(|e| to_py(py, Kind::Internal, &e, None))?;
+    write_histogram(&mut text, &name, &hist).map_err(|e| to_py(py, Kind::Internal, &e))?;
     let text = String::from_utf8_lossy(&text);
     let (lo, hi) = fit.hwhm_ci95();
     let d = PyDict::new(py);
@@ -182,9 +230,12 @@ fn selected(
     if ti.is_none() && ts.is_none() {
         return Ok(curve);
     }
-    let rad = |v: &Option<Vec<f64>>| v.as_ref().map(|v| v.iter().map(|d| d.to_radians()).collect::<Vec<_>>());
+    let rad = |v: &Option<Vec<f64>>| {
+        v.as_ref()
+            .map(|v| v.iter().map(|d| d.to_radians()).collect::<Vec<_>>())
+    };
     select(&curve, rad(&ti).as_deref(), rad(&ts).as_deref())
-        .map_err(|e| raise(py, Kind::Input, format!("theta_i/theta_s: {e}"), None, None))
+        .map_err(|e| raise(py, Kind::Input, format!("theta_i/theta_s: {e}"), None))
 }
 
 /// A measured curve against the distribution model, as `flakescatter compare --json
@@ -223,27 +274,41 @@ pub fn compare<'py>(
     let orientation = crate::convert::orientation(py, hwhm, sigma, rms_tilt, distribution)?;
     let curve = selected(py, measured, theta_i, theta_s)?;
     let results = released(py, || {
-        let model = |ti: f64, ts: &[f64]| distribution_points(&coat, &set, aperture_rad, &orientation, ti, ts);
+        let model = |ti: f64, ts: &[f64]| {
+            distribution_points(&coat, &set, aperture_rad, &orientation, ti, ts)
+        };
         facade_compare(&curve, kind, &model)
     })?
-    .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    .map_err(|e| to_py(py, Kind::Input, &e))?;
     comparison_dict(py, &results)
 }
 
 /// The aperture keyword in radians, in [0, 20] degrees.
 fn aperture_rad(py: Python<'_>, aperture: f64) -> PyResult<f64> {
     if !(aperture.is_finite() && (0.0..=20.0).contains(&aperture)) {
-        return Err(input(py, format!("aperture={aperture}: expected a half-angle in [0, 20] degrees")));
+        return Err(input(
+            py,
+            format!("aperture={aperture}: expected a half-angle in [0, 20] degrees"),
+        ));
     }
     Ok(aperture.to_radians())
 }
 
-fn comparison_dict<'py>(py: Python<'py>, results: &[IncidenceComparison]) -> PyResult<Bound<'py, PyDict>> {
+fn comparison_dict<'py>(
+    py: Python<'py>,
+    results: &[IncidenceComparison],
+) -> PyResult<Bound<'py, PyDict>> {
     let pts: Vec<_> = results.iter().flat_map(|c| c.points.iter()).collect();
     let without: Vec<String> = pts
         .iter()
         .filter(|p| !p.residual.is_finite())
-        .map(|p| format!("θi {} θs {}", typed_degrees(p.theta_i), typed_degrees(p.theta_s)))
+        .map(|p| {
+            format!(
+                "θi {} θs {}",
+                typed_degrees(p.theta_i),
+                typed_degrees(p.theta_s)
+            )
+        })
         .collect();
     if !without.is_empty() {
         warn(
@@ -258,8 +323,14 @@ fn comparison_dict<'py>(py: Python<'py>, results: &[IncidenceComparison]) -> PyR
     let np = py.import("numpy")?;
     let regions = PyList::new(py, pts.iter().map(|p| p.region.name()))?;
     let points = Columns::new(py)
-        .f64("theta_i_deg", pts.iter().map(|p| typed_degrees(p.theta_i)).collect())?
-        .f64("theta_s_deg", pts.iter().map(|p| typed_degrees(p.theta_s)).collect())?
+        .f64(
+            "theta_i_deg",
+            pts.iter().map(|p| typed_degrees(p.theta_i)).collect(),
+        )?
+        .f64(
+            "theta_s_deg",
+            pts.iter().map(|p| typed_degrees(p.theta_s)).collect(),
+        )?
         .value("region", np.call_method1("array", (regions,))?)?
         .f64("measured", pts.iter().map(|p| p.measured).collect())?
         .f64("model", pts.iter().map(|p| p.model).collect())?
@@ -341,29 +412,55 @@ pub fn fit<'py>(
     setup.common_scale = common_scale;
     if nonparametric {
         if fit_n {
-            return Err(input(py, "fit_n applies to the Gaussian fit, not nonparametric=True"));
+            return Err(input(
+                py,
+                "fit_n applies to the Gaussian fit, not nonparametric=True",
+            ));
         }
         if !(lambda_.is_finite() && lambda_ >= 0.0) {
-            return Err(input(py, format!("lambda_={lambda_}: expected a finite number >= 0")));
+            return Err(input(
+                py,
+                format!("lambda_={lambda_}: expected a finite number >= 0"),
+            ));
         }
         let edges_deg = match bins {
             Some(b) => floats(py, "bins", b)?,
             None => (0..=15).map(|k| 2.0 * f64::from(k)).collect(),
         };
         if edges_deg.len() > 1001 {
-            return Err(input(py, format!("bins: {} bins is more than the limit of 1000", edges_deg.len() - 1)));
+            return Err(input(
+                py,
+                format!(
+                    "bins: {} bins is more than the limit of 1000",
+                    edges_deg.len() - 1
+                ),
+            ));
         }
         if edges_deg.len() < 2
             || edges_deg.windows(2).any(|w| !(w[1] > w[0]))
             || !(edges_deg[0] >= 0.0)
             || !(edges_deg[edges_deg.len() - 1] <= 90.0)
         {
-            return Err(input(py, "bins: expected at least two increasing edges within [0, 90] degrees"));
+            return Err(input(
+                py,
+                "bins: expected at least two increasing edges within [0, 90] degrees",
+            ));
         }
         let edges: Vec<f64> = edges_deg.iter().map(|d| d.to_radians()).collect();
         let curve = selected(py, measured, theta_i, theta_s)?;
-        let est = released(py, || fit_nonparametric(&curve, &setup, &edges, lambda_))?
-            .map_err(|e| raise(py, Kind::Input, format!("non-parametric fit of {}: {}", curve.file, crate::errors::message(&e)), None, None))?;
+        let est =
+            released(py, || fit_nonparametric(&curve, &setup, &edges, lambda_))?.map_err(|e| {
+                raise(
+                    py,
+                    Kind::Input,
+                    format!(
+                        "non-parametric fit of {}: {}",
+                        curve.file,
+                        crate::errors::message(&e)
+                    ),
+                    None,
+                )
+            })?;
         let lo: Vec<f64> = est.edges.windows(2).map(|e| typed_degrees(e[0])).collect();
         let hi: Vec<f64> = est.edges.windows(2).map(|e| typed_degrees(e[1])).collect();
         let d = Columns::new(py)
@@ -378,17 +475,40 @@ pub fn fit<'py>(
         return Ok(d);
     }
     if !(hwhm_start.is_finite() && hwhm_start > 0.0 && hwhm_start < 60.0) {
-        return Err(input(py, format!("hwhm_start={hwhm_start}: expected a width in (0, 60) degrees")));
+        return Err(input(
+            py,
+            format!("hwhm_start={hwhm_start}: expected a width in (0, 60) degrees"),
+        ));
     }
     let curve = selected(py, measured, theta_i, theta_s)?;
-    let g = released(py, || fit_gaussian(&curve, &setup, hwhm_start.to_radians(), fit_n))?
-        .map_err(|e| raise(py, Kind::Input, format!("Gaussian fit of {}: {}", curve.file, crate::errors::message(&e)), None, None))?;
+    let g = released(py, || {
+        fit_gaussian(&curve, &setup, hwhm_start.to_radians(), fit_n)
+    })?
+    .map_err(|e| {
+        raise(
+            py,
+            Kind::Input,
+            format!(
+                "Gaussian fit of {}: {}",
+                curve.file,
+                crate::errors::message(&e)
+            ),
+            None,
+        )
+    })?;
     for w in &g.warnings {
         warn(py, &format!("{}: {w}", curve.file))?;
     }
     let scales = PyList::empty(py);
     for (t, s) in &g.scales {
-        scales.append((if t.is_nan() { None } else { Some(typed_degrees(*t)) }, *s))?;
+        scales.append((
+            if t.is_nan() {
+                None
+            } else {
+                Some(typed_degrees(*t))
+            },
+            *s,
+        ))?;
     }
     let d = PyDict::new(py);
     d.set_item("hwhm_deg", g.hwhm.to_degrees())?;
@@ -402,6 +522,12 @@ pub fn fit<'py>(
     d.set_item("iterations", g.iterations)?;
     d.set_item("uncertainty_basis", g.uncertainty_basis.describe())?;
     d.set_item("uncertainty_scale", g.uncertainty_scale)?;
-    d.set_item("warnings", g.warnings.iter().map(ToString::to_string).collect::<Vec<_>>())?;
+    d.set_item(
+        "warnings",
+        g.warnings
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>(),
+    )?;
     Ok(d)
 }

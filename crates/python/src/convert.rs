@@ -39,9 +39,12 @@ pub fn floats(py: Python<'_>, name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Ve
         return Ok(vec![x]);
     }
     let np = py.import("numpy")?;
-    let arr = np
-        .call_method1("asarray", (obj, "float64"))
-        .map_err(|_| input(py, format!("{name}: expected a number or a sequence of numbers")))?;
+    let arr = np.call_method1("asarray", (obj, "float64")).map_err(|_| {
+        input(
+            py,
+            format!("{name}: expected a number or a sequence of numbers"),
+        )
+    })?;
     let arr: PyReadonlyArray1<'_, f64> = arr
         .extract()
         .map_err(|_| input(py, format!("{name}: expected a 1-D sequence of numbers")))?;
@@ -160,7 +163,7 @@ impl InstrumentArgs {
             set,
             self.aperture.to_radians(),
         )
-        .map_err(|e| to_py(py, Kind::Input, &e, None))
+        .map_err(|e| to_py(py, Kind::Input, &e))
     }
 
     /// The detector coordinates of detector `j` as given: `(θs, 0)` in plane, `(θr, φr)`
@@ -278,7 +281,10 @@ pub fn orientation(
     rms_tilt: Option<f64>,
     distribution: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Orientation> {
-    let widths = [hwhm, sigma, rms_tilt].iter().filter(|w| w.is_some()).count();
+    let widths = [hwhm, sigma, rms_tilt]
+        .iter()
+        .filter(|w| w.is_some())
+        .count();
     if widths > 1 {
         return Err(input(py, "hwhm, sigma, rms_tilt: give at most one width"));
     }
@@ -290,7 +296,13 @@ pub fn orientation(
             ));
         }
         let (name, table) = if let Ok(dict) = d.cast::<PyDict>() {
-            let text = table_csv(py, "distribution", dict, &["theta_lo_deg", "theta_hi_deg", "area_fraction"], &[])?;
+            let text = table_csv(
+                py,
+                "distribution",
+                dict,
+                &["theta_lo_deg", "theta_hi_deg", "area_fraction"],
+                &[],
+            )?;
             let name = "distribution (dict)";
             (name.to_string(), read_histogram_from(text.as_bytes(), name))
         } else {
@@ -305,14 +317,13 @@ pub fn orientation(
             } else {
                 Kind::Content
             };
-            to_py(py, kind, &e, Some(&name))
+            to_py(py, kind, &e)
         })?;
         return Orientation::tabulated(table.edges_rad, table.area_fractions).map_err(|e| {
             crate::errors::raise(
                 py,
                 Kind::Content,
                 format!("distribution {name}: {}", crate::errors::message(&e)),
-                None,
                 None,
             )
         });
@@ -323,7 +334,7 @@ pub fn orientation(
         (_, _, Some(r)) => GaussianWidth::RmsTilt(width(py, "rms_tilt", r)?),
         _ => GaussianWidth::Hwhm(6f64.to_radians()),
     };
-    Orientation::gaussian(w).map_err(|e| to_py(py, Kind::Input, &e, None))
+    Orientation::gaussian(w).map_err(|e| to_py(py, Kind::Input, &e))
 }
 
 /// A filesystem path from `str` or `os.PathLike`.
@@ -344,23 +355,30 @@ pub fn table_csv(
 ) -> PyResult<String> {
     let mut cols: Vec<(&str, Vec<f64>)> = Vec::new();
     for &c in required {
-        let v = dict
-            .get_item(c)?
-            .ok_or_else(|| input(py, format!("{name}: missing key {c:?} (needs {})", required.join(", "))))?;
+        let v = dict.get_item(c)?.ok_or_else(|| {
+            input(
+                py,
+                format!("{name}: missing key {c:?} (needs {})", required.join(", ")),
+            )
+        })?;
         cols.push((c, floats(py, &format!("{name}[{c:?}]"), &v)?));
     }
     for &c in optional {
-        if let Some(v) = dict.get_item(c)? {
-            if !v.is_none() {
-                cols.push((c, floats(py, &format!("{name}[{c:?}]"), &v)?));
-            }
+        if let Some(v) = dict.get_item(c)?
+            && !v.is_none()
+        {
+            cols.push((c, floats(py, &format!("{name}[{c:?}]"), &v)?));
         }
     }
     let len = cols[0].1.len();
     if let Some((c, v)) = cols.iter().find(|(_, v)| v.len() != len) {
         return Err(input(
             py,
-            format!("{name}: column {c:?} has {} values, {:?} has {len}", v.len(), cols[0].0),
+            format!(
+                "{name}: column {c:?} has {} values, {:?} has {len}",
+                v.len(),
+                cols[0].0
+            ),
         ));
     }
     let mut text = cols.iter().map(|(c, _)| *c).collect::<Vec<_>>().join(",");
@@ -377,7 +395,7 @@ pub fn table_csv(
 /// `theta_i_deg`, `theta_s_deg`, `value` (and optionally `uncertainty`) arrays, read by
 /// the same reader.
 pub fn measured(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<MeasuredCurve> {
-    let (name, curve) = if let Ok(dict) = obj.cast::<PyDict>() {
+    let curve = if let Ok(dict) = obj.cast::<PyDict>() {
         let text = table_csv(
             py,
             "measured",
@@ -385,12 +403,9 @@ pub fn measured(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<MeasuredCurv
             &["theta_i_deg", "theta_s_deg", "value"],
             &["uncertainty"],
         )?;
-        let name = "measured (dict)".to_string();
-        let c = read_measured_from(text.as_bytes(), &name);
-        (name, c)
+        read_measured_from(text.as_bytes(), "measured (dict)")
     } else if obj.is_instance_of::<PyString>() || obj.hasattr("__fspath__")? {
-        let path = path_of(py, "measured", obj)?;
-        (path.display().to_string(), read_measured(&path))
+        read_measured(&path_of(py, "measured", obj)?)
     } else {
         return Err(input(
             py,
@@ -403,7 +418,7 @@ pub fn measured(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<MeasuredCurv
         } else {
             Kind::Content
         };
-        to_py(py, kind, &e, Some(&name))
+        to_py(py, kind, &e)
     })
 }
 

@@ -5,7 +5,7 @@
 //! * `FileFormatError(Error, ValueError)`: a file that was read but whose content is not
 //!   usable (the message names the file, line or field, as the CLI's does);
 //! * `FileError(Error, OSError)`: a file that cannot be opened, read or written
-//!   (`errno` and `filename` set where known);
+//!   (`errno` set where known; the message names the file);
 //! * `InternalError(Error)`: a panic inside the Rust code (a bug), caught at the boundary
 //!   so that it never crosses into Python as a crash.
 //!
@@ -93,8 +93,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
         py,
         "FileError",
         &[&error, &os_error],
-        "A file that cannot be opened, read or written (also an OSError; errno and filename \
-         are set where known).",
+        "A file that cannot be opened, read or written (also an OSError; errno is set where \
+         known, the message names the file).",
     )?;
     let internal = new_class(
         py,
@@ -151,9 +151,9 @@ fn io_source<'a>(err: &'a (dyn StdError + 'static)) -> Option<&'a std::io::Error
     None
 }
 
-/// A Python exception of `kind` with `msg`. For `FileError`, `errno` and `filename` are
-/// set when given.
-pub fn raise(py: Python<'_>, kind: Kind, msg: String, errno: Option<i32>, file: Option<&str>) -> PyErr {
+/// A Python exception of `kind` with `msg`; a `FileError` gets `errno` when it is
+/// given.
+pub fn raise(py: Python<'_>, kind: Kind, msg: String, errno: Option<i32>) -> PyErr {
     let cell = match kind {
         Kind::Input => &INPUT,
         Kind::Content => &CONTENT,
@@ -167,13 +167,12 @@ pub fn raise(py: Python<'_>, kind: Kind, msg: String, errno: Option<i32>, file: 
     let ty = ty.bind(py);
     match ty.call1((msg.clone(),)) {
         Ok(value) => {
-            if kind == Kind::File {
-                if let Some(n) = errno {
-                    let _ = value.setattr("errno", n);
-                }
-                if let Some(f) = file {
-                    let _ = value.setattr("filename", f);
-                }
+            // `errno` only: with `filename` or `strerror` set, OSError's str() would
+            // reformat the message ("[Errno 2] ...: 'file'"); the message names the file.
+            if kind == Kind::File
+                && let Some(n) = errno
+            {
+                let _ = value.setattr("errno", n);
             }
             PyErr::from_value(value)
         }
@@ -183,14 +182,14 @@ pub fn raise(py: Python<'_>, kind: Kind, msg: String, errno: Option<i32>, file: 
 
 /// An error of the facade as a Python exception of `kind`; a `FileError` carries the
 /// operating system's error number and `file`.
-pub fn to_py(py: Python<'_>, kind: Kind, err: &(dyn StdError + 'static), file: Option<&str>) -> PyErr {
+pub fn to_py(py: Python<'_>, kind: Kind, err: &(dyn StdError + 'static)) -> PyErr {
     let errno = io_source(err).and_then(std::io::Error::raw_os_error);
-    raise(py, kind, message(err), errno, file)
+    raise(py, kind, message(err), errno)
 }
 
 /// An `InputError` with `msg` (a parameter checked at the boundary).
 pub fn input(py: Python<'_>, msg: impl Into<String>) -> PyErr {
-    raise(py, Kind::Input, msg.into(), None, None)
+    raise(py, Kind::Input, msg.into(), None)
 }
 
 /// Emits `msg` as a `FlakescatterWarning` (stack level 2: the caller's line).
@@ -244,9 +243,7 @@ where
         Err(payload) => {
             if payload.is::<Interrupted>() {
                 let e = pending.lock().ok().and_then(|mut s| s.take());
-                Err(e.unwrap_or_else(|| {
-                    raise(py, Kind::Internal, "interrupted".into(), None, None)
-                }))
+                Err(e.unwrap_or_else(|| raise(py, Kind::Internal, "interrupted".into(), None)))
             } else {
                 Err(panic_error(py, payload.as_ref()))
             }
@@ -262,7 +259,8 @@ pub fn released<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -> PyR
 
 /// Runs `work` with the GIL held, panics caught (for short calls).
 pub fn guarded<T>(py: Python<'_>, work: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
-    catch_unwind(AssertUnwindSafe(work)).unwrap_or_else(|payload| Err(panic_error(py, payload.as_ref())))
+    catch_unwind(AssertUnwindSafe(work))
+        .unwrap_or_else(|payload| Err(panic_error(py, payload.as_ref())))
 }
 
 /// The `InternalError` for a caught panic.
@@ -276,7 +274,6 @@ fn panic_error(py: Python<'_>, payload: &(dyn std::any::Any + Send)) -> PyErr {
         py,
         Kind::Internal,
         format!("internal error (a bug in flakescatter, please report it): {what}"),
-        None,
         None,
     )
 }

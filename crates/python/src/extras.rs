@@ -23,7 +23,10 @@ fn illuminant(py: Python<'_>, name: &str) -> PyResult<Illuminant> {
         "D65" => Ok(Illuminant::D65),
         "D50" => Ok(Illuminant::D50),
         "A" => Ok(Illuminant::A),
-        _ => Err(input(py, format!("illuminant={name:?}: expected \"D65\", \"D50\" or \"A\""))),
+        _ => Err(input(
+            py,
+            format!("illuminant={name:?}: expected \"D65\", \"D50\" or \"A\""),
+        )),
     }
 }
 
@@ -63,10 +66,17 @@ pub fn spectrum_to_lab<'py>(
         .map_err(|_| input(py, "reflectance: expected an array of numbers"))?;
     let ndim: usize = r.getattr("ndim")?.extract()?;
     let single = ndim == 1;
-    let r = if single { r.call_method1("reshape", (1, -1))? } else { r };
-    let r = r
-        .cast_into::<PyArray2<f64>>()
-        .map_err(|_| input(py, "reflectance: expected a 1-D spectrum or a 2-D array (spectra, wavelengths)"))?;
+    let r = if single {
+        r.call_method1("reshape", (1, -1))?
+    } else {
+        r
+    };
+    let r = r.cast_into::<PyArray2<f64>>().map_err(|_| {
+        input(
+            py,
+            "reflectance: expected a 1-D spectrum or a 2-D array (spectra, wavelengths)",
+        )
+    })?;
     if r.shape()[1] != w.len() {
         return Err(input(
             py,
@@ -77,15 +87,27 @@ pub fn spectrum_to_lab<'py>(
             ),
         ));
     }
-    let rows: Vec<Vec<f64>> = r.readonly().as_array().rows().into_iter().map(|x| x.to_vec()).collect();
-    let weights = TristimulusWeights::new(&w, ill, obs).map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    let rows: Vec<Vec<f64>> = r
+        .readonly()
+        .as_array()
+        .rows()
+        .into_iter()
+        .map(|x| x.to_vec())
+        .collect();
+    let weights = TristimulusWeights::new(&w, ill, obs).map_err(|e| to_py(py, Kind::Input, &e))?;
     let mut cols: [Vec<f64>; 6] = Default::default();
     for (k, spectrum) in rows.iter().enumerate() {
-        let xyz = weights
-            .xyz(spectrum)
-            .map_err(|e| input(py, format!("reflectance, spectrum {k}: {}", crate::errors::message(&e))))?;
+        let xyz = weights.xyz(spectrum).map_err(|e| {
+            input(
+                py,
+                format!("reflectance, spectrum {k}: {}", crate::errors::message(&e)),
+            )
+        })?;
         let lab = xyz.to_lab(&weights.white_point());
-        for (c, v) in cols.iter_mut().zip([xyz.x, xyz.y, xyz.z, lab.l, lab.a, lab.b]) {
+        for (c, v) in cols
+            .iter_mut()
+            .zip([xyz.x, xyz.y, xyz.z, lab.l, lab.a, lab.b])
+        {
             c.push(v);
         }
     }
@@ -127,9 +149,18 @@ pub fn delta_e<'py>(
         }
     };
     let np = py.import("numpy")?;
-    let bad = |name: &str| input(py, format!("{name}: expected (L*, a*, b*) values, an array of shape (..., 3)"));
-    let a = np.call_method1("asarray", (reference, "float64")).map_err(|_| bad("reference"))?;
-    let b = np.call_method1("asarray", (sample, "float64")).map_err(|_| bad("sample"))?;
+    let bad = |name: &str| {
+        input(
+            py,
+            format!("{name}: expected (L*, a*, b*) values, an array of shape (..., 3)"),
+        )
+    };
+    let a = np
+        .call_method1("asarray", (reference, "float64"))
+        .map_err(|_| bad("reference"))?;
+    let b = np
+        .call_method1("asarray", (sample, "float64"))
+        .map_err(|_| bad("sample"))?;
     let pair = np
         .call_method1("broadcast_arrays", (a, b))
         .map_err(|_| input(py, "reference and sample: shapes do not broadcast"))?;
@@ -139,13 +170,18 @@ pub fn delta_e<'py>(
         return Err(bad("reference"));
     }
     let flat = |x: &Bound<'py, PyAny>| -> PyResult<Vec<f64>> {
-        let x = np.call_method1("ascontiguousarray", (x,))?.call_method1("reshape", (-1, 3))?;
-        let x = x.cast_into::<PyArray2<f64>>().map_err(|_| bad("reference"))?;
+        let x = np
+            .call_method1("ascontiguousarray", (x,))?
+            .call_method1("reshape", (-1, 3))?;
+        let x = x
+            .cast_into::<PyArray2<f64>>()
+            .map_err(|_| bad("reference"))?;
         Ok(x.readonly().as_array().iter().copied().collect())
     };
     let (va, vb) = (flat(&a)?, flat(&b)?);
     let lab = |v: &[f64], name: &str| {
-        Lab::new(v[0], v[1], v[2]).map_err(|e| input(py, format!("{name}: {}", crate::errors::message(&e))))
+        Lab::new(v[0], v[1], v[2])
+            .map_err(|e| input(py, format!("{name}: {}", crate::errors::message(&e))))
     };
     let mut out = Vec::with_capacity(va.len() / 3);
     for (x, y) in va.chunks(3).zip(vb.chunks(3)) {
@@ -195,7 +231,12 @@ pub fn localise_stack<'py>(
         None => None,
         Some("bottom") => Some(PageOrder::BottomFirst),
         Some("top") => Some(PageOrder::TopFirst),
-        Some(o) => return Err(input(py, format!("first_page={o:?}: expected \"bottom\" or \"top\""))),
+        Some(o) => {
+            return Err(input(
+                py,
+                format!("first_page={o:?}: expected \"bottom\" or \"top\""),
+            ));
+        }
     };
     let read = StackOptions {
         pixel_um,
@@ -209,7 +250,6 @@ pub fn localise_stack<'py>(
         half_window,
         saturation,
     };
-    let name = path.display().to_string();
     let maps = interruptible(py, |progress| {
         facade_localise_stack(&path, &read, &peak, &|d, t| progress(d, t))
     })?
@@ -219,12 +259,30 @@ pub fn localise_stack<'py>(
             StackPipelineError::Read(_) | StackPipelineError::Stack(_) => Kind::Content,
             _ => Kind::Input,
         };
-        to_py(py, kind, &e, Some(&name))
+        to_py(py, kind, &e)
     })?;
     let d = PyDict::new(py);
-    d.set_item("height", Map { map: maps.height, format: None })?;
-    d.set_item("intensity", Map { map: maps.intensity, format: None })?;
-    d.set_item("width", Map { map: maps.width, format: None })?;
+    d.set_item(
+        "height",
+        Map {
+            map: maps.height,
+            format: None,
+        },
+    )?;
+    d.set_item(
+        "intensity",
+        Map {
+            map: maps.intensity,
+            format: None,
+        },
+    )?;
+    d.set_item(
+        "width",
+        Map {
+            map: maps.width,
+            format: None,
+        },
+    )?;
     let r = &maps.report;
     let report = PyDict::new(py);
     for (k, v) in [
@@ -247,9 +305,15 @@ pub fn localise_stack<'py>(
     info.set_item("nz", i.nz)?;
     info.set_item("sample", i.sample.name())?;
     info.set_item("pixel_um", i.pixel_um.as_ref().map(|s| s.value))?;
-    info.set_item("pixel_um_source", i.pixel_um.as_ref().map(|s| s.source.to_string()))?;
+    info.set_item(
+        "pixel_um_source",
+        i.pixel_um.as_ref().map(|s| s.source.to_string()),
+    )?;
     info.set_item("z_step_um", i.z_step_um.as_ref().map(|s| s.value))?;
-    info.set_item("z_step_um_source", i.z_step_um.as_ref().map(|s| s.source.to_string()))?;
+    info.set_item(
+        "z_step_um_source",
+        i.z_step_um.as_ref().map(|s| s.source.to_string()),
+    )?;
     info.set_item("first_page", i.first_page.value.name())?;
     info.set_item("pages", i.pages)?;
     let meta = PyDict::new(py);

@@ -22,7 +22,9 @@ use pyo3::prelude::*;
 /// code, as a bug would cause. For the test suite.
 #[pyfunction]
 fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
-    errors::released(py, || -> () { panic!("a deliberate panic for the test suite") })
+    errors::released(py, || -> () {
+        panic!("a deliberate panic for the test suite")
+    })
 }
 
 /// The native module.

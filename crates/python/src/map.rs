@@ -32,10 +32,8 @@ pub struct Map {
 
 fn map_error(py: Python<'_>, e: &ReadMapError) -> PyErr {
     match e {
-        ReadMapError::Io { path, .. } => to_py(py, Kind::File, e, Some(&path.display().to_string())),
-        ReadMapError::Format { path, .. } => {
-            to_py(py, Kind::Content, e, Some(&path.display().to_string()))
-        }
+        ReadMapError::Io { .. } => to_py(py, Kind::File, e),
+        ReadMapError::Format { .. } => to_py(py, Kind::Content, e),
     }
 }
 
@@ -44,8 +42,12 @@ fn pitch(py: Python<'_>, name: &str, obj: &Bound<'_, PyAny>) -> PyResult<(f64, f
     let (dx, dy) = if let Ok(d) = obj.extract::<f64>() {
         (d, d)
     } else {
-        obj.extract::<(f64, f64)>()
-            .map_err(|_| input(py, format!("{name}: expected a number or a pair (dx, dy) in µm")))?
+        obj.extract::<(f64, f64)>().map_err(|_| {
+            input(
+                py,
+                format!("{name}: expected a number or a pair (dx, dy) in µm"),
+            )
+        })?
     };
     if !(dx.is_finite() && dx > 0.0 && dy.is_finite() && dy > 0.0) {
         return Err(input(
@@ -83,7 +85,9 @@ impl Map {
                     .call_method1("asarray", (v, "bool"))
                     .map_err(|_| input(py, "valid: expected a 2-D boolean array"))?
                     .cast_into::<PyArray2<bool>>()
-                    .map_err(|_| input(py, "valid: expected a 2-D boolean array of shape (ny, nx)"))?;
+                    .map_err(|_| {
+                        input(py, "valid: expected a 2-D boolean array of shape (ny, nx)")
+                    })?;
                 if v.shape() != [ny, nx] {
                     return Err(input(
                         py,
@@ -97,7 +101,7 @@ impl Map {
             }
         };
         let map = HeightMap::with_mask(nx, ny, dx, dy, heights, mask)
-            .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+            .map_err(|e| to_py(py, Kind::Input, &e))?;
         Ok(Self { map, format: None })
     }
 
@@ -226,6 +230,8 @@ pub fn read_map(
         }
         _ => {}
     }
+    // `..default()` keeps this building when `io` adds reader options.
+    #[allow(clippy::needless_update)]
     let options = ReadOptions {
         pixel_um: pixel_um.map(|p| pitch(py, "pixel_um", p)).transpose()?,
         z_unit: z_unit
@@ -257,7 +263,7 @@ pub fn read_map(
             format: Some(format.name()),
         }),
         Err(ReadFail::Read(e)) => Err(map_error(py, &e)),
-        Err(ReadFail::Cutoff(msg)) => Err(crate::errors::raise(py, Kind::Input, msg, None, None)),
+        Err(ReadFail::Cutoff(msg)) => Err(crate::errors::raise(py, Kind::Input, msg, None)),
     }
 }
 
@@ -311,10 +317,8 @@ pub fn write_map(
     let m = map.get();
     let result = released(py, || flakescatter::io::write_map(&m.map, &path, fmt))?;
     result.map_err(|e| match &e {
-        WriteMapError::Io { path, .. } => {
-            to_py(py, Kind::File, &e, Some(&path.display().to_string()))
-        }
-        WriteMapError::Zip(_) => to_py(py, Kind::Internal, &e, None),
+        WriteMapError::Io { .. } => to_py(py, Kind::File, &e),
+        WriteMapError::Zip(_) => to_py(py, Kind::Internal, &e),
     })
 }
 
@@ -324,7 +328,12 @@ pub fn maps_of<'py>(py: Python<'py>, obj: &Bound<'py, PyAny>) -> PyResult<Vec<Bo
         if let Ok(m) = obj.cast::<Map>() {
             return Ok(vec![m.clone()]);
         }
-        let bad = || input(py, "maps: expected a Map or a sequence of Map objects (see read_map)");
+        let bad = || {
+            input(
+                py,
+                "maps: expected a Map or a sequence of Map objects (see read_map)",
+            )
+        };
         let mut out = Vec::new();
         for item in obj.try_iter().map_err(|_| bad())? {
             let item = item?;

@@ -17,12 +17,12 @@ use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::volume::{Amount, Depth, Diameter, RimRule, Substrate};
 use flakescatter::{
     Curves, OrientationSource, Polarimetry, TopoSettings, VolumeSettings, distribution_curves,
-    distribution_mueller as facade_distribution_mueller, isotropic_curves,
-    topographic_curves, topographic_mueller as facade_topographic_mueller, volume_curves,
+    distribution_mueller as facade_distribution_mueller, isotropic_curves, topographic_curves,
+    topographic_mueller as facade_topographic_mueller, volume_curves,
 };
 use numpy::PyArray1;
-use numpy::ndarray::Array3;
 use numpy::PyArray3;
+use numpy::ndarray::Array3;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -63,7 +63,6 @@ fn row_index(
                     Kind::Internal,
                     format!("internal error: row {k} is not incidence {i} × detector {detector}"),
                     None,
-                    None,
                 ));
             }
             Ok((i, detector))
@@ -72,7 +71,12 @@ fn row_index(
 }
 
 /// The CLI's warning for incidences whose `relative` is undefined.
-fn relative_warnings(py: Python<'_>, args: &InstrumentArgs, idx: &[(usize, usize)], relative: &[f64]) -> PyResult<()> {
+fn relative_warnings(
+    py: Python<'_>,
+    args: &InstrumentArgs,
+    idx: &[(usize, usize)],
+    relative: &[f64],
+) -> PyResult<()> {
     let mut seen: Vec<usize> = Vec::new();
     for (&(i, _), r) in idx.iter().zip(relative) {
         if !r.is_finite() && !seen.contains(&i) {
@@ -96,12 +100,19 @@ fn curve_columns<'py>(
     curves: &Curves,
     ray_columns: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let idx = row_index(py, args, curves.rows.iter().map(|r| (r.theta_i, r.detector)))?;
+    let idx = row_index(
+        py,
+        args,
+        curves.rows.iter().map(|r| (r.theta_i, r.detector)),
+    )?;
     let relative: Vec<f64> = curves.rows.iter().map(|r| r.relative).collect();
     relative_warnings(py, args, &idx, &relative)?;
     let mut cols = angle_columns(py, args, &idx)?
         .f64("brdf_per_sr", curves.rows.iter().map(|r| r.brdf).collect())?
-        .f64("reflectance", curves.rows.iter().map(|r| nan(r.reflectance)).collect())?
+        .f64(
+            "reflectance",
+            curves.rows.iter().map(|r| nan(r.reflectance)).collect(),
+        )?
         .f64("relative", relative)?;
     if ray_columns {
         cols = cols
@@ -113,7 +124,10 @@ fn curve_columns<'py>(
                     .map(|r| r.rays.map_or(-1, |n| i64::try_from(n).unwrap_or(i64::MAX)))
                     .collect(),
             )?
-            .f64("std_err", curves.rows.iter().map(|r| nan(r.std_err)).collect())?;
+            .f64(
+                "std_err",
+                curves.rows.iter().map(|r| nan(r.std_err)).collect(),
+            )?;
     }
     Ok(cols.done())
 }
@@ -156,9 +170,12 @@ pub fn distribution_model<'py>(
     let mut set = settings(py, transmission, weighting, clearcoat)?;
     set.cone_method = cone_method(py, cone)?;
     let instrument = args.instrument(py)?;
-    let source = OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
-    let curves = released(py, || distribution_curves(&coat, &instrument, &set, &source))?
-        .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    let source =
+        OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
+    let curves = released(py, || {
+        distribution_curves(&coat, &instrument, &set, &source)
+    })?
+    .map_err(|e| to_py(py, Kind::Input, &e))?;
     curve_columns(py, &args, &curves, false)
 }
 
@@ -167,7 +184,9 @@ fn topo_settings(py: Python<'_>, window: usize, tile_um: f64) -> PyResult<TopoSe
     if window < 3 || window.is_multiple_of(2) {
         return Err(input(
             py,
-            format!("window={window}: the least-squares window must be an odd number of pixels >= 3"),
+            format!(
+                "window={window}: the least-squares window must be an odd number of pixels >= 3"
+            ),
         ));
     }
     if !(tile_um.is_finite() && tile_um > 0.0) {
@@ -186,7 +205,11 @@ fn map_refs<'a>(maps: &'a [Bound<'_, Map>]) -> Vec<&'a HeightMap> {
 }
 
 /// Emits the topographic model's warnings (few tiles, no standard error).
-fn topo_warnings(py: Python<'_>, warnings: &[flakescatter::topo::TopoWarning], tile_um: f64) -> PyResult<()> {
+fn topo_warnings(
+    py: Python<'_>,
+    warnings: &[flakescatter::topo::TopoWarning],
+    tile_um: f64,
+) -> PyResult<()> {
     for w in warnings {
         warn(py, &format!("{w} (tile_um={tile_um})"))?;
     }
@@ -223,7 +246,7 @@ pub fn topographic_model<'py>(
     let (curves, result) = interruptible(py, |progress| {
         topographic_curves(&coat, &instrument, &set, &topo, &refs, progress)
     })?
-    .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    .map_err(|e| to_py(py, Kind::Input, &e))?;
     topo_warnings(py, &result.warnings, tile_um)?;
     curve_columns(py, &args, &curves, true)
 }
@@ -262,7 +285,7 @@ pub fn isotropic_model<'py>(
     let (curves, result) = interruptible(py, |progress| {
         isotropic_curves(&coat, &instrument, &set, &topo, spacing, &refs, progress)
     })?
-    .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    .map_err(|e| to_py(py, Kind::Input, &e))?;
     topo_warnings(py, &result.warnings, tile_um)?;
     let d = curve_columns(py, &args, &curves, true)?;
     d.set_item(
@@ -290,14 +313,21 @@ fn polarimetry(
                     py,
                     format!(
                         "{name}={s:?}: expected {}\"s\", \"p\" or a Stokes vector (S0, S1, S2, S3)",
-                        if name == "incident" { "\"unpolarized\", " } else { "" }
+                        if name == "incident" {
+                            "\"unpolarized\", "
+                        } else {
+                            ""
+                        }
                     ),
                 )),
             };
         }
         let v = floats(py, name, obj)?;
         let arr: [f64; 4] = v.try_into().map_err(|_| {
-            input(py, format!("{name}: a Stokes vector has four numbers (S0, S1, S2, S3)"))
+            input(
+                py,
+                format!("{name}: a Stokes vector has four numbers (S0, S1, S2, S3)"),
+            )
         })?;
         Stokes::new(arr).map_err(|e| input(py, format!("{name}: {}", crate::errors::message(&e))))
     };
@@ -340,10 +370,19 @@ fn mueller_columns<'py>(
         .value("mueller_brdf_per_sr", cube(&|r| Some(r.brdf))?)?
         .value("mueller_reflectance", cube(&|r| r.reflectance)?)?
         .value("mueller_std_err", cube(&|r| r.brdf_std_err)?)?
-        .f64("detected_brdf_per_sr", rows.iter().map(|r| r.detected_brdf).collect())?
-        .f64("detected_std_err", rows.iter().map(|r| nan(r.detected_std_err)).collect())?
+        .f64(
+            "detected_brdf_per_sr",
+            rows.iter().map(|r| r.detected_brdf).collect(),
+        )?
+        .f64(
+            "detected_std_err",
+            rows.iter().map(|r| nan(r.detected_std_err)).collect(),
+        )?
         .f64("relative", relative)?
-        .f64("dop_unpolarized", rows.iter().map(|r| r.dop_unpolarized).collect())?;
+        .f64(
+            "dop_unpolarized",
+            rows.iter().map(|r| r.dop_unpolarized).collect(),
+        )?;
     if with_rays {
         cols = cols.i64(
             "rays",
@@ -386,11 +425,12 @@ pub fn distribution_mueller<'py>(
     set.cone_method = cone_method(py, cone)?;
     let pol = polarimetry(py, incident, analyzer)?;
     let instrument = args.instrument(py)?;
-    let source = OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
+    let source =
+        OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
     let curves = released(py, || {
         facade_distribution_mueller(&coat, &instrument, &set, &source, &pol)
     })?
-    .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    .map_err(|e| to_py(py, Kind::Input, &e))?;
     mueller_columns(py, &args, &curves, false)
 }
 
@@ -426,7 +466,7 @@ pub fn topographic_mueller<'py>(
     let (curves, result) = interruptible(py, |progress| {
         facade_topographic_mueller(&coat, &instrument, &set, &topo, &refs, &pol, progress)
     })?
-    .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    .map_err(|e| to_py(py, Kind::Input, &e))?;
     topo_warnings(py, &result.warnings, tile_um)?;
     mueller_columns(py, &args, &curves, true)
 }
@@ -474,7 +514,8 @@ pub fn volume_model<'py>(
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
     let coat = coating(py, n, flake_index)?;
     let instrument = args.instrument(py)?;
-    let source = OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
+    let source =
+        OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
     let amount = match (mass_fraction, volume_fraction, flakes) {
         (_, None, None) => Amount::MassLoading {
             fraction: mass_fraction.unwrap_or(0.05),
@@ -534,7 +575,7 @@ pub fn volume_model<'py>(
     let curves = interruptible(py, |progress| {
         volume_curves(&coat, &instrument, &vs, &source, progress)
     })?
-    .map_err(|e| to_py(py, Kind::Input, &e, None))?;
+    .map_err(|e| to_py(py, Kind::Input, &e))?;
     let rows = &curves.rows;
     let idx = row_index(py, &args, rows.iter().map(|r| (r.theta_i, r.detector)))?;
     let relative: Vec<f64> = rows.iter().map(|r| r.relative).collect();
@@ -543,20 +584,45 @@ pub fn volume_model<'py>(
         .f64("brdf_per_sr", rows.iter().map(|r| r.brdf).collect())?
         .f64("reflectance", rows.iter().map(|r| r.reflectance).collect())?
         .f64("relative", relative)?
-        .i64("rays", rows.iter().map(|r| i64::try_from(r.rays).unwrap_or(i64::MAX)).collect())?
+        .i64(
+            "rays",
+            rows.iter()
+                .map(|r| i64::try_from(r.rays).unwrap_or(i64::MAX))
+                .collect(),
+        )?
         .f64("std_err", rows.iter().map(|r| r.std_err).collect())?
-        .f64("coat_brdf_per_sr", rows.iter().map(|r| r.coat_brdf).collect())?
-        .f64("single_bounce_brdf_per_sr", rows.iter().map(|r| r.single_bounce_brdf).collect())?
-        .f64("single_bounce_std_err", rows.iter().map(|r| r.single_bounce_std_err).collect())?
-        .f64("multiple_bounce_brdf_per_sr", rows.iter().map(|r| r.multiple_bounce_brdf).collect())?
-        .f64("multiple_bounce_std_err", rows.iter().map(|r| r.multiple_bounce_std_err).collect())?
+        .f64(
+            "coat_brdf_per_sr",
+            rows.iter().map(|r| r.coat_brdf).collect(),
+        )?
+        .f64(
+            "single_bounce_brdf_per_sr",
+            rows.iter().map(|r| r.single_bounce_brdf).collect(),
+        )?
+        .f64(
+            "single_bounce_std_err",
+            rows.iter().map(|r| r.single_bounce_std_err).collect(),
+        )?
+        .f64(
+            "multiple_bounce_brdf_per_sr",
+            rows.iter().map(|r| r.multiple_bounce_brdf).collect(),
+        )?
+        .f64(
+            "multiple_bounce_std_err",
+            rows.iter().map(|r| r.multiple_bounce_std_err).collect(),
+        )?
         .done();
     let energy = PyDict::new(py);
     let e = &curves.energy;
-    let col = |f: fn(&flakescatter::volume::EnergyBalance) -> f64| -> Vec<f64> { e.iter().map(|(_, b)| f(b)).collect() };
+    let col = |f: fn(&flakescatter::volume::EnergyBalance) -> f64| -> Vec<f64> {
+        e.iter().map(|(_, b)| f(b)).collect()
+    };
     energy.set_item("theta_i_deg", PyArray1::from_vec(py, args.theta_i.clone()))?;
     for (name, f) in [
-        ("coat_reflected", (|b| b.coat_reflected) as fn(&flakescatter::volume::EnergyBalance) -> f64),
+        (
+            "coat_reflected",
+            (|b| b.coat_reflected) as fn(&flakescatter::volume::EnergyBalance) -> f64,
+        ),
         ("escaped_single", |b| b.escaped_single),
         ("escaped_multiple", |b| b.escaped_multiple),
         ("escaped_via_substrate", |b| b.escaped_via_substrate),
