@@ -1,0 +1,64 @@
+"""flakescatter from Python: the angular reflectance of metallic (aluminium-flake)
+coatings from flake orientations or confocal height maps, after NIST's ray models
+(Sung et al., J. Coatings Technology 74, 2002), with numpy arrays in and out.
+
+The functions are those of the Rust facade, one call each, with the command line's
+conventions: angles in degrees (signed in-plane detector angles, ``theta_s = -theta_i``
+is specular), lengths in micrometres, results as dicts of numpy arrays with the CLI's
+column names. Errors are :class:`Error` and its subclasses :class:`InputError` and
+:class:`FileFormatError` (both also ``ValueError``) and :class:`FileError` (also
+``OSError``); warnings are :class:`FlakescatterWarning`. Long calls release the GIL and
+stop with ``KeyboardInterrupt`` on Ctrl-C.
+"""
+
+from ._flakescatter import (
+    Error,
+    FileError,
+    FileFormatError,
+    FlakescatterWarning,
+    InputError,
+    InternalError,
+    Map,
+    __version__,
+    compare,
+    delta_e,
+    distribution_model,
+    distribution_mueller,
+    fit,
+    isotropic_model,
+    localise_stack,
+    orientation_stats,
+    read_map,
+    segment,
+    spectrum_to_lab,
+    topographic_model,
+    topographic_mueller,
+    volume_model,
+    write_map,
+)
+
+__all__ = [
+    "Error",
+    "FileError",
+    "FileFormatError",
+    "FlakescatterWarning",
+    "InputError",
+    "InternalError",
+    "Map",
+    "__version__",
+    "compare",
+    "delta_e",
+    "distribution_model",
+    "distribution_mueller",
+    "fit",
+    "isotropic_model",
+    "localise_stack",
+    "orientation_stats",
+    "read_map",
+    "segment",
+    "spectrum_to_lab",
+    "topographic_model",
+    "topographic_mueller",
+    "volume_model",
+    "write_map",
+]

@@ -1,0 +1,169 @@
+"""read_map / write_map / Map: against the CLI's `info --json` and independent readers
+(Python's zipfile + numpy for X3P, numpy.loadtxt for the text format)."""
+
+import errno
+import xml.etree.ElementTree as ET
+import zipfile
+
+import numpy as np
+import pytest
+
+import flakescatter as fs
+from conftest import CUTOFF, HEIGHT, INTENSITY
+
+
+def x3p_heights_um(path):
+    """Heights (µm) of an X3P with float64 Z data, decoded by hand from the archive
+    (ISO 25178-72: value = Offset + raw × Increment, metres; NaN marks invalid points)."""
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("main.xml"))
+        cz = root.find("Record1/Axes/CZ")
+        assert cz.findtext("DataType") == "D"
+        inc = float(cz.findtext("Increment"))
+        off = float(cz.findtext("Offset"))
+        nx = int(root.findtext("Record3/MatrixDimension/SizeX"))
+        ny = int(root.findtext("Record3/MatrixDimension/SizeY"))
+        link = root.findtext("Record3/DataLink/PointDataLink")
+        raw = np.frombuffer(z.read(link), dtype="<f8").reshape(ny, nx)
+    return (off + raw * inc) * 1e6
+
+
+def test_read_map_shapes_dtypes_and_cli_info(cli):
+    m = fs.read_map(HEIGHT)
+    info = cli.json("info", HEIGHT)
+    assert isinstance(m, fs.Map)
+    assert m.heights_um.shape == (info["ny"], info["nx"]) == m.shape
+    assert m.heights_um.dtype == np.float64 and m.heights_um.ndim == 2
+    assert m.valid.dtype == np.bool_ and m.valid.shape == m.shape
+    assert (m.nx, m.ny) == (info["nx"], info["ny"])
+    dx, dy = m.pitch_um
+    assert (dx * 1e-6, dy * 1e-6) == (info["dx_m"], info["dy_m"])
+    assert m.format == info["format"] == "x3p"
+    assert m.metadata == info["metadata"]
+    assert m.valid_count == int(m.valid.sum()) == info["valid_points"]
+    z = m.heights_um[m.valid]
+    assert np.isnan(m.heights_um[~m.valid]).all()
+    assert z.min() * 1e-6 == info["min_m"] and z.max() * 1e-6 == info["max_m"]
+    # numpy's summation is a second implementation: agreement to rounding.
+    assert z.mean() * 1e-6 == pytest.approx(info["mean_m"], rel=1e-12)
+    assert z.std() * 1e-6 == pytest.approx(info["rms_m"], rel=1e-12)
+
+
+def test_read_map_matches_hand_decoded_x3p():
+    m = fs.read_map(HEIGHT)
+    want = x3p_heights_um(HEIGHT)
+    np.testing.assert_allclose(m.heights_um, want, rtol=1e-13, atol=0)
+
+
+def test_intensity_cutoff_as_cli(cli):
+    m = fs.read_map(HEIGHT, intensity=INTENSITY, cutoff=CUTOFF)
+    info = cli.json("info", HEIGHT, "--intensity", INTENSITY, "--cutoff", CUTOFF)
+    assert m.valid_count == info["valid_points"]
+    full = fs.read_map(HEIGHT)
+    assert info["valid_points_before_cutoff"] == full.valid_count
+    # The mask is the height mask and the intensity threshold, computed here by hand.
+    intensity = fs.read_map(INTENSITY)  # an X3P intensity stores values in its Z axis
+    kept = full.valid & (x3p_heights_um(INTENSITY) / 1e6 >= CUTOFF)
+    assert intensity.shape == full.shape
+    np.testing.assert_array_equal(m.valid, kept)
+
+
+def test_write_map_round_trips_and_is_read_by_others(tmp_path, cli):
+    m = fs.read_map(HEIGHT, intensity=INTENSITY, cutoff=CUTOFF)
+    x3p, txt = tmp_path / "out.x3p", tmp_path / "out.txt"
+    fs.write_map(m, x3p)
+    fs.write_map(m, str(txt))
+    for p in (x3p, txt):
+        back = fs.read_map(p)
+        np.testing.assert_array_equal(back.valid, m.valid)
+        np.testing.assert_array_equal(back.heights_um, m.heights_um)
+        assert back.pitch_um == m.pitch_um
+        assert cli.json("info", p)["valid_points"] == m.valid_count
+    # The text format read by numpy: µm, NaN for invalid points, '#' header lines.
+    np.testing.assert_array_equal(np.loadtxt(txt, comments="#"), m.heights_um)
+    # The X3P decoded by hand: heights in metres, NaN where invalid.
+    np.testing.assert_allclose(x3p_heights_um(x3p), m.heights_um, rtol=1e-15, equal_nan=True)
+
+
+def test_map_from_numpy():
+    z = np.arange(12, dtype=float).reshape(3, 4)
+    z[1, 2] = np.nan
+    valid = np.ones((3, 4), bool)
+    valid[0, 0] = False
+    m = fs.Map(z, (0.5, 0.25), valid)
+    assert m.shape == (3, 4) and (m.nx, m.ny) == (4, 3) and m.pitch_um == (0.5, 0.25)
+    assert m.valid_count == 10 and m.format is None
+    assert not m.valid[0, 0] and not m.valid[1, 2]
+    assert np.isnan(m.heights_um[0, 0]) and m.heights_um[2, 3] == 11.0
+    assert fs.Map(np.zeros((2, 2), np.int32), 1.0).pitch_um == (1.0, 1.0)
+
+
+def test_missing_file_is_file_error_with_the_cli_message(cli, tmp_path):
+    path = tmp_path / "nope.x3p"
+    with pytest.raises(fs.FileError) as e:
+        fs.read_map(path)
+    assert isinstance(e.value, OSError) and isinstance(e.value, fs.Error)
+    assert e.value.errno == errno.ENOENT
+    assert str(e.value) in cli.fails("info", path)
+
+
+def test_bad_content_is_file_format_error_with_the_cli_message(cli, tmp_path):
+    path = tmp_path / "bad.txt"
+    path.write_text("1 2 3\n4 five 6\n")
+    with pytest.raises(fs.FileFormatError) as e:
+        fs.read_map(path, pixel_um=1.0, z_unit="um")
+    assert isinstance(e.value, ValueError)
+    assert str(e.value) in cli.fails("info", path, "--pixel-um", "1", "--z-unit", "um")
+    broken = tmp_path / "broken.x3p"
+    broken.write_bytes(HEIGHT.read_bytes()[:5000])
+    with pytest.raises(fs.FileFormatError) as e:
+        fs.read_map(broken)
+    assert str(e.value) in cli.fails("info", broken)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(cutoff=0.5),
+        dict(intensity=INTENSITY),
+        dict(intensity=INTENSITY, cutoff=float("nan")),
+        dict(channel=1),
+        dict(pixel_um=-1.0),
+        dict(z_unit="furlong"),
+    ],
+)
+def test_bad_read_parameters_are_input_errors(kwargs):
+    with pytest.raises(fs.InputError):
+        fs.read_map(HEIGHT, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        (np.zeros(5), 1.0),
+        (np.zeros((2, 2)), 0.0),
+        (np.zeros((2, 2)), (1.0, float("inf"))),
+        (np.zeros((0, 3)), 1.0),
+        (np.zeros((2, 2)), 1.0, np.ones((3, 2), bool)),
+        ([["a", "b"]], 1.0),
+    ],
+)
+def test_bad_maps_are_input_errors(args):
+    with pytest.raises(fs.InputError):
+        fs.Map(*args)
+
+
+def test_write_map_errors(tmp_path):
+    m = fs.read_map(HEIGHT)
+    with pytest.raises(fs.InputError):
+        fs.write_map(m, tmp_path / "x.sdf")
+    with pytest.raises(fs.InputError):
+        fs.write_map(m, tmp_path / "x.bin", format="png")
+    with pytest.raises(fs.FileError):
+        fs.write_map(m, tmp_path / "no" / "such" / "dir.x3p")
+
+
+def test_panic_becomes_internal_error():
+    with pytest.raises(fs.InternalError) as e:
+        fs._flakescatter._panic_for_test()
+    assert isinstance(e.value, fs.Error) and "deliberate panic" in str(e.value)
