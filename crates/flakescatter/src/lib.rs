@@ -83,6 +83,7 @@ pub mod pipeline;
 pub mod pixels;
 pub mod polarimetry;
 pub mod reproduce;
+pub mod sample;
 pub mod stack;
 pub mod volume;
 
@@ -101,7 +102,10 @@ pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
     isotropic_curves, p_tilde_about_specular, topographic_curves,
 };
-pub use pixels::{PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources};
+pub use pixels::{
+    PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources,
+    width_sources_from,
+};
 pub use polarimetry::{
     MuellerCurves, MuellerRow, Polarimetry, distribution_mueller, topographic_mueller,
 };
