@@ -13,6 +13,7 @@ mod flags;
 mod maps;
 mod output;
 mod parse;
+mod picture;
 mod plot;
 mod tables;
 

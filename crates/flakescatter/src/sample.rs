@@ -23,7 +23,7 @@
 use flakescatter_stats::fit::{HistogramFit, fit_gaussian_histogram};
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_stats::histogram::AreaHistogram;
-use flakescatter_stats::pool::{PooledWidth, pool_maps};
+use flakescatter_stats::pool::{PoolError, PooledWidth, pool_maps};
 use flakescatter_stats::segment::{SegmentParams, Segmentation, segment};
 
 use crate::PipelineError;
@@ -90,7 +90,17 @@ pub fn pool_segmentations(
 ) -> Result<(PooledWidth, AreaHistogram), PipelineError> {
     let samples: Vec<Vec<(f64, f64)>> = segmentations.iter().map(|s| tilt_samples(s)).collect();
     let refs: Vec<&[(f64, f64)]> = samples.iter().map(Vec::as_slice).collect();
-    let pooled = pool_maps(&refs).map_err(|e| PipelineError::Fit(e.to_string()))?;
+    let pooled = pool_maps(&refs).map_err(|e| match e {
+        PoolError::NoFlakes { maps } => PipelineError::Fit(format!(
+            "no flake found in {}: nothing to histogram or fit",
+            if maps == 1 {
+                "the map".to_owned()
+            } else {
+                format!("any of the {maps} maps")
+            }
+        )),
+        e => PipelineError::Fit(e.to_string()),
+    })?;
     let flakes: Vec<_> = segmentations
         .iter()
         .flat_map(|s| s.flakes.iter().map(|f| f.to_flake()))
@@ -113,14 +123,27 @@ pub fn sample_statistics(
     settings: &SampleSettings,
     progress: &dyn Fn(usize, usize),
 ) -> Result<SampleStatistics, PipelineError> {
+    let segmentations = segment_maps(maps, &settings.segment, progress)?;
+    statistics_of(maps, segmentations, settings)
+}
+
+/// Segments every map in the order given, `progress(done, total)` after each.
+///
+/// # Errors
+/// [`PipelineError::Orientation`] for invalid segmentation parameters (naming the map).
+pub fn segment_maps(
+    maps: &[&HeightMap],
+    params: &SegmentParams,
+    progress: &dyn Fn(usize, usize),
+) -> Result<Vec<Segmentation>, PipelineError> {
     let mut segmentations = Vec::with_capacity(maps.len());
     for (k, map) in maps.iter().enumerate() {
-        let seg = segment(map, &settings.segment)
+        let seg = segment(map, params)
             .map_err(|e| PipelineError::Orientation(format!("map {}: {e}", k + 1)))?;
         segmentations.push(seg);
         progress(k + 1, maps.len());
     }
-    statistics_of(maps, segmentations, settings)
+    Ok(segmentations)
 }
 
 /// As [`sample_statistics`] for maps whose segmentations are known (e.g. kept from an

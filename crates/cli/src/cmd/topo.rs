@@ -11,10 +11,11 @@ use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoResult, TopoWarning};
 use flakescatter::{Curves, TopoSettings, topographic_curves};
 use serde_json::{Value, json};
 
-use crate::flags::{InstrumentArgs, MapArgs};
-use crate::maps::{check_cutoff, read_masked};
+use crate::flags::InstrumentArgs;
+use crate::maps::{MapInputArgs, Repeats, load_all};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
 use crate::tables::{curve_warnings, rows_json, units_json, write_curves};
+use flakescatter::inputs::MapSource;
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -26,19 +27,15 @@ use crate::tables::{curve_warnings, rows_json, units_json, write_curves};
 /// map tiles of --tile-um; empty when not estimable: fewer than 2 tiles, or no ray).
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Height maps (X3P, SDF or plain text, recognised from the content); all are traced
-    /// and accumulated into one result.
+    /// Height maps (X3P, SDF or plain text, recognised from the content), z-stacks
+    /// (.tif), directories of them or quoted glob patterns; all are traced and
+    /// accumulated into one result.
     #[arg(required = true, value_name = "MAP")]
     pub maps: Vec<PathBuf>,
+    /// Map inputs: calibration, intensity pairing (--intensity once per map, or
+    /// --intensity-suffix) and cutoff, stacks.
     #[command(flatten)]
-    pub calibration: MapArgs,
-    /// Intensity map for each height map, same order (repeat the flag: one per map);
-    /// pixels with intensity below --cutoff are left out.
-    #[arg(long, value_name = "FILE")]
-    pub intensity: Vec<PathBuf>,
-    /// Intensity cutoff (same unit as the intensity maps); needs --intensity.
-    #[arg(long, value_name = "X", allow_negative_numbers = true)]
-    pub cutoff: Option<f64>,
+    pub input: MapInputArgs,
     /// Side of the least-squares window for local normals, pixels (odd, >= 3).
     #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::whole, allow_negative_numbers = true)]
     pub window: usize,
@@ -74,26 +71,15 @@ fn validate(args: &Args) -> anyhow::Result<()> {
             args.tile_um
         );
     }
-    check_cutoff(args.cutoff)?;
-    match (args.intensity.is_empty(), args.cutoff) {
-        (true, Some(c)) => bail!("--cutoff {c} needs --intensity FILE (one per map)"),
-        (false, None) => bail!("--intensity needs --cutoff X"),
-        (false, Some(_)) if args.intensity.len() != args.maps.len() => bail!(
-            "--intensity given {} times for {} height maps: give one intensity map per height map, in the same order",
-            args.intensity.len(),
-            args.maps.len()
-        ),
-        _ => Ok(()),
-    }
+    Ok(())
 }
 
 /// Read the maps and apply the intensity cutoff; errors name the file.
-fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
-    let options = args.calibration.read_options()?;
-    let mut maps = Vec::with_capacity(args.maps.len());
-    for (k, path) in args.maps.iter().enumerate() {
-        let intensity = args.intensity.get(k).map(PathBuf::as_path);
-        let map = read_masked("height map", path, intensity, args.cutoff, &options)?.map;
+fn load_maps(args: &Args, sources: &[MapSource]) -> anyhow::Result<Vec<HeightMap>> {
+    let options = args.input.load_options()?;
+    let mut maps = Vec::with_capacity(sources.len());
+    for input in load_all(sources, &options)? {
+        let (path, map) = (&input.source.height, input.loaded.map);
         if map.valid_count() == 0 {
             bail!(
                 "height map {}: no valid pixel (all {} are NaN or masked)",
@@ -118,12 +104,6 @@ fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
-    for m in &args.maps {
-        plan.input("MAP", m);
-    }
-    for i in &args.intensity {
-        plan.input("--intensity", i);
-    }
     args.instrument.inputs(&mut plan);
     let table = plan.table("--out", args.out.as_deref(), args.json);
     if args.json {
@@ -139,13 +119,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let instrument = args.instrument.instrument()?;
-    args.calibration.read_options()?;
+    args.input.load_options()?;
+    let sources = args
+        .input
+        .sources("MAP", &args.maps, &mut plan, Repeats::Warn)?;
     plan.check()?;
     let topo = TopoSettings {
         window: args.window,
         tile_um: args.tile_um,
     };
-    let maps = load_maps(&args)?;
+    let maps = load_maps(&args, &sources)?;
     let refs: Vec<&HeightMap> = maps.iter().collect();
 
     // Progress on stderr when it is a terminal and the run is long.
@@ -206,7 +189,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     plan.finish()?;
     if args.json {
-        let mut s = summary(&args, &maps, &result, &curves);
+        let mut s = summary(&args, &sources, &maps, &result, &curves);
         s["warnings"] = json!(warnings);
         if table.is_none() {
             s["rows"] = rows_json(&curves);
@@ -219,14 +202,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// The `--json` summary (without the rows).
-fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> Value {
-    let per_map: Vec<Value> = args
-        .maps
+fn summary(
+    args: &Args,
+    sources: &[MapSource],
+    maps: &[HeightMap],
+    r: &TopoResult,
+    curves: &Curves,
+) -> Value {
+    let per_map: Vec<Value> = sources
         .iter()
         .zip(maps)
         .map(|(p, m)| {
             json!({
-                "file": p.display().to_string(),
+                "file": p.height.display().to_string(),
                 "nx": m.nx(),
                 "ny": m.ny(),
                 "dx_um": m.dx(),
@@ -241,10 +229,11 @@ fn summary(args: &Args, maps: &[HeightMap], r: &TopoResult, curves: &Curves) -> 
         "model": curves.model,
         "inputs": {
             "maps": per_map,
-            "intensity": args.intensity.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-            "cutoff": args.cutoff,
-            "pixel_um": args.calibration.pixel_um,
-            "z_unit": args.calibration.z_unit,
+            "intensity": sources.iter().filter_map(|s| s.intensity.as_ref().map(|p| p.display().to_string())).collect::<Vec<_>>(),
+            "cutoff": args.input.cutoff,
+            "pixel_um": args.input.calibration.pixel_um,
+            "z_unit": args.input.calibration.z_unit,
+            "map_inputs": args.input.echo(sources),
             "window": args.window,
             "tile_um": args.tile_um,
             "instrument": args.instrument.echo(),
