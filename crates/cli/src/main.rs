@@ -48,6 +48,8 @@ enum Command {
     Synth(cmd::synth::Args),
     /// Flake orientation statistics: area-weighted histogram and fitted Gaussian width.
     Stats(cmd::stats::Args),
+    /// A sample from its manifest (maps, measured curve) to a report: statistics, models, comparison, fit.
+    Analyze(cmd::analyze::Args),
 }
 
 fn main() -> ExitCode {
@@ -62,6 +64,7 @@ fn main() -> ExitCode {
         Command::Segment(a) => cmd::segment::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stats(a) => cmd::stats::run(a),
+        Command::Analyze(a) => cmd::analyze::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -206,7 +206,8 @@ pub fn load_map(
             })
         }
         SourceKind::Map => {
-            let (mut map, format) = read_map(path, &options.read).map_err(|e| LoadError::Height(Box::new(e)))?;
+            let (mut map, format) =
+                read_map(path, &options.read).map_err(|e| LoadError::Height(Box::new(e)))?;
             let valid_before_cutoff = map.valid_count();
             match (&source.intensity, options.cutoff) {
                 (Some(ipath), Some(cutoff)) => {

@@ -72,6 +72,7 @@
 //! A longer version of the same workflow is the example `map_to_curves`
 //! (`cargo run --release -p flakescatter --example map_to_curves`).
 
+pub mod analyze;
 pub mod chart;
 pub mod compare;
 pub mod figures;
