@@ -53,7 +53,9 @@ fn png_size(p: &Path) -> (u32, u32) {
 fn manifest_copy(d: &Path, edit: impl Fn(String) -> String) -> PathBuf {
     let text = std::fs::read_to_string(fixtures().join("sample.toml")).unwrap();
     let fx = fixtures().canonicalize().unwrap();
-    let text = text.replace("\"synth-hwhm", &format!("\"{}/synth-hwhm", fx.display()));
+    let text = text
+        .replace("\"synth-hwhm", &format!("\"{}/synth-hwhm", fx.display()))
+        .replace("\"../docs/", &format!("\"{}/../docs/", fx.display()));
     let p = d.join("sample.toml");
     std::fs::write(&p, edit(text)).unwrap();
     p
@@ -81,6 +83,7 @@ fn fixture_manifest_writes_every_file_and_a_rerun_reuses_the_work() {
         "flakes.csv",
         "histogram.csv",
         "curves.csv",
+        "comparison.csv",
         "histogram.png",
         "overlays/synth-hwhm3-smooth.png",
         "overlays/synth-hwhm6-rough.png",
@@ -126,13 +129,28 @@ fn fixture_manifest_writes_every_file_and_a_rerun_reuses_the_work() {
     let warnings = first["warnings"].to_string();
     assert!(warnings.contains("only 2 maps"), "{warnings}");
 
+    // The measured curve was compared with every model and the width fitted to it.
+    // 3 models x 2 incidences.
+    assert_eq!(
+        first["comparison"].as_array().map(Vec::len),
+        Some(6),
+        "{}",
+        first["comparison"]
+    );
+    assert!(
+        first["fit"]["hwhm_deg"].as_f64().is_some(),
+        "{}",
+        first["fit"]
+    );
+
     // The first run did the work: 2 segmentations, 2 distribution runs, the
     // topographic model, the multi-angle readout.
     let w = &first["work"];
     assert_eq!(w["maps_segmented"], 2);
     assert_eq!(w["maps_reused"], 0);
     assert_eq!(w["models_reused"], false);
-    assert!(w["model_work"].as_u64().unwrap() >= 4, "{w}");
+    assert!(w["model_work"].as_u64().unwrap() >= 5, "{w}");
+    assert_eq!(w["fits"], 1);
 
     // Nothing changed: no model work, and the same report byte for byte.
     let before: Vec<Vec<u8>> = files
@@ -194,30 +212,36 @@ fn a_changed_model_setting_reruns_models_but_not_segmentation() {
 #[test]
 fn bad_manifests_are_refused_before_any_work() {
     let d = dir("bad");
-    let cases: [(&str, Box<dyn Fn(String) -> String>, &str); 4] = [
+    // (what, text replaced, replacement, what the error must name)
+    let cases = [
         (
             "unknown key",
-            Box::new(|t: String| t.replace("cutoff = 0.49", "cutof = 0.49")),
+            "cutoff = 0.49",
+            "cutof = 0.49",
             "unknown field `cutof`",
         ),
         (
             "missing map",
-            Box::new(|t: String| t.replace("synth-hwhm6-rough.height", "no-such.height")),
+            "synth-hwhm6-rough.height",
+            "no-such.height",
             "no-such.height",
         ),
-        (
-            "bad value",
-            Box::new(|t: String| t.replace("n = 1.5", "n = 0.5")),
-            "coating.n",
-        ),
+        ("bad value", "n = 1.5", "n = 0.5", "coating.n"),
         (
             "missing partner",
-            Box::new(|t: String| t.replace("\".intensity\"", "\".intens\"")),
+            "\".intensity\"",
+            "\".intens\"",
             ".intens",
         ),
+        (
+            "missing measured curve",
+            "measured.csv",
+            "no-such.csv",
+            "measured.files",
+        ),
     ];
-    for (what, edit, needle) in cases {
-        let m = manifest_copy(&d, edit);
+    for (what, from, to, needle) in cases {
+        let m = manifest_copy(&d, |t| t.replace(from, to));
         let out = d.join(format!("out-{}", what.replace(' ', "-")));
         let o = run(&["analyze", s(&m), "--out", s(&out)]);
         let err = String::from_utf8_lossy(&o.stderr);

@@ -107,16 +107,15 @@ fn resolve(file: &Path) -> anyhow::Result<SampleInput> {
     let flag = format!("{shown}: key `maps.files`");
     let files = expand(&flag, &m.files, Some(base), &pairing, Repeats::Refuse)?;
     let maps = pair(&files, &pairing).with_context(|| format!("{shown}: key `maps`"))?;
-    if m.cutoff.is_some() {
-        if let Some(s) = maps
+    if m.cutoff.is_some()
+        && let Some(s) = maps
             .iter()
             .find(|s| s.intensity.is_none() && s.kind == flakescatter::inputs::SourceKind::Map)
-        {
-            bail!(
-                "{shown}: key `maps.cutoff` needs an intensity map for {} (`maps.intensity` or `maps.intensity_suffix`)",
-                s.height.display()
-            );
-        }
+    {
+        bail!(
+            "{shown}: key `maps.cutoff` needs an intensity map for {} (`maps.intensity` or `maps.intensity_suffix`)",
+            s.height.display()
+        );
     }
     let measured: Vec<PathBuf> = manifest
         .measured

@@ -559,7 +559,7 @@ impl Manifest {
                 ),
             );
         }
-        if md.window < 3 || md.window % 2 == 0 {
+        if md.window < 3 || md.window.is_multiple_of(2) {
             return bad(
                 "models.window",
                 format!("{}: an odd number of pixels >= 3", md.window),
