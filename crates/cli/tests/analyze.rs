@@ -254,3 +254,63 @@ fn bad_manifests_are_refused_before_any_work() {
         assert!(!out.exists(), "{what}: {} written", out.display());
     }
 }
+
+#[test]
+fn several_manifests_write_each_sample_and_a_comparison_table() {
+    let d = dir("batch");
+    let (a, b) = (d.join("a"), d.join("b"));
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    // Sample a: the fixture; sample b: its hwhm-6° map alone, no topographic model.
+    let ma = manifest_copy(&a, |t| {
+        t.replace("name = \"synth-pair\"", "name = \"pair\"")
+    });
+    let mb = manifest_copy(&b, |t| {
+        t.replace("name = \"synth-pair\"", "name = \"rough\"")
+            .replace(
+                &format!(
+                    "\"{}/synth-hwhm3-smooth.height.x3p\", ",
+                    fixtures().canonicalize().unwrap().display()
+                ),
+                "",
+            )
+            .replace("topographic = \"isotropic\"", "topographic = \"none\"")
+    });
+    let out = d.join("report");
+    let o = run(&["analyze", s(&ma), s(&mb), "--out", s(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("samples.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(
+        lines[0].starts_with("sample,maps,flakes,hwhm_deg,"),
+        "{}",
+        lines[0]
+    );
+    for (line, name, maps) in [(lines[1], "pair", "2"), (lines[2], "rough", "1")] {
+        let cells: Vec<&str> = line.split(',').collect();
+        assert_eq!((cells[0], cells[1]), (name, maps), "{line}");
+        // The table carries the width each sample's own summary reports.
+        let sj: Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join(name).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        let h = sj["statistics"]["hwhm_deg"].as_f64().unwrap();
+        assert_eq!(cells[3].parse::<f64>().unwrap(), h, "{line}");
+    }
+    let md = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(
+        md.contains("(pair/index.md)") && md.contains("(rough/index.md)"),
+        "{md}"
+    );
+    assert!(out.join("index.html").is_file());
+    // The one-map sample's hwhm-6° map: its interval covers the generator's 6°.
+    let sj: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("rough/summary.json")).unwrap())
+            .unwrap();
+    let ci = &sj["statistics"]["flake_level"]["hwhm_ci95_deg"];
+    assert!(
+        ci[0].as_f64().unwrap() < 6.0 && 6.0 < ci[1].as_f64().unwrap(),
+        "{ci}"
+    );
+}

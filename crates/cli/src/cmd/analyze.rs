@@ -205,6 +205,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         b
     });
+    if batch && !args.out.is_dir() {
+        // Each sample's directory is staged beside its final place, inside DIR.
+        std::fs::create_dir_all(&args.out).map_err(|e| {
+            crate::common::Failure(format!("cannot create {}: {e}", args.out.display()))
+        })?;
+    }
     let mut rows = Vec::new();
     let mut echoes = Vec::new();
     let mut wrote_dirs = Vec::new();
