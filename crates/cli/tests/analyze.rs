@@ -177,6 +177,7 @@ fn fixture_manifest_writes_every_file_and_a_rerun_reuses_the_work() {
     a["work"] = Value::Null;
     b["work"] = Value::Null;
     assert_eq!(a, b, "summary.json differs beyond the work counter");
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -207,6 +208,7 @@ fn a_changed_model_setting_reruns_models_but_not_segmentation() {
     });
     let third = analyze(&m3, &out);
     assert_eq!(third["work"]["maps_segmented"], 2, "{}", third["work"]);
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -253,6 +255,7 @@ fn bad_manifests_are_refused_before_any_work() {
         );
         assert!(!out.exists(), "{what}: {} written", out.display());
     }
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -313,4 +316,5 @@ fn several_manifests_write_each_sample_and_a_comparison_table() {
         ci[0].as_f64().unwrap() < 6.0 && 6.0 < ci[1].as_f64().unwrap(),
         "{ci}"
     );
+    let _ = std::fs::remove_dir_all(&d);
 }
