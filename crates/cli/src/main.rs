@@ -14,6 +14,7 @@ mod maps;
 mod mueller;
 mod output;
 mod parse;
+mod picture;
 mod plot;
 mod spectra;
 mod tables;
@@ -55,6 +56,8 @@ enum Command {
     Volume(cmd::volume::Args),
     /// Colour of reflectance spectra (XYZ, CIELAB, L*C*h) and ΔE from a reference, per geometry for multi-angle files.
     Colour(cmd::colour::Args),
+    /// A sample from its manifest (maps, measured curve) to a report: statistics, models, comparison, fit.
+    Analyze(cmd::analyze::Args),
 }
 
 fn main() -> ExitCode {
@@ -72,6 +75,7 @@ fn main() -> ExitCode {
         Command::Stats(a) => cmd::stats::run(a),
         Command::Volume(a) => cmd::volume::run(a),
         Command::Colour(a) => cmd::colour::run(a),
+        Command::Analyze(a) => cmd::analyze::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -30,7 +30,7 @@ const PALETTE: [RGBColor; 8] = [
 const SIZE: (u32, u32) = (900, 620);
 
 /// Register the embedded font under the family name the figures use (once per process).
-fn register_fonts() -> anyhow::Result<()> {
+pub(crate) fn register_fonts() -> anyhow::Result<()> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
@@ -66,6 +66,11 @@ pub fn png(chart: &Chart, name: &str) -> anyhow::Result<Vec<u8>> {
         root.present()
             .map_err(|e| Failure(format!("drawing {name}: {e}")))?;
     }
+    encode_rgb(w, h, &rgb, name)
+}
+
+/// An 8-bit RGB raster (`w × h × 3` bytes, row-major) as PNG bytes.
+pub(crate) fn encode_rgb(w: u32, h: u32, rgb: &[u8], name: &str) -> anyhow::Result<Vec<u8>> {
     let mut bytes = Vec::new();
     let fail = |e: png::EncodingError| Failure(format!("encoding {name}: {e}"));
     let mut enc = png::Encoder::new(&mut bytes, w, h);
@@ -73,7 +78,7 @@ pub fn png(chart: &Chart, name: &str) -> anyhow::Result<Vec<u8>> {
     enc.set_depth(png::BitDepth::Eight);
     enc.set_compression(png::Compression::High);
     let mut writer = enc.write_header().map_err(fail)?;
-    writer.write_image_data(&rgb).map_err(fail)?;
+    writer.write_image_data(rgb).map_err(fail)?;
     writer.finish().map_err(fail)?;
     Ok(bytes)
 }
@@ -106,6 +111,7 @@ fn render<DB: DrawingBackend>(
     let pts = || {
         fig.series
             .iter()
+            .filter(|s| s.style != Style::ErrorBars)
             .flat_map(|s| match s.style {
                 Style::Band if fig.log_y => s
                     .band_bounds()
@@ -250,6 +256,28 @@ fn render<DB: DrawingBackend>(
                         }
                     }
                     Style::Band => {}
+                    Style::ErrorBars => {
+                        // Pairs (x, low), (x, high); a low end off a log axis is drawn
+                        // from the bottom of the plot.
+                        let bars: Vec<PathElement<(f64, f64)>> = s
+                            .points
+                            .chunks_exact(2)
+                            .filter(|p| p[0].0.is_finite() && p[1].1.is_finite() && p[1].1 > 0.0)
+                            .map(|p| {
+                                let lo = if p[0].1.is_finite() && (!fig.log_y || p[0].1 > y0) {
+                                    p[0].1
+                                } else {
+                                    y0
+                                };
+                                PathElement::new(
+                                    vec![(p[0].0, lo), (p[1].0, p[1].1.min(y1))],
+                                    colour.stroke_width(1),
+                                )
+                            })
+                            .collect();
+                        chart.draw_series(bars).map_err(|e| err(e.to_string()))?;
+                        let _ = (first, rest.count());
+                    }
                     Style::Points => {
                         let data = std::iter::once(first).chain(rest).flatten();
                         let anno = chart

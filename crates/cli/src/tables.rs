@@ -175,8 +175,9 @@ pub fn curve_warnings(curves: &Curves, std_err_expected: bool) -> Vec<String> {
 }
 
 /// Columns of the flake table written by `segment` (the first eight are the flake-table
-/// "normals" set with centre and angles, readable by `stats --flakes`).
-pub const FLAKE_COLUMNS: [&str; 16] = [
+/// "normals" set with centre and angles, readable by `stats --flakes`; the last two say
+/// which map a flake is on and its number there, the label of the overlays).
+pub const FLAKE_COLUMNS: [&str; 18] = [
     "x_um",
     "y_um",
     "nx",
@@ -193,13 +194,34 @@ pub const FLAKE_COLUMNS: [&str; 16] = [
     "inliers",
     "touches_border",
     "quality",
+    "map",
+    "flake",
 ];
 
-/// Writes the flake table (header [`FLAKE_COLUMNS`]).
-pub fn write_flakes(out: &mut dyn Write, flakes: &[SegmentedFlake]) -> anyhow::Result<()> {
+/// Writes the flake table (header [`FLAKE_COLUMNS`]) of several maps: `(map name, its
+/// flakes)`, flakes numbered from 1 on each map.
+pub fn write_flakes(
+    out: &mut dyn Write,
+    maps: &[(String, &[SegmentedFlake])],
+) -> anyhow::Result<()> {
     let mut w = csv::Writer::from_writer(out);
     w.write_record(FLAKE_COLUMNS).map_err(csv_error)?;
-    for f in flakes {
+    for (name, flakes) in maps {
+        for (k, f) in flakes.iter().enumerate() {
+            write_flake_row(&mut w, f, name, k + 1)?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
+fn write_flake_row<W: Write>(
+    w: &mut csv::Writer<W>,
+    f: &SegmentedFlake,
+    map: &str,
+    id: usize,
+) -> anyhow::Result<()> {
+    {
         let row = [
             shortest(f.centre_um[0]),
             shortest(f.centre_um[1]),
@@ -217,10 +239,11 @@ pub fn write_flakes(out: &mut dyn Write, flakes: &[SegmentedFlake]) -> anyhow::R
             f.inliers.to_string(),
             f.touches_border.to_string(),
             shortest(f.quality),
+            map.to_owned(),
+            id.to_string(),
         ];
         w.write_record(&row).map_err(csv_error)?;
     }
-    w.flush()?;
     Ok(())
 }
 

@@ -202,3 +202,124 @@ fn a_map_without_flakes_gives_an_empty_table_and_a_warning() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no flake found"));
 }
+
+/// `segment --overlay`: a PNG per map, the map at one image pixel per map point with the
+/// 170-pixel colour-bar strip to its right, and the pixels of each large flake carry the
+/// colour of its tilt. Reference: the generator's truth table (θn of each flake, matched
+/// to a segmented flake by its normal) and viridis, whose anchors the facade's unit test
+/// `viridis_matches_matplotlib_between_anchors` checks against matplotlib. The overlay
+/// blends the tilt colour c over the grey height g with α = 0.6 (overlay module docs);
+/// the grey adds the same to every channel, so R − G = α (c_R − c_G) and
+/// B − G = α (c_B − c_G) up to rounding (≤ 1 unit) whatever the height.
+#[test]
+fn overlay_pixels_carry_the_colour_of_the_true_tilt() {
+    let d = dir("overlay");
+    let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    let map = fx.join("synth-hwhm6-rough.height.x3p");
+    let (flakes, overlays) = (d.join("flakes.csv"), d.join("overlays"));
+    let o = run(&[
+        "segment",
+        s(&map),
+        "--intensity-suffix",
+        ".intensity",
+        "--cutoff",
+        "0.49",
+        "--out",
+        s(&flakes),
+        "--overlay",
+        s(&overlays),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let png_path = overlays.join("synth-hwhm6-rough.png");
+    let dec = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png_path).unwrap(),
+    ));
+    let mut reader = dec.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!((info.width, info.height), (512 + 170, 512));
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    let px = |x: usize, y: usize| {
+        let i = (y * info.width as usize + x) * 3;
+        [buf[i], buf[i + 1], buf[i + 2]].map(f64::from)
+    };
+
+    let text = std::fs::read_to_string(&flakes).unwrap();
+    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let truth_text = std::fs::read_to_string(fx.join("synth-hwhm6-rough.truth.csv")).unwrap();
+    let th: Vec<&str> = truth_text.lines().next().unwrap().split(',').collect();
+    let tcol = |n: &str| th.iter().position(|h| *h == n).unwrap();
+    let truth: Vec<([f64; 3], f64)> = rows(&truth_text)
+        .iter()
+        .map(|r| {
+            let f = |n: &str| r[tcol(n)].parse::<f64>().unwrap();
+            ([f("nx"), f("ny"), f("nz")], f("theta_n_deg"))
+        })
+        .collect();
+    let (alpha, max_deg, pitch) = (0.6, 20.0, 0.18);
+    let mut checked = 0;
+    for r in rows(&text) {
+        let f = |n: &str| r[col(n)].parse::<f64>().unwrap();
+        if f("pixels") < 3000.0 || r[col("touches_border")] == "true" {
+            continue;
+        }
+        let n = [f("nx"), f("ny"), f("nz")];
+        // The truth flake with the nearest normal, if it is unambiguous (within 0.3°).
+        let ang = |m: &[f64; 3]| {
+            (n[0] * m[0] + n[1] * m[1] + n[2] * m[2])
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        };
+        let Some((tn, theta_true)) = truth.iter().min_by(|a, b| ang(&a.0).total_cmp(&ang(&b.0)))
+        else {
+            continue;
+        };
+        if ang(tn) > 0.3 {
+            continue;
+        }
+        // The fill's colour for tilts within the 0.3° of the match (the segmented flake's
+        // tilt differs from the truth by at most that): per channel difference its range
+        // over θ_true ± 0.3°, widened by 1.5 units for rounding.
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for k in -30..=30 {
+            let c = flakescatter::overlay::viridis((theta_true + 0.01 * f64::from(k)) / max_deg);
+            for (i, v) in [alpha * (c[0] - c[1]), alpha * (c[2] - c[1])]
+                .into_iter()
+                .enumerate()
+            {
+                lo[i] = lo[i].min(v - 1.5);
+                hi[i] = hi[i].max(v + 1.5);
+            }
+        }
+        // The 21 × 21 pixels around the flake's centroid: most are its fill (the rest its
+        // number, written at the centroid, or a neighbour's pixels).
+        let (cx, cy) = (
+            (f("x_um") / pitch).round() as usize,
+            (f("y_um") / pitch).round() as usize,
+        );
+        let mut fill = 0;
+        for y in cy.saturating_sub(10)..=(cy + 10).min(511) {
+            for x in cx.saturating_sub(10)..=(cx + 10).min(511) {
+                let p = px(x, y);
+                let got = [p[0] - p[1], p[2] - p[1]];
+                if (0..2).all(|i| lo[i] <= got[i] && got[i] <= hi[i]) {
+                    fill += 1;
+                }
+            }
+        }
+        assert!(
+            fill >= 13,
+            "flake at ({cx}, {cy}), true θn {theta_true:.2}°: {fill} of 441 pixels carry its colour (R-G, B-G in {lo:?}..{hi:?}); centre {:?}",
+            px(cx, cy)
+        );
+        checked += 1;
+    }
+    assert!(
+        checked >= 10,
+        "only {checked} large flakes matched the truth"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

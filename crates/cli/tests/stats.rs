@@ -187,3 +187,115 @@ fn unwritable_output_is_exit_1() {
         &["--out", "h.csv"],
     );
 }
+
+/// `stats --map` over the two shipped maps (generated with hwhm 3° and 6°,
+/// fixtures/README.md), paired by suffix: a per-map table whose intervals cover each
+/// generator's width, both maps flagged, a pooled width between the two (the pooled
+/// maximum-likelihood mean square tilt is the area-weighted mean of the maps' own, so it
+/// lies between them), the 2-map warning with a map-level interval on 1 degree of
+/// freedom, the plot as a PNG, and the pairing errors.
+#[test]
+fn several_maps_are_pooled_and_a_map_that_differs_is_flagged() {
+    let d = dir("maps");
+    let fx = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    let (m3, m6) = (
+        fx.join("synth-hwhm3-smooth.height.x3p"),
+        fx.join("synth-hwhm6-rough.height.x3p"),
+    );
+    let (m3, m6) = (m3.to_str().unwrap(), m6.to_str().unwrap());
+    let (per, plot) = (d.join("per.csv"), d.join("hist.png"));
+    let o = run(&[
+        "stats",
+        "--map",
+        m3,
+        m6,
+        "--intensity-suffix",
+        ".intensity",
+        "--cutoff",
+        "0.49",
+        "--per-map",
+        per.to_str().unwrap(),
+        "--plot",
+        plot.to_str().unwrap(),
+        "--json",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("only 2 maps"), "{err}");
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["map_level"]["dof"], 1, "{}", j["map_level"]);
+    let text = std::fs::read_to_string(&per).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].starts_with("map,flakes,area_um2,effective_flakes,hwhm_deg,hwhm_ci95_lo_deg,hwhm_ci95_hi_deg,z,flagged"), "{}", lines[0]);
+    assert_eq!(lines.len(), 3, "{text}");
+    let mut widths = Vec::new();
+    for (line, truth) in lines[1..].iter().zip([3.0, 6.0]) {
+        let c: Vec<&str> = line.split(',').collect();
+        let f = |i: usize| c[i].parse::<f64>().unwrap();
+        assert!(
+            f(5) < truth && truth < f(6),
+            "{line}: interval misses {truth}°"
+        );
+        assert_eq!(c[8], "true", "{line}: not flagged");
+        widths.push(f(4));
+    }
+    let pooled = j["hwhm_deg"].as_f64().unwrap();
+    assert!(
+        widths[0] < pooled && pooled < widths[1],
+        "{pooled} vs {widths:?}"
+    );
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&plot).unwrap()));
+    assert!(dec.read_info().unwrap().info().width > 0);
+
+    // Pairing errors name what is missing.
+    let o = run(&[
+        "stats",
+        "--map",
+        m6,
+        "--intensity-suffix",
+        ".nope",
+        "--cutoff",
+        "0.49",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("synth-hwhm6-rough.nope.x3p"), "{err}");
+    let i6 = fx.join("synth-hwhm6-rough.intensity.x3p");
+    let o = run(&[
+        "stats",
+        "--map",
+        m3,
+        m6,
+        "--intensity",
+        i6.to_str().unwrap(),
+        "--cutoff",
+        "0.49",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--intensity given 1 times for 2 height maps"),
+        "{err}"
+    );
+
+    // --pixel-normals: the pixel-level statistics beside the flake-level width.
+    let o = run(&[
+        "stats",
+        "--map",
+        m6,
+        "--intensity-suffix",
+        ".intensity",
+        "--cutoff",
+        "0.49",
+        "--pixel-normals",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["histogram_of"], "pixel normals");
+    assert!(
+        j["pixel_level"].is_object() && j["width_sources"].is_object(),
+        "{j}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -28,6 +28,9 @@ pub enum Style {
     /// [`Series::band`]). A pair whose upper bound cannot be drawn is a gap; a lower
     /// bound that cannot be drawn on a log axis (≤ 0) is drawn at the bottom of the axis.
     Band,
+    /// Vertical error bars: the points come in pairs `(x, low), (x, high)`, one bar
+    /// per pair (±1 standard error of a curve, drawn in the curve's colour).
+    ErrorBars,
 }
 
 /// One series of `(x, y)` points.
@@ -258,6 +261,125 @@ pub fn volume_chart(curves: &VolumeCurves) -> Chart {
         },
         y_label: "relative reflectance (1 at specular)".into(),
         log_y: true,
+        series,
+    }
+}
+
+/// Adds to `chart` one [`Style::ErrorBars`] series per incidence of `curves` whose rows
+/// have standard errors: `relative × scale ± relative × scale × std_err / brdf` (the
+/// relative error of the BRDF carried to the plotted value; `scale` is the factor the
+/// chart's curve was multiplied by). Rows without a standard error or a positive BRDF
+/// get no bar; the bars take the colour of the incidence's curve (its index).
+pub fn with_error_bars(chart: &mut Chart, curves: &Curves, scale: f64) {
+    let detectors = curves.instrument.detectors();
+    let x = |j: usize| match detectors {
+        DetectorSet::InPlane(ts) => ts[j].to_degrees(),
+        DetectorSet::OutOfPlane(d) => d[j].0.to_degrees(),
+    };
+    for (k, &ti) in curves.instrument.theta_i().iter().enumerate() {
+        let mut points = Vec::new();
+        for r in curves.rows.iter().filter(|r| r.theta_i == ti) {
+            if let Some(se) = r.std_err
+                && se.is_finite()
+                && r.brdf > 0.0
+                && r.relative.is_finite()
+            {
+                let y = r.relative * scale;
+                let d = y * se / r.brdf;
+                points.push((x(r.detector), y - d));
+                points.push((x(r.detector), y + d));
+            }
+        }
+        if !points.is_empty() {
+            chart.series.push(Series {
+                label: String::new(),
+                points,
+                style: Style::ErrorBars,
+                colour: k,
+            });
+        }
+    }
+}
+
+/// The area-weighted histogram of `p̃` (`stats --plot`) as steps over its bins, the
+/// maximum-likelihood Gaussian of width `sigma` (radians) and, dashed, the Gaussians at
+/// the ends of its 95 % interval `sigma_ci95` (the band; an infinite end is left out),
+/// `interval` saying which interval it is. x: θn in degrees; y: `p̃` (`2π p2`,
+/// physics.md §3), linear.
+#[must_use]
+pub fn histogram_chart(
+    hist: &flakescatter_stats::histogram::AreaHistogram,
+    sigma: f64,
+    sigma_ci95: (f64, f64),
+    interval: &str,
+    title: &str,
+) -> Chart {
+    let bins = hist.bins();
+    let mut steps = Vec::with_capacity(2 * bins.len());
+    let mut top = 0f64;
+    for b in &bins {
+        steps.push((b.theta_lo.to_degrees(), b.p_tilde));
+        steps.push((b.theta_hi.to_degrees(), b.p_tilde));
+        if b.p_tilde > 0.0 {
+            top = top.max(b.theta_hi);
+        }
+    }
+    // Draw to the last non-empty bin or 4 widths, whichever is further, within 90°.
+    let x_max = top
+        .max(4.0 * sigma * flakescatter_stats::distribution::HWHM_PER_SIGMA)
+        .min(std::f64::consts::FRAC_PI_2);
+    steps.retain(|p| p.0 <= x_max.to_degrees() + 1e-9);
+    let curve = |s: f64| -> Vec<(f64, f64)> {
+        let Ok(o) = Orientation::gaussian(flakescatter_stats::GaussianWidth::Sigma(s)) else {
+            return Vec::new();
+        };
+        (0..=400)
+            .map(|k| f64::from(k) / 400.0 * x_max)
+            .map(|t| (t.to_degrees(), o.p_tilde(t)))
+            .collect()
+    };
+    let hwhm = |s: f64| (s * flakescatter_stats::distribution::HWHM_PER_SIGMA).to_degrees();
+    let mut series = vec![
+        Series {
+            label: format!("histogram ({} flakes)", hist.flakes()),
+            points: steps,
+            style: Style::Line,
+            colour: 7,
+        },
+        Series {
+            label: format!("Gaussian, hwhm {:.2}°", hwhm(sigma)),
+            points: curve(sigma),
+            style: Style::Line,
+            colour: 1,
+        },
+    ];
+    for (k, s) in [sigma_ci95.0, sigma_ci95.1].into_iter().enumerate() {
+        if s.is_finite() && s > 0.0 {
+            series.push(Series {
+                label: if k == 0 {
+                    format!(
+                        "95 % interval ({interval}): hwhm {:.2}°–{}",
+                        hwhm(sigma_ci95.0),
+                        if sigma_ci95.1.is_finite() {
+                            format!("{:.2}°", hwhm(sigma_ci95.1))
+                        } else {
+                            "∞".into()
+                        }
+                    )
+                } else {
+                    String::new()
+                },
+                points: curve(s),
+                style: Style::Dashed,
+                colour: 1,
+            });
+        }
+    }
+    Chart {
+        title: title.to_owned(),
+        x_label: "θn, flake tilt (degrees)".into(),
+        y_label: "p̃ (2π × area fraction per sr)".into(),
+        log_y: false,
         series,
     }
 }

@@ -74,17 +74,21 @@
 //! A longer version of the same workflow is the example `map_to_curves`
 //! (`cargo run --release -p flakescatter --example map_to_curves`).
 
+pub mod analyze;
 pub mod chart;
 pub mod compare;
 pub mod figures;
 pub mod fit;
+pub mod inputs;
 pub mod instrument;
 pub mod multiangle;
 mod nnls;
+pub mod overlay;
 pub mod pipeline;
 pub mod pixels;
 pub mod polarimetry;
 pub mod reproduce;
+pub mod sample;
 pub mod spectral;
 pub mod stack;
 pub mod volume;
@@ -104,7 +108,10 @@ pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
     isotropic_curves, p_tilde_about_specular, topographic_curves,
 };
-pub use pixels::{PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources};
+pub use pixels::{
+    PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources,
+    width_sources_from,
+};
 pub use polarimetry::{
     MuellerCurves, MuellerRow, Polarimetry, distribution_mueller, topographic_mueller,
 };

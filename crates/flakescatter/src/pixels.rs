@@ -35,7 +35,7 @@ use flakescatter_stats::distribution::{GaussianWidth, HWHM_PER_SIGMA, Orientatio
 use flakescatter_stats::fit::{HistogramFit, WidthFit, fit_gaussian_histogram, fit_gaussian_ml};
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_stats::histogram::AreaHistogram;
-use flakescatter_stats::segment::{SegmentParams, segment};
+use flakescatter_stats::segment::{SegmentParams, Segmentation, segment};
 use flakescatter_topo::{PixelTilts, TopoModel, TopoOptions};
 
 use crate::PipelineError;
@@ -245,6 +245,33 @@ pub fn width_sources(
     params: &SegmentParams,
     topo: &TopoSettings,
 ) -> Result<WidthSources, PipelineError> {
+    let segmentations = maps
+        .iter()
+        .map(|map| segment(map, params).map_err(|e| PipelineError::Orientation(e.to_string())))
+        .collect::<Result<Vec<_>, _>>()?;
+    let refs: Vec<&Segmentation> = segmentations.iter().collect();
+    width_sources_from(maps, &refs, topo)
+}
+
+/// As [`width_sources`] for maps already segmented: `segmentations[k]` is the
+/// segmentation of `maps[k]` (e.g. from [`crate::sample::sample_statistics`]), so that
+/// no map is segmented twice.
+///
+/// # Errors
+/// As [`width_sources`]; [`PipelineError::Orientation`] when the numbers of maps and
+/// segmentations differ.
+pub fn width_sources_from(
+    maps: &[&HeightMap],
+    segmentations: &[&Segmentation],
+    topo: &TopoSettings,
+) -> Result<WidthSources, PipelineError> {
+    if maps.len() != segmentations.len() {
+        return Err(PipelineError::Orientation(format!(
+            "{} maps but {} segmentations",
+            maps.len(),
+            segmentations.len()
+        )));
+    }
     let model = model(topo)?;
     // The bins do not enter the widths; 1° is only needed to build the tilts.
     let bin = 1f64.to_radians();
@@ -252,8 +279,7 @@ pub fn width_sources(
     let mut samples = Vec::new();
     let mut matched = Vec::new();
     let mut inside_maps = Vec::with_capacity(maps.len());
-    for map in maps {
-        let seg = segment(map, params).map_err(|e| PipelineError::Orientation(e.to_string()))?;
+    for (map, seg) in maps.iter().zip(segmentations) {
         let inside = inside_flakes(map, &seg.labels)?;
         // True area of each flake's usable inside pixels: the flake's weight among the
         // inside pixels.

@@ -32,6 +32,7 @@
 
 pub mod curves;
 pub mod detectors;
+pub mod files;
 pub mod flakes;
 pub mod map;
 pub mod measured;

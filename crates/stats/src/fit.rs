@@ -243,7 +243,7 @@ fn profile_interval(sigma: f64, m2: f64, n_eff: f64) -> (f64, f64) {
 
 /// Solves `E_s[θ²] = m2` for `s`; `None` if `m2` is not in `(0, π − 2)`. Below
 /// `m2 = 1e-16` the small-tilt form `E = 2s²(1 + O(s²))` is exact to rounding.
-fn sigma_for_mean_square(m2: f64) -> Option<f64> {
+pub(crate) fn sigma_for_mean_square(m2: f64) -> Option<f64> {
     if !(m2 > 0.0 && m2 < M2_UNIFORM) {
         return None;
     }

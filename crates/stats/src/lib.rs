@@ -21,6 +21,7 @@ pub mod fit;
 pub mod flake;
 pub mod heightmap;
 pub mod histogram;
+pub mod pool;
 mod quad;
 pub mod segment;
 
@@ -35,6 +36,7 @@ pub use fit::{
 pub use flake::{Flake, FlakeError, PlaneFit, UnitVec3, fit_plane};
 pub use heightmap::{HeightMap, HeightMapError};
 pub use histogram::{AreaHistogram, HistogramBin, HistogramError};
+pub use pool::{PoolError, PoolWarning, PooledWidth, pool_maps};
 pub use segment::{
     SegmentError, SegmentParams, SegmentWarning, Segmentation, SegmentedFlake, segment,
 };

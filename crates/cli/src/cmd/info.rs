@@ -8,19 +8,20 @@ use std::path::PathBuf;
 
 use std::fmt::Write as _;
 
-use flakescatter::io::{MapFormat, ReadOptions, ZUnit};
+use flakescatter::inputs::{LoadOptions, MapSource, StackSummary};
+use flakescatter::io::{ReadOptions, ZUnit};
 use flakescatter::stats::heightmap::HeightMap;
 use serde_json::{Map, Value, json};
 
 use crate::flags::MapArgs;
-use crate::maps::{check_cutoff, read_masked};
+use crate::maps::{StackInputArgs, check_cutoff, load_all};
 use crate::output::{print, print_json};
 
 /// Describe a height-map file (X3P, SDF or plain text, recognised from its content):
 /// size, pixel pitch, valid and invalid points, height statistics, metadata.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The height-map file.
+    /// The height-map file, or a z-stack (.tif, .tiff).
     #[arg(value_name = "MAP")]
     pub map: PathBuf,
     /// Print a JSON summary on stdout: `nx`, `ny`, `dx_m`, `dy_m`, `valid_points`,
@@ -43,6 +44,10 @@ pub struct Args {
     /// Calibration flags.
     #[command(flatten)]
     pub calibration: MapArgs,
+    /// Localisation of a z-stack given as MAP (its height map is described, and the
+    /// stack's size, voxel sizes and page order with where each came from).
+    #[command(flatten)]
+    pub stack: StackInputArgs,
 }
 
 /// µm → m for reporting.
@@ -54,8 +59,9 @@ fn summary_json(
     args: &Args,
     options: &ReadOptions,
     map: &HeightMap,
-    format: MapFormat,
+    format: &str,
     valid_before_cutoff: usize,
+    stack: Option<&StackSummary>,
 ) -> Value {
     let s = map.summary();
     let stat = |f: fn(&flakescatter::stats::heightmap::HeightSummary) -> f64| {
@@ -69,7 +75,26 @@ fn summary_json(
     json!({
         "version": env!("CARGO_PKG_VERSION"),
         "file": args.map.display().to_string(),
-        "format": format.name(),
+        "format": format,
+        "stack": stack.map(|st| json!({
+            "nx": st.info.nx,
+            "ny": st.info.ny,
+            "slices": st.info.nz,
+            "sample": st.info.sample.name(),
+            "pixel_um": st.info.pixel_um.as_ref().map(|p| vec![p.value.0, p.value.1]),
+            "pixel_source": st.info.pixel_um.as_ref().map(|p| p.source.to_string()),
+            "z_step_um": st.info.z_step_um.as_ref().map(|z| z.value),
+            "z_step_source": st.info.z_step_um.as_ref().map(|z| z.source.to_string()),
+            "first_page": st.info.first_page.value.name(),
+            "first_page_source": st.info.first_page.source.to_string(),
+            "peak": st.peak.method.name(),
+            "valid_pixels": st.report.valid,
+            "below_signal": st.report.below_signal,
+            "peak_on_first_slice": st.report.first_slice,
+            "peak_on_last_slice": st.report.last_slice,
+            "not_fittable": st.report.not_fittable,
+            "saturated": st.report.saturated,
+        })),
         "inputs": {
             "pixel_um": options.pixel_um.map(|(x, y)| vec![x, y]),
             "z_unit": options.z_unit.map(ZUnit::name),
@@ -97,22 +122,29 @@ fn summary_json(
 pub fn run(args: Args) -> anyhow::Result<()> {
     let options = args.calibration.read_options()?;
     check_cutoff(args.cutoff)?;
-    let masked = read_masked(
-        "MAP",
-        &args.map,
-        args.intensity.as_deref(),
-        args.cutoff,
-        &options,
-    )?;
-    let (map, format, valid_before_cutoff) =
-        (masked.map, masked.format, masked.valid_before_cutoff);
+    let (stack_options, peak) = args.stack.options(&options)?;
+    let source = MapSource::new(&args.map, args.intensity.clone());
+    let load = LoadOptions {
+        read: options,
+        cutoff: args.cutoff,
+        stack: stack_options,
+        peak,
+    };
+    let mut input = load_all(&[source], &load)?;
+    let loaded = input.remove(0).loaded;
+    let (map, format, valid_before_cutoff) = (
+        &loaded.map,
+        loaded.format.as_str(),
+        loaded.valid_before_cutoff,
+    );
     if args.json {
         return print_json(&summary_json(
             &args,
             &options,
-            &map,
+            map,
             format,
             valid_before_cutoff,
+            loaded.stack.as_ref(),
         ));
     }
     let n = map.len();

@@ -1,4 +1,5 @@
 //! One module per subcommand: each has `Args` (clap) and `run(Args) -> anyhow::Result<()>`.
+pub mod analyze;
 pub mod colour;
 pub mod compare;
 pub mod fit;

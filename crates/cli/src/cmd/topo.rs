@@ -16,12 +16,12 @@ use flakescatter::{
 use serde_json::{Value, json};
 
 use crate::flags::{
-    ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, MapArgs, PolarizationArgs,
-    SpectralArgs,
+    ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, PolarizationArgs, SpectralArgs,
 };
-use crate::maps::{check_cutoff, read_masked};
+use crate::maps::{MapInputArgs, Repeats, load_all};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
 use crate::tables::{curve_warnings, rows_json, units_json, write_curves, write_curves_with};
+use flakescatter::inputs::MapSource;
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -38,19 +38,15 @@ use crate::tables::{curve_warnings, rows_json, units_json, write_curves, write_c
 /// interpolation error estimate.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Height maps (X3P, SDF or plain text, recognised from the content); all are traced
-    /// and accumulated into one result.
+    /// Height maps (X3P, SDF or plain text, recognised from the content), z-stacks
+    /// (.tif), directories of them or quoted glob patterns; all are traced and
+    /// accumulated into one result.
     #[arg(required = true, value_name = "MAP")]
     pub maps: Vec<PathBuf>,
+    /// Map inputs: calibration, intensity pairing (--intensity once per map, or
+    /// --intensity-suffix) and cutoff, stacks.
     #[command(flatten)]
-    pub calibration: MapArgs,
-    /// Intensity map for each height map, same order (repeat the flag: one per map);
-    /// pixels with intensity below --cutoff are left out.
-    #[arg(long, value_name = "FILE")]
-    pub intensity: Vec<PathBuf>,
-    /// Intensity cutoff (same unit as the intensity maps); needs --intensity.
-    #[arg(long, value_name = "X", allow_negative_numbers = true)]
-    pub cutoff: Option<f64>,
+    pub input: MapInputArgs,
     /// Side of the least-squares window for local normals, pixels (odd, >= 3).
     #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::whole, allow_negative_numbers = true)]
     pub window: usize,
@@ -119,7 +115,6 @@ fn validate(args: &Args) -> anyhow::Result<()> {
             args.tile_um
         );
     }
-    check_cutoff(args.cutoff)?;
     if let Some(d) = args.node_spacing_deg {
         let max = 0.01f64.to_degrees();
         if !(d.is_finite() && d > 0.0 && d.to_radians() <= 0.01) {
@@ -128,25 +123,15 @@ fn validate(args: &Args) -> anyhow::Result<()> {
             );
         }
     }
-    match (args.intensity.is_empty(), args.cutoff) {
-        (true, Some(c)) => bail!("--cutoff {c} needs --intensity FILE (one per map)"),
-        (false, None) => bail!("--intensity needs --cutoff X"),
-        (false, Some(_)) if args.intensity.len() != args.maps.len() => bail!(
-            "--intensity given {} times for {} height maps: give one intensity map per height map, in the same order",
-            args.intensity.len(),
-            args.maps.len()
-        ),
-        _ => Ok(()),
-    }
+    Ok(())
 }
 
 /// Read the maps and apply the intensity cutoff; errors name the file.
-fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
-    let options = args.calibration.read_options()?;
-    let mut maps = Vec::with_capacity(args.maps.len());
-    for (k, path) in args.maps.iter().enumerate() {
-        let intensity = args.intensity.get(k).map(PathBuf::as_path);
-        let map = read_masked("height map", path, intensity, args.cutoff, &options)?.map;
+fn load_maps(args: &Args, sources: &[MapSource]) -> anyhow::Result<Vec<HeightMap>> {
+    let options = args.input.load_options()?;
+    let mut maps = Vec::with_capacity(sources.len());
+    for input in load_all(sources, &options)? {
+        let (path, map) = (&input.source.height, input.loaded.map);
         if map.valid_count() == 0 {
             bail!(
                 "height map {}: no valid pixel (all {} are NaN or masked)",
@@ -171,12 +156,6 @@ fn load_maps(args: &Args) -> anyhow::Result<Vec<HeightMap>> {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
-    for m in &args.maps {
-        plan.input("MAP", m);
-    }
-    for i in &args.intensity {
-        plan.input("--intensity", i);
-    }
     args.instrument.inputs(&mut plan);
     args.spectral.inputs(&mut plan);
     let table = plan.table("--out", args.out.as_deref(), args.json);
@@ -203,8 +182,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--aperture 0: the topographic model counts rays into detector cones; give a half-angle > 0"
         );
     }
+    args.input.load_options()?;
+    let sources = args
+        .input
+        .sources("MAP", &args.maps, &mut plan, Repeats::Warn)?;
     if args.multi_angle {
-        return multi_angle(&args, plan, table, plot.is_some(), &settings);
+        return multi_angle(&args, &sources, plan, table, plot.is_some(), &settings);
     }
     if args.geometry.any() || args.colour.any() {
         bail!(
@@ -212,16 +195,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if args.spectral.any() {
-        return spectral_curves(&args, plan, table, plot.is_some(), &settings);
+        return spectral_curves(&args, &sources, plan, table, plot.is_some(), &settings);
     }
     let instrument = args.instrument.instrument()?;
-    args.calibration.read_options()?;
     plan.check()?;
     let topo = TopoSettings {
         window: args.window,
         tile_um: args.tile_um,
     };
-    let maps = load_maps(&args)?;
+    let maps = load_maps(&args, &sources)?;
     let refs: Vec<&HeightMap> = maps.iter().collect();
 
     // Progress on stderr when it is a terminal and the run is long.
@@ -319,7 +301,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     plan.finish()?;
     if args.json {
-        let mut s = summary(&args, &maps, &result, &curves);
+        let mut s = summary(&args, &sources, &maps, &result, &curves);
         s["warnings"] = json!(warnings);
         if let Some(p) = &polarimetry {
             s["inputs"]["polarimetry"] = args.polarization.echo(p);
@@ -426,6 +408,7 @@ fn progress_bar(work: f64) -> Option<indicatif::ProgressBar> {
 /// `--wavelengths` without `--multi-angle`: the curves at every wavelength.
 fn spectral_curves(
     args: &Args,
+    sources: &[MapSource],
     mut plan: Plan,
     table: Option<Dest>,
     plot: bool,
@@ -451,10 +434,9 @@ fn spectral_curves(
             crate::flags::MAX_ROWS
         );
     }
-    args.calibration.read_options()?;
     plan.check()?;
     let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
-    let maps = load_maps(args)?;
+    let maps = load_maps(args, sources)?;
     let refs: Vec<&HeightMap> = maps.iter().collect();
     let runs = if coating.is_wavelength_independent() {
         1
@@ -516,7 +498,13 @@ fn spectral_curves(
     }
     plan.finish()?;
     if args.json {
-        let mut j = summary(args, &maps, &Totals::Plain(s.topo[0].clone()), &s.curves[0]);
+        let mut j = summary(
+            args,
+            sources,
+            &maps,
+            &Totals::Plain(s.topo[0].clone()),
+            &s.curves[0],
+        );
         j["command"] = json!("topo --wavelengths");
         j["inputs"]["spectral"] = coating_echo;
         j["inputs"]["wavelengths_nm"] = json!(args.spectral.wavelengths_text(""));
@@ -534,6 +522,7 @@ fn spectral_curves(
 /// `--multi-angle`: CIELAB per geometry of the set, from the spectral topographic model.
 fn multi_angle(
     args: &Args,
+    sources: &[MapSource],
     mut plan: Plan,
     table: Option<Dest>,
     plot: bool,
@@ -559,10 +548,9 @@ fn multi_angle(
         .wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
         .unwrap_or_default();
     args.spectral.validate()?;
-    args.calibration.read_options()?;
     plan.check()?;
     let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
-    let maps = load_maps(args)?;
+    let maps = load_maps(args, sources)?;
     let refs: Vec<&HeightMap> = maps.iter().collect();
     let runs = if coating.is_wavelength_independent() {
         1
@@ -605,9 +593,10 @@ fn multi_angle(
         b.finish_and_clear();
     }
     let inputs = json!({
-        "maps": args.maps.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-        "intensity": args.intensity.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-        "cutoff": args.cutoff,
+        "maps": sources.iter().map(|p| p.height.display().to_string()).collect::<Vec<_>>(),
+        "intensity": sources.iter().filter_map(|s| s.intensity.as_ref().map(|p| p.display().to_string())).collect::<Vec<_>>(),
+        "cutoff": args.input.cutoff,
+        "map_inputs": args.input.echo(sources),
         "window": args.window,
         "tile_um": args.tile_um,
         "instrument": args.instrument.optics.echo(args.instrument.clearcoat),
@@ -628,14 +617,19 @@ fn multi_angle(
 }
 
 /// The `--json` summary (without the rows).
-fn summary(args: &Args, maps: &[HeightMap], r: &Totals, curves: &Curves) -> Value {
-    let per_map: Vec<Value> = args
-        .maps
+fn summary(
+    args: &Args,
+    sources: &[MapSource],
+    maps: &[HeightMap],
+    r: &Totals,
+    curves: &Curves,
+) -> Value {
+    let per_map: Vec<Value> = sources
         .iter()
         .zip(maps)
         .map(|(p, m)| {
             json!({
-                "file": p.display().to_string(),
+                "file": p.height.display().to_string(),
                 "nx": m.nx(),
                 "ny": m.ny(),
                 "dx_um": m.dx(),
@@ -650,10 +644,11 @@ fn summary(args: &Args, maps: &[HeightMap], r: &Totals, curves: &Curves) -> Valu
         "model": curves.model,
         "inputs": {
             "maps": per_map,
-            "intensity": args.intensity.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-            "cutoff": args.cutoff,
-            "pixel_um": args.calibration.pixel_um,
-            "z_unit": args.calibration.z_unit,
+            "intensity": sources.iter().filter_map(|s| s.intensity.as_ref().map(|p| p.display().to_string())).collect::<Vec<_>>(),
+            "cutoff": args.input.cutoff,
+            "pixel_um": args.input.calibration.pixel_um,
+            "z_unit": args.input.calibration.z_unit,
+            "map_inputs": args.input.echo(sources),
             "window": args.window,
             "tile_um": args.tile_um,
             "isotropic": args.isotropic,

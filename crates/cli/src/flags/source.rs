@@ -191,24 +191,10 @@ impl MapArgs {
     }
 }
 
-/// Map input and segmentation flags of `segment` and `stats --map`.
+/// Segmentation flags of `segment` and `stats --map` (the map inputs are
+/// [`crate::maps::MapInputArgs`]).
 #[derive(Debug, Clone, clap::Args)]
 pub struct SegmentArgs {
-    /// Calibration flags.
-    #[command(flatten)]
-    pub calibration: MapArgs,
-    /// Intensity image of the same size (X3P, SDF or text); pixels whose intensity is
-    /// below --cutoff are left out (dark background between flakes).
-    #[arg(long, value_name = "FILE", requires = "cutoff")]
-    pub intensity: Option<PathBuf>,
-    /// Intensity cutoff, in the intensity file's own stored values (unit-less).
-    #[arg(
-        long,
-        value_name = "X",
-        requires = "intensity",
-        allow_negative_numbers = true
-    )]
-    pub cutoff: Option<f64>,
     /// z quantisation step of the instrument, µm (0 = none); sets the height-jump and
     /// plane-residual thresholds.
     #[arg(
@@ -243,16 +229,8 @@ impl SegmentArgs {
         if self.min_pixels < 3 {
             bail!("--min-pixels {}: must be at least 3", self.min_pixels);
         }
-        crate::maps::check_cutoff(self.cutoff)?;
         let mut p = SegmentParams::for_instrument(self.z_step_um, self.noise_um);
         p.min_pixels = self.min_pixels;
         Ok(p)
-    }
-
-    /// Registers `--intensity` as an input.
-    pub fn inputs(&self, plan: &mut Plan) {
-        if let Some(p) = &self.intensity {
-            plan.input("--intensity", p);
-        }
     }
 }

@@ -122,6 +122,8 @@ pub struct Plan {
     wrote: Vec<String>,
     /// Complete temporary files, renamed into place by [`Plan::finish`].
     staged: Vec<(tempfile::NamedTempFile, PathBuf)>,
+    /// Complete temporary directories, renamed into place by [`Plan::finish`].
+    staged_dirs: Vec<(tempfile::TempDir, PathBuf)>,
 }
 
 impl Plan {
@@ -299,6 +301,45 @@ impl Plan {
         Ok(())
     }
 
+    /// Writes the files `(path relative to dir, bytes)` into the directory `dir`
+    /// (registered with [`Plan::output_dir`]): a new directory is built whole beside it
+    /// and renamed into place by [`Plan::finish`]; into an existing one each file is
+    /// written atomically (subdirectories created as needed), other files left as they
+    /// are. `detail` goes into the "wrote" line.
+    pub fn write_dir(
+        &mut self,
+        dir: &Path,
+        files: &[(PathBuf, Vec<u8>)],
+        detail: Option<String>,
+    ) -> anyhow::Result<()> {
+        let fail = |p: &Path, e: &dyn std::fmt::Display| {
+            anyhow::Error::from(Failure(format!("cannot write {}: {e}", p.display())))
+        };
+        if dir.is_dir() {
+            for (rel, bytes) in files {
+                let path = dir.join(rel);
+                if let Some(parent) = path.parent() {
+                    std::fs::create_dir_all(parent).map_err(|e| fail(parent, &e))?;
+                }
+                if let Some(tmp) = write_file(&path, |w| Ok(w.write_all(bytes)?))? {
+                    self.staged.push((tmp, path));
+                }
+            }
+        } else {
+            let stage = temp_dir_beside(dir)?;
+            for (rel, bytes) in files {
+                let path = stage.path().join(rel);
+                if let Some(parent) = path.parent() {
+                    std::fs::create_dir_all(parent).map_err(|e| fail(parent, &e))?;
+                }
+                std::fs::write(&path, bytes).map_err(|e| fail(&dir.join(rel), &e))?;
+            }
+            self.staged_dirs.push((stage, dir.to_path_buf()));
+        }
+        self.wrote(dir, detail);
+        Ok(())
+    }
+
     /// Records a file written outside [`Plan::write`] (e.g. a directory of figures).
     pub fn wrote(&mut self, path: &Path, detail: Option<String>) {
         self.wrote.push(match detail {
@@ -314,6 +355,13 @@ impl Plan {
         for (tmp, path) in self.staged {
             tmp.persist(&path)
                 .map_err(|e| Failure(format!("cannot write {}: {}", path.display(), e.error)))?;
+        }
+        for (stage, path) in self.staged_dirs {
+            let staged = stage.keep();
+            std::fs::rename(&staged, &path).map_err(|e| {
+                let _ = std::fs::remove_dir_all(&staged);
+                Failure(format!("cannot write {}: {e}", path.display()))
+            })?;
         }
         if !self.wrote.is_empty() {
             note(&format!("wrote {}", self.wrote.join(", ")));

@@ -1,0 +1,324 @@
+//! `flakescatter analyze SAMPLE.toml [...] --out DIR`: one command per sample (or a
+//! batch of samples) from its manifest to a report directory, composed by
+//! [`flakescatter::analyze`]. This command resolves the manifests' file lists (the
+//! rules of `segment`'s MAP arguments, relative to each manifest's directory), draws
+//! charts and overlays as PNG, writes `index.md` and a self-contained `index.html`, and
+//! shows progress.
+//!
+//! Layout: one manifest writes its report into DIR; several (or a directory of
+//! manifests) write each sample into `DIR/<name>/` and a comparison across samples
+//! (`samples.csv`, `index.md`, `index.html`) into DIR. Each sample's directory is
+//! written when it is complete (a new one whole, an existing one file by file), so an
+//! interrupted batch keeps the samples it finished and a rerun reuses their work.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use base64::Engine as _;
+use flakescatter::analyze::{
+    Content, Manifest, SampleInput, analyze_sample, comparison_report, default_name, read_cache,
+};
+use flakescatter::inputs::short_names;
+use flakescatter::io::files::read_text;
+use serde_json::json;
+
+use crate::maps::{Pairing, Repeats, expand, pair};
+use crate::output::{Plan, note, print_json, warn};
+
+/// Analyses samples from their manifests: segmentation of every map, pooled statistics
+/// with flake-level and map-level intervals, the distribution model (pooled width and
+/// histogram), the topographic model, comparison with the measured curve, the width
+/// fitted to it, the multi-angle readout; writes index.md, index.html (images inline),
+/// summary.json, CSV tables, plots and overlays. Reruns reuse what has not changed.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Sample manifests (TOML, docs/guide.md "One sample, one command"), or directories
+    /// holding them (`*.toml`).
+    #[arg(value_name = "SAMPLE.toml", required = true)]
+    pub manifests: Vec<PathBuf>,
+    /// Report directory (created if missing; files it gets are replaced, others kept).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Print a JSON summary on stdout: per sample its directory, pooled width, warnings
+    /// and the work counter.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The manifest files of the arguments: files as given, directories' `*.toml` files in
+/// name order.
+fn manifest_files(items: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in items {
+        if p.is_dir() {
+            let mut v: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("SAMPLE {}: cannot list the directory", p.display()))?
+                .filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|f| f.is_file() && f.extension().is_some_and(|e| e == "toml"))
+                .collect();
+            v.sort();
+            if v.is_empty() {
+                bail!(
+                    "SAMPLE {}: the directory holds no .toml manifest",
+                    p.display()
+                );
+            }
+            out.extend(v);
+        } else if p.is_file() {
+            out.push(p.clone());
+        } else {
+            bail!("SAMPLE {}: no such file or directory", p.display());
+        }
+    }
+    Ok(out)
+}
+
+/// Parses and resolves one manifest (every file must exist), before any work.
+fn resolve(file: &Path) -> anyhow::Result<SampleInput> {
+    let shown = file.display().to_string();
+    let text = read_text(file)?;
+    let manifest = Manifest::from_toml(&text, &shown)?;
+    let base = file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let m = &manifest.maps;
+    let pairing = match (&m.intensity_suffix, m.intensity.is_empty()) {
+        (Some(s), _) => Pairing::Suffix {
+            height: m.height_suffix.clone(),
+            intensity: s.clone(),
+        },
+        (None, false) => Pairing::Explicit(
+            m.intensity
+                .iter()
+                .map(|p| {
+                    if p.is_relative() {
+                        base.join(p)
+                    } else {
+                        p.clone()
+                    }
+                })
+                .collect(),
+        ),
+        (None, true) => Pairing::None,
+    };
+    let flag = format!("{shown}: key `maps.files`");
+    let files = expand(&flag, &m.files, Some(base), &pairing, Repeats::Refuse)?;
+    let maps = pair(&files, &pairing).with_context(|| format!("{shown}: key `maps`"))?;
+    if m.cutoff.is_some()
+        && let Some(s) = maps
+            .iter()
+            .find(|s| s.intensity.is_none() && s.kind == flakescatter::inputs::SourceKind::Map)
+    {
+        bail!(
+            "{shown}: key `maps.cutoff` needs an intensity map for {} (`maps.intensity` or `maps.intensity_suffix`)",
+            s.height.display()
+        );
+    }
+    let measured: Vec<PathBuf> = manifest
+        .measured
+        .as_ref()
+        .map(|ms| {
+            ms.files
+                .iter()
+                .map(|p| {
+                    if p.is_relative() {
+                        base.join(p)
+                    } else {
+                        p.clone()
+                    }
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    for f in &measured {
+        if !f.is_file() {
+            bail!(
+                "{shown}: key `measured.files`: {} does not exist",
+                f.display()
+            );
+        }
+    }
+    let name = manifest.name.clone().unwrap_or_else(|| default_name(file));
+    let map_names = short_names(&maps);
+    Ok(SampleInput {
+        manifest,
+        file: file.to_path_buf(),
+        name,
+        maps,
+        map_names,
+        measured,
+    })
+}
+
+fn data_uri(bytes: &[u8]) -> String {
+    format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let files = manifest_files(&args.manifests)?;
+    let mut samples = Vec::with_capacity(files.len());
+    for f in &files {
+        samples.push(resolve(f)?);
+    }
+    for (k, s) in samples.iter().enumerate() {
+        if let Some(o) = samples[..k].iter().find(|o| o.name == s.name) {
+            bail!(
+                "samples {} and {} are both named `{}`: give one of them another `name`",
+                o.file.display(),
+                s.file.display(),
+                s.name
+            );
+        }
+    }
+    let batch = samples.len() > 1;
+    let mut plan = Plan::new();
+    for s in &samples {
+        plan.input("SAMPLE", &s.file);
+        for m in &s.maps {
+            plan.input("maps.files", &m.height);
+            if let Some(i) = &m.intensity {
+                plan.input("maps.intensity", i);
+            }
+        }
+        for f in &s.measured {
+            plan.input("measured.files", f);
+        }
+    }
+    plan.output_dir("--out", &args.out);
+    if args.json {
+        plan.stdout("--json");
+    }
+    plan.check()?;
+
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{prefix} {msg} {bar:30} {pos}/{len}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    if batch && !args.out.is_dir() {
+        // Each sample's directory is staged beside its final place, inside DIR.
+        std::fs::create_dir_all(&args.out).map_err(|e| {
+            crate::common::Failure(format!("cannot create {}: {e}", args.out.display()))
+        })?;
+    }
+    let mut rows = Vec::new();
+    let mut echoes = Vec::new();
+    let mut wrote_dirs = Vec::new();
+    for (k, s) in samples.iter().enumerate() {
+        let dir = if batch {
+            args.out.join(&s.name)
+        } else {
+            args.out.clone()
+        };
+        if let Some(b) = &bar {
+            b.set_prefix(format!("[{}/{}] {}", k + 1, samples.len(), s.name));
+        }
+        let progress = |stage: &str, done: usize, total: usize| {
+            if let Some(b) = &bar {
+                b.set_message(stage.to_owned());
+                b.set_length(total as u64);
+                b.set_position(done as u64);
+            }
+        };
+        let cache = read_cache(&dir, &s.map_names);
+        let report = analyze_sample(s, &cache, &progress)
+            .with_context(|| format!("sample {} ({})", s.name, s.file.display()))?;
+        let mut out: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+        let mut images: Vec<(String, Vec<u8>)> = Vec::new();
+        for f in &report.files {
+            let target = dir.join(&f.path).display().to_string();
+            let bytes = match &f.content {
+                Content::Text(t) => t.clone().into_bytes(),
+                Content::Chart(c) => crate::plot::png(c, &target)?,
+                Content::Overlay(o, title) => crate::picture::overlay_png(o, title, &target)?,
+            };
+            if f.path.ends_with(".png") {
+                images.push((f.path.clone(), bytes.clone()));
+            }
+            out.push((PathBuf::from(&f.path), bytes));
+        }
+        let md = report.document.to_markdown();
+        let html = report
+            .document
+            .to_html(&format!("Sample {}", s.name), &|name| {
+                images
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .map(|(_, b)| data_uri(b))
+            });
+        out.push((PathBuf::from("index.md"), md.into_bytes()));
+        out.push((PathBuf::from("index.html"), html.into_bytes()));
+        for w in &report.warnings {
+            warn(&format!("{}: {w}", s.name));
+        }
+        // Each sample is written when complete (module docs).
+        let mut p = Plan::new();
+        p.write_dir(&dir, &out, Some(format!("{} files", out.len())))?;
+        p.finish()?;
+        wrote_dirs.push(dir.clone());
+        note(&format!(
+            "{}: hwhm {:.3}° {}; work: {} map(s) segmented, {} reused, {} model run(s){}",
+            s.name,
+            report.row.hwhm_deg,
+            report.row.interval,
+            report.work.maps_segmented,
+            report.work.maps_reused,
+            report.work.model_work() - report.work.maps_segmented,
+            if report.work.models_reused {
+                " (model results reused)"
+            } else {
+                ""
+            }
+        ));
+        echoes.push(json!({
+            "sample": s.name,
+            "manifest": s.file.display().to_string(),
+            "dir": dir.display().to_string(),
+            "hwhm_deg": report.row.hwhm_deg,
+            "hwhm_ci95_deg": [report.row.hwhm_ci95_deg.0, report.row.hwhm_ci95_deg.1],
+            "interval": report.row.interval,
+            "work": report.summary["work"],
+            "warnings": report.warnings,
+        }));
+        rows.push(report.row);
+    }
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    if batch {
+        let (csv, doc) = comparison_report(&rows);
+        let files = vec![
+            (PathBuf::from("samples.csv"), csv.into_bytes()),
+            (PathBuf::from("index.md"), doc.to_markdown().into_bytes()),
+            (
+                PathBuf::from("index.html"),
+                doc.to_html("Samples compared", &|_| None).into_bytes(),
+            ),
+        ];
+        plan.write_dir(
+            &args.out,
+            &files,
+            Some(format!("{} samples compared", rows.len())),
+        )?;
+    }
+    plan.finish()?;
+    if args.json {
+        print_json(&json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "command": "analyze",
+            "out": args.out.display().to_string(),
+            "samples": echoes,
+        }))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,320 @@
+//! `flakescatter analyze` end to end on the shipped sample manifest
+//! (`fixtures/sample.toml`: the two synthetic layers of `fixtures/`, generated with hwhm
+//! 3° and 6°, see `fixtures/README.md`): every listed file is written, each map's width
+//! interval covers the hwhm its layer was generated with, a rerun with nothing changed
+//! does no model work and writes the same bytes, a changed model setting reruns the
+//! models but not the segmentation, and bad manifests are refused before any work.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "flakescatter-analyze-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn analyze(manifest: &Path, out: &Path) -> Value {
+    let o = run(&["analyze", s(manifest), "--out", s(out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+fn png_size(p: &Path) -> (u32, u32) {
+    let d = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(p).unwrap()));
+    let r = d.read_info().unwrap();
+    (r.info().width, r.info().height)
+}
+
+/// A copy of the fixture manifest in `d`, pointing at the fixture maps by absolute path,
+/// with `edit` applied to its text.
+fn manifest_copy(d: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(fixtures().join("sample.toml")).unwrap();
+    let fx = fixtures().canonicalize().unwrap();
+    let text = text
+        .replace("\"synth-hwhm", &format!("\"{}/synth-hwhm", fx.display()))
+        .replace("\"../docs/", &format!("\"{}/../docs/", fx.display()));
+    let p = d.join("sample.toml");
+    std::fs::write(&p, edit(text)).unwrap();
+    p
+}
+
+#[test]
+fn fixture_manifest_writes_every_file_and_a_rerun_reuses_the_work() {
+    let d = dir("fixture");
+    let out = d.join("report");
+    let manifest = fixtures().join("sample.toml");
+    let first = analyze(&manifest, &out);
+
+    // Every file the summary lists exists, and the fixed ones are among them.
+    let files: Vec<String> = first["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap().to_owned())
+        .collect();
+    for need in [
+        "index.md",
+        "index.html",
+        "summary.json",
+        "maps.csv",
+        "flakes.csv",
+        "histogram.csv",
+        "curves.csv",
+        "comparison.csv",
+        "histogram.png",
+        "overlays/synth-hwhm3-smooth.png",
+        "overlays/synth-hwhm6-rough.png",
+    ] {
+        assert!(
+            files.iter().any(|f| f == need),
+            "{need} not listed: {files:?}"
+        );
+    }
+    for f in &files {
+        assert!(out.join(f).is_file(), "{f} listed but not written");
+    }
+    // Overlays: the map at one image pixel per map pixel (512 × 512, fixtures/README.md)
+    // with the 170-pixel colour-bar strip to its right (docs/cli.md, `segment --overlay`).
+    for m in ["synth-hwhm3-smooth", "synth-hwhm6-rough"] {
+        assert_eq!(
+            png_size(&out.join(format!("overlays/{m}.png"))),
+            (512 + 170, 512)
+        );
+    }
+    // index.html is readable offline: every PNG inline, none linked.
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let pngs = files.iter().filter(|f| f.ends_with(".png")).count();
+    assert_eq!(html.matches("src=\"data:image/png;base64,").count(), pngs);
+    assert!(!html.contains("src=\"overlays/"));
+    let md = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(md.contains("](overlays/synth-hwhm3-smooth.png)"));
+
+    // Each map's 95 % interval covers the hwhm its layer was generated with.
+    let maps = first["statistics"]["maps"].as_array().unwrap();
+    assert_eq!(maps.len(), 2);
+    for (m, truth) in maps.iter().zip([3.0, 6.0]) {
+        let ci = &m["hwhm_ci95_deg"];
+        let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+        assert!(
+            lo < truth && truth < hi,
+            "{}: [{lo}, {hi}] vs {truth}",
+            m["map"]
+        );
+    }
+    // Two maps of different widths: both flagged, and the 2-map warning given.
+    assert!(maps.iter().all(|m| m["flagged"] == true));
+    let warnings = first["warnings"].to_string();
+    assert!(warnings.contains("only 2 maps"), "{warnings}");
+
+    // The measured curve was compared with every model and the width fitted to it.
+    // 3 models x 2 incidences.
+    assert_eq!(
+        first["comparison"].as_array().map(Vec::len),
+        Some(6),
+        "{}",
+        first["comparison"]
+    );
+    assert!(
+        first["fit"]["hwhm_deg"].as_f64().is_some(),
+        "{}",
+        first["fit"]
+    );
+
+    // The first run did the work: 2 segmentations, 2 distribution runs, the
+    // topographic model, the multi-angle readout.
+    let w = &first["work"];
+    assert_eq!(w["maps_segmented"], 2);
+    assert_eq!(w["maps_reused"], 0);
+    assert_eq!(w["models_reused"], false);
+    assert!(w["model_work"].as_u64().unwrap() >= 5, "{w}");
+    assert_eq!(w["fits"], 1);
+
+    // Nothing changed: no model work, and the same report byte for byte.
+    let before: Vec<Vec<u8>> = files
+        .iter()
+        .map(|f| std::fs::read(out.join(f)).unwrap())
+        .collect();
+    let second = analyze(&manifest, &out);
+    let w = &second["work"];
+    assert_eq!(w["model_work"], 0, "{w}");
+    assert_eq!(w["maps_segmented"], 0);
+    assert_eq!(w["maps_reused"], 2);
+    assert_eq!(w["models_reused"], true);
+    for (f, b) in files.iter().zip(&before) {
+        if matches!(f.as_str(), "summary.json" | "index.md" | "index.html") {
+            continue; // they report the work counter, checked below
+        }
+        assert!(
+            &std::fs::read(out.join(f)).unwrap() == b,
+            "{f} changed on rerun"
+        );
+    }
+    let mut a = first.clone();
+    let mut b = second.clone();
+    a["work"] = Value::Null;
+    b["work"] = Value::Null;
+    assert_eq!(a, b, "summary.json differs beyond the work counter");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_changed_model_setting_reruns_models_but_not_segmentation() {
+    let d = dir("changed");
+    let out = d.join("report");
+    let m1 = manifest_copy(&d, |t| {
+        t.replace("topographic = \"isotropic\"", "topographic = \"none\"")
+    });
+    let first = analyze(&m1, &out);
+    assert_eq!(first["work"]["maps_segmented"], 2);
+    let m2 = manifest_copy(&d, |t| {
+        t.replace(
+            "topographic = \"isotropic\"",
+            "topographic = \"none\"\naperture_deg = 2.0",
+        )
+    });
+    let second = analyze(&m2, &out);
+    let w = &second["work"];
+    assert_eq!(w["maps_segmented"], 0, "{w}");
+    assert_eq!(w["maps_reused"], 2);
+    assert_eq!(w["models_reused"], false);
+    assert!(w["distribution_runs"].as_u64().unwrap() >= 1, "{w}");
+    // A changed segmentation setting re-segments.
+    let m3 = manifest_copy(&d, |t| {
+        t.replace("topographic = \"isotropic\"", "topographic = \"none\"")
+            .replace("noise_um = 0.03", "noise_um = 0.04")
+    });
+    let third = analyze(&m3, &out);
+    assert_eq!(third["work"]["maps_segmented"], 2, "{}", third["work"]);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_manifests_are_refused_before_any_work() {
+    let d = dir("bad");
+    // (what, text replaced, replacement, what the error must name)
+    let cases = [
+        (
+            "unknown key",
+            "cutoff = 0.49",
+            "cutof = 0.49",
+            "unknown field `cutof`",
+        ),
+        (
+            "missing map",
+            "synth-hwhm6-rough.height",
+            "no-such.height",
+            "no-such.height",
+        ),
+        ("bad value", "n = 1.5", "n = 0.5", "coating.n"),
+        (
+            "missing partner",
+            "\".intensity\"",
+            "\".intens\"",
+            ".intens",
+        ),
+        (
+            "missing measured curve",
+            "measured.csv",
+            "no-such.csv",
+            "measured.files",
+        ),
+    ];
+    for (what, from, to, needle) in cases {
+        let m = manifest_copy(&d, |t| t.replace(from, to));
+        let out = d.join(format!("out-{}", what.replace(' ', "-")));
+        let o = run(&["analyze", s(&m), "--out", s(&out)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{what}: accepted");
+        assert!(err.contains(needle), "{what}: {err}");
+        assert!(
+            err.contains("sample.toml"),
+            "{what}: the manifest is not named: {err}"
+        );
+        assert!(!out.exists(), "{what}: {} written", out.display());
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn several_manifests_write_each_sample_and_a_comparison_table() {
+    let d = dir("batch");
+    let (a, b) = (d.join("a"), d.join("b"));
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    // Sample a: the fixture; sample b: its hwhm-6° map alone, no topographic model.
+    let ma = manifest_copy(&a, |t| {
+        t.replace("name = \"synth-pair\"", "name = \"pair\"")
+    });
+    let mb = manifest_copy(&b, |t| {
+        t.replace("name = \"synth-pair\"", "name = \"rough\"")
+            .replace(
+                &format!(
+                    "\"{}/synth-hwhm3-smooth.height.x3p\", ",
+                    fixtures().canonicalize().unwrap().display()
+                ),
+                "",
+            )
+            .replace("topographic = \"isotropic\"", "topographic = \"none\"")
+    });
+    let out = d.join("report");
+    let o = run(&["analyze", s(&ma), s(&mb), "--out", s(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("samples.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(
+        lines[0].starts_with("sample,maps,flakes,hwhm_deg,"),
+        "{}",
+        lines[0]
+    );
+    for (line, name, maps) in [(lines[1], "pair", "2"), (lines[2], "rough", "1")] {
+        let cells: Vec<&str> = line.split(',').collect();
+        assert_eq!((cells[0], cells[1]), (name, maps), "{line}");
+        // The table carries the width each sample's own summary reports.
+        let sj: Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join(name).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        let h = sj["statistics"]["hwhm_deg"].as_f64().unwrap();
+        assert_eq!(cells[3].parse::<f64>().unwrap(), h, "{line}");
+    }
+    let md = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(
+        md.contains("(pair/index.md)") && md.contains("(rough/index.md)"),
+        "{md}"
+    );
+    assert!(out.join("index.html").is_file());
+    // The one-map sample's hwhm-6° map: its interval covers the generator's 6°.
+    let sj: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("rough/summary.json")).unwrap())
+            .unwrap();
+    let ci = &sj["statistics"]["flake_level"]["hwhm_ci95_deg"];
+    assert!(
+        ci[0].as_f64().unwrap() < 6.0 && 6.0 < ci[1].as_f64().unwrap(),
+        "{ci}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -1,0 +1,640 @@
+//! The sample manifest of `flakescatter analyze` (TOML, parsed with `serde`): which maps
+//! (or z-stacks) make the sample and how they pair with intensity maps, the instrument
+//! of the microscope, the coating, the measured curve(s) and which models to run.
+//! Every key is documented in `docs/guide.md` ("One sample, one command"). An unknown
+//! key, a value of the wrong type and a value out of range are errors naming the key and
+//! the file, before any work.
+//!
+//! Units as the key names say: degrees in `_deg` keys, micrometres in `_um` keys.
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// A manifest that cannot be used.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("{file}: {message}")]
+pub struct ManifestError {
+    /// The manifest file.
+    pub file: String,
+    /// What is wrong, naming the key.
+    pub message: String,
+}
+
+/// A sample manifest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// Name of the sample in reports (default: the manifest's file name without
+    /// `.toml`); letters, digits, `-`, `_` and `.`.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Free text for the report.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The maps.
+    pub maps: Maps,
+    /// z-stack localisation, for maps that are stacks.
+    #[serde(default)]
+    pub stack: StackSection,
+    /// The confocal instrument (segmentation thresholds).
+    #[serde(default)]
+    pub instrument: InstrumentSection,
+    /// The coating.
+    #[serde(default)]
+    pub coating: CoatingSection,
+    /// The measured goniometric curve(s).
+    #[serde(default)]
+    pub measured: Option<MeasuredSection>,
+    /// Statistics settings.
+    #[serde(default)]
+    pub stats: StatsSection,
+    /// Which models to run, and the goniometer's geometry.
+    #[serde(default)]
+    pub models: ModelsSection,
+}
+
+/// `[maps]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Maps {
+    /// Height maps or z-stacks: files, directories or glob patterns, relative to the
+    /// manifest's directory.
+    pub files: Vec<PathBuf>,
+    /// One intensity map per height map, in order (or `intensity_suffix`).
+    #[serde(default)]
+    pub intensity: Vec<PathBuf>,
+    /// Pair `NAME<height_suffix>.EXT` with `NAME<intensity_suffix>.EXT`.
+    #[serde(default)]
+    pub intensity_suffix: Option<String>,
+    /// The part of a height map's name the intensity suffix replaces (default
+    /// `.height`).
+    #[serde(default = "default_height_suffix")]
+    pub height_suffix: String,
+    /// Intensity cutoff in the intensity maps' stored values.
+    #[serde(default)]
+    pub cutoff: Option<f64>,
+    /// Pixel pitch `[dx, dy]`, µm, for maps that carry none (plain text).
+    #[serde(default)]
+    pub pixel_um: Option<[f64; 2]>,
+    /// Unit of plain-text heights: `um`, `nm` or `m`.
+    #[serde(default)]
+    pub z_unit: Option<String>,
+}
+
+fn default_height_suffix() -> String {
+    ".height".into()
+}
+
+/// `[stack]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StackSection {
+    /// Peak localisation: `argmax`, `parabolic`, `gaussian` (default) or `centroid`.
+    #[serde(default = "default_peak")]
+    pub peak: String,
+    /// Pixels whose brightest sample is below this (full scale 1) are invalid.
+    #[serde(default)]
+    pub min_signal: f64,
+    /// z step override, µm.
+    #[serde(default)]
+    pub z_step_um: Option<f64>,
+    /// Which slice page 0 is: `bottom` or `top` (default: from the metadata, else
+    /// bottom).
+    #[serde(default)]
+    pub first_page: Option<String>,
+}
+
+fn default_peak() -> String {
+    "gaussian".into()
+}
+
+impl Default for StackSection {
+    fn default() -> Self {
+        Self {
+            peak: default_peak(),
+            min_signal: 0.0,
+            z_step_um: None,
+            first_page: None,
+        }
+    }
+}
+
+/// `[instrument]`: the confocal microscope, for segmentation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstrumentSection {
+    /// z quantisation step of the height maps, µm (0 = none; default 0.3).
+    #[serde(default = "default_z_step")]
+    pub z_step_um: f64,
+    /// Height noise sd, µm (default 0.03).
+    #[serde(default = "default_noise")]
+    pub noise_um: f64,
+    /// Smallest flake kept, pixels (default 100).
+    #[serde(default = "default_min_pixels")]
+    pub min_pixels: usize,
+}
+
+fn default_z_step() -> f64 {
+    0.3
+}
+fn default_noise() -> f64 {
+    0.03
+}
+fn default_min_pixels() -> usize {
+    100
+}
+
+impl Default for InstrumentSection {
+    fn default() -> Self {
+        Self {
+            z_step_um: default_z_step(),
+            noise_um: default_noise(),
+            min_pixels: default_min_pixels(),
+        }
+    }
+}
+
+/// `[coating]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoatingSection {
+    /// Clear-coat refractive index (default 1.5).
+    #[serde(default = "default_n")]
+    pub n: f64,
+    /// Complex flake index `[n, k]` (default a perfect conductor).
+    #[serde(default)]
+    pub flake_index: Option<[f64; 2]>,
+}
+
+fn default_n() -> f64 {
+    1.5
+}
+
+impl Default for CoatingSection {
+    fn default() -> Self {
+        Self {
+            n: default_n(),
+            flake_index: None,
+        }
+    }
+}
+
+/// `[measured]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredSection {
+    /// Measured curve CSV files (`theta_i_deg, theta_s_deg, value[, uncertainty]`),
+    /// relative to the manifest's directory; several are joined (they must not repeat a
+    /// point).
+    pub files: Vec<PathBuf>,
+    /// What `value` is: `brdf` (default), `reflectance-factor` or `relative`.
+    #[serde(default = "default_kind")]
+    pub kind: String,
+}
+
+fn default_kind() -> String {
+    "brdf".into()
+}
+
+/// `[stats]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StatsSection {
+    /// Histogram bin width, degrees (default 1).
+    #[serde(default = "default_bin")]
+    pub bin_deg: f64,
+    /// Also the pixel-level statistics (where the width comes from; default true).
+    #[serde(default = "default_true")]
+    pub pixel_normals: bool,
+    /// Top of the overlays' tilt colour scale, degrees (default 20).
+    #[serde(default = "default_overlay_max")]
+    pub overlay_max_deg: f64,
+}
+
+fn default_bin() -> f64 {
+    1.0
+}
+fn default_true() -> bool {
+    true
+}
+fn default_overlay_max() -> f64 {
+    20.0
+}
+
+impl Default for StatsSection {
+    fn default() -> Self {
+        Self {
+            bin_deg: default_bin(),
+            pixel_normals: true,
+            overlay_max_deg: default_overlay_max(),
+        }
+    }
+}
+
+/// In-plane detector angles: a list, or an inclusive range.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Angles {
+    /// Degrees.
+    List(Vec<f64>),
+    /// `{ from = -70, to = 70, step = 0.5 }`, degrees, inclusive.
+    Range {
+        /// First angle.
+        from: f64,
+        /// Last angle (inclusive when on the grid).
+        to: f64,
+        /// Step, > 0.
+        step: f64,
+    },
+}
+
+/// Which topographic model to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TopoKind {
+    /// Not run.
+    None,
+    /// One ray per usable pixel (paper eqs. 14–15).
+    Plain,
+    /// Averaged exactly over the sample's rotation (physics.md §5.1; the default).
+    Isotropic,
+}
+
+/// `[models]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelsSection {
+    /// Incidences, degrees (default: those of the measured curve, else 30 and 60).
+    #[serde(default)]
+    pub theta_i_deg: Option<Vec<f64>>,
+    /// Detectors, degrees (default `{ from = -70, to = 70, step = 0.5 }`).
+    #[serde(default)]
+    pub theta_s_deg: Option<Angles>,
+    /// Detector half-angle, degrees (default 1.5).
+    #[serde(default = "default_aperture")]
+    pub aperture_deg: f64,
+    /// Include the clear coat's own reflection (default true, as a goniometer sees it).
+    #[serde(default = "default_true")]
+    pub clearcoat: bool,
+    /// The distribution model with the pooled width (default true).
+    #[serde(default = "default_true")]
+    pub distribution_fitted: bool,
+    /// The distribution model with the pooled histogram (default true).
+    #[serde(default = "default_true")]
+    pub distribution_histogram: bool,
+    /// The topographic model: `isotropic` (default), `plain` or `none`.
+    #[serde(default = "default_topo")]
+    pub topographic: TopoKind,
+    /// Fit the Gaussian width to the measured curve (default true; needs `[measured]`).
+    #[serde(default = "default_true")]
+    pub fit: bool,
+    /// The multi-angle readout (45°, L* and flop index) of the pooled width (default
+    /// true).
+    #[serde(default = "default_true")]
+    pub multi_angle: bool,
+    /// Least-squares window of the topographic model, pixels (default 5).
+    #[serde(default = "default_window")]
+    pub window: usize,
+    /// Tile side of the topographic standard errors, µm (default 32).
+    #[serde(default = "default_tile")]
+    pub tile_um: f64,
+}
+
+fn default_aperture() -> f64 {
+    1.5
+}
+fn default_topo() -> TopoKind {
+    TopoKind::Isotropic
+}
+fn default_window() -> usize {
+    5
+}
+fn default_tile() -> f64 {
+    flakescatter_topo::DEFAULT_BLOCK_UM
+}
+
+impl Default for ModelsSection {
+    fn default() -> Self {
+        Self {
+            theta_i_deg: None,
+            theta_s_deg: None,
+            aperture_deg: default_aperture(),
+            clearcoat: true,
+            distribution_fitted: true,
+            distribution_histogram: true,
+            topographic: default_topo(),
+            fit: true,
+            multi_angle: true,
+            window: default_window(),
+            tile_um: default_tile(),
+        }
+    }
+}
+
+impl Angles {
+    /// The angles in degrees; `key` names the key in errors.
+    ///
+    /// # Errors
+    /// A message naming `key` for an empty list, a bad step or more than 10⁶ angles.
+    pub fn degrees(&self, key: &str) -> Result<Vec<f64>, String> {
+        match self {
+            Self::List(v) if v.is_empty() => Err(format!("{key}: empty list")),
+            Self::List(v) => Ok(v.clone()),
+            Self::Range { from, to, step } => {
+                if !(step.is_finite() && *step > 0.0 && from.is_finite() && to.is_finite()) {
+                    return Err(format!("{key}: from, to and step must be finite, step > 0"));
+                }
+                if to < from {
+                    return Err(format!("{key}: the range is empty (to < from)"));
+                }
+                let count = ((to - from) / step + 1e-9).floor();
+                if count > 1e6 {
+                    return Err(format!("{key}: more than 10^6 angles"));
+                }
+                // Rounded to 1e-9° so that -70 + 0.5 k prints as typed.
+                Ok((0..=count as usize)
+                    .map(|k| ((from + step * k as f64) * 1e9).round() / 1e9 + 0.0)
+                    .collect())
+            }
+        }
+    }
+}
+
+impl Manifest {
+    /// Parses and checks the manifest text of `file` (named in errors).
+    ///
+    /// # Errors
+    /// [`ManifestError`] naming the key: TOML syntax (with line and column), an unknown
+    /// key, a wrong type, or a value out of range ([`Manifest::validate`]).
+    pub fn from_toml(text: &str, file: &str) -> Result<Self, ManifestError> {
+        let m: Self = toml::from_str(text).map_err(|e| ManifestError {
+            file: file.to_owned(),
+            message: e.to_string().trim_end().replace('\n', "\n    "),
+        })?;
+        m.validate(file)?;
+        Ok(m)
+    }
+
+    /// Checks every value's range.
+    ///
+    /// # Errors
+    /// [`ManifestError`] naming the first key out of range.
+    pub fn validate(&self, file: &str) -> Result<(), ManifestError> {
+        let bad = |key: &str, msg: String| {
+            Err(ManifestError {
+                file: file.to_owned(),
+                message: format!("key `{key}`: {msg}"),
+            })
+        };
+        if let Some(n) = &self.name
+            && (n.is_empty()
+                || !n
+                    .chars()
+                    .all(|c| c.is_alphanumeric() || matches!(c, '-' | '_' | '.'))
+                || n.starts_with('.'))
+        {
+            return bad(
+                "name",
+                format!(
+                    "`{n}`: use letters, digits, `-`, `_` and `.` (it names the report folder)"
+                ),
+            );
+        }
+        let m = &self.maps;
+        if m.files.is_empty() {
+            return bad("maps.files", "no map listed".into());
+        }
+        if !m.intensity.is_empty() && m.intensity_suffix.is_some() {
+            return bad(
+                "maps.intensity",
+                "give either `maps.intensity` (one per map) or `maps.intensity_suffix`, not both"
+                    .into(),
+            );
+        }
+        if let Some(c) = m.cutoff
+            && !c.is_finite()
+        {
+            return bad("maps.cutoff", format!("{c} is not a finite number"));
+        }
+        if m.cutoff.is_none() && (!m.intensity.is_empty() || m.intensity_suffix.is_some()) {
+            return bad(
+                "maps.cutoff",
+                "intensity maps are given but no cutoff to apply them with".into(),
+            );
+        }
+        if let Some([x, y]) = m.pixel_um
+            && !(x.is_finite() && x > 0.0 && y.is_finite() && y > 0.0)
+        {
+            return bad(
+                "maps.pixel_um",
+                format!("[{x}, {y}]: must be finite and > 0 µm"),
+            );
+        }
+        if let Some(z) = &m.z_unit
+            && !matches!(z.as_str(), "um" | "nm" | "m")
+        {
+            return bad("maps.z_unit", format!("`{z}`: expected um, nm or m"));
+        }
+        let s = &self.stack;
+        if flakescatter_confocal::PeakMethod::from_name(&s.peak).is_none() {
+            return bad(
+                "stack.peak",
+                format!(
+                    "`{}`: expected argmax, parabolic, gaussian or centroid",
+                    s.peak
+                ),
+            );
+        }
+        if !(s.min_signal.is_finite() && (0.0..=1.0).contains(&s.min_signal)) {
+            return bad(
+                "stack.min_signal",
+                format!("{}: expected [0, 1]", s.min_signal),
+            );
+        }
+        if let Some(z) = s.z_step_um
+            && !(z.is_finite() && z > 0.0)
+        {
+            return bad("stack.z_step_um", format!("{z}: must be finite and > 0 µm"));
+        }
+        if let Some(p) = &s.first_page
+            && !matches!(p.as_str(), "bottom" | "top")
+        {
+            return bad("stack.first_page", format!("`{p}`: expected bottom or top"));
+        }
+        let i = &self.instrument;
+        if !(i.z_step_um.is_finite() && i.z_step_um >= 0.0) {
+            return bad(
+                "instrument.z_step_um",
+                format!("{}: must be finite and >= 0 µm", i.z_step_um),
+            );
+        }
+        if !(i.noise_um.is_finite() && i.noise_um >= 0.0) {
+            return bad(
+                "instrument.noise_um",
+                format!("{}: must be finite and >= 0 µm", i.noise_um),
+            );
+        }
+        if i.min_pixels < 3 {
+            return bad(
+                "instrument.min_pixels",
+                format!("{}: must be at least 3", i.min_pixels),
+            );
+        }
+        let c = &self.coating;
+        if !(c.n.is_finite() && c.n >= 1.0) {
+            return bad(
+                "coating.n",
+                format!("{}: the refractive index must be finite and >= 1", c.n),
+            );
+        }
+        if let Some([n, k]) = c.flake_index
+            && flakescatter_optics::flake::FlakeReflectance::complex(n, k).is_err()
+        {
+            return bad(
+                "coating.flake_index",
+                format!("[{n}, {k}]: not a usable complex index"),
+            );
+        }
+        if let Some(ms) = &self.measured {
+            if ms.files.is_empty() {
+                return bad("measured.files", "no file listed".into());
+            }
+            if ms.kind.parse::<crate::compare::MeasuredKind>().is_err() {
+                return bad(
+                    "measured.kind",
+                    format!(
+                        "`{}`: expected brdf, reflectance-factor or relative",
+                        ms.kind
+                    ),
+                );
+            }
+        }
+        let st = &self.stats;
+        if !(st.bin_deg.is_finite() && (0.001..=45.0).contains(&st.bin_deg)) {
+            return bad(
+                "stats.bin_deg",
+                format!("{}: expected [0.001, 45] degrees", st.bin_deg),
+            );
+        }
+        if !(st.overlay_max_deg.is_finite()
+            && st.overlay_max_deg > 0.0
+            && st.overlay_max_deg <= 90.0)
+        {
+            return bad(
+                "stats.overlay_max_deg",
+                format!("{}: expected (0, 90] degrees", st.overlay_max_deg),
+            );
+        }
+        let md = &self.models;
+        if let Some(t) = &md.theta_i_deg {
+            if t.is_empty() {
+                return bad("models.theta_i_deg", "empty list".into());
+            }
+            if let Some(x) = t
+                .iter()
+                .find(|x| !(x.is_finite() && (0.0..90.0).contains(*x)))
+            {
+                return bad("models.theta_i_deg", format!("{x}° is outside [0, 90)"));
+            }
+        }
+        if let Some(a) = &md.theta_s_deg {
+            let v = a
+                .degrees("models.theta_s_deg")
+                .map_err(|message| ManifestError {
+                    file: file.to_owned(),
+                    message: format!("key {message}"),
+                })?;
+            if let Some(x) = v.iter().find(|x| !(x.is_finite() && x.abs() < 90.0)) {
+                return bad("models.theta_s_deg", format!("{x}° is outside (-90, 90)"));
+            }
+        }
+        if !(md.aperture_deg.is_finite() && md.aperture_deg > 0.0 && md.aperture_deg <= 20.0) {
+            return bad(
+                "models.aperture_deg",
+                format!(
+                    "{}: expected a half-angle in (0, 20] degrees",
+                    md.aperture_deg
+                ),
+            );
+        }
+        if md.window < 3 || md.window.is_multiple_of(2) {
+            return bad(
+                "models.window",
+                format!("{}: an odd number of pixels >= 3", md.window),
+            );
+        }
+        if !(md.tile_um.is_finite() && md.tile_um > 0.0) {
+            return bad(
+                "models.tile_um",
+                format!("{}: must be finite and > 0 µm", md.tile_um),
+            );
+        }
+        if md.fit && self.measured.is_none() {
+            return bad(
+                "models.fit",
+                "the width fit needs a measured curve: add [measured] or set fit = false".into(),
+            );
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const OK: &str = r#"
+        [maps]
+        files = ["a.height.x3p"]
+        intensity_suffix = ".intensity"
+        cutoff = 0.49
+        [models]
+        fit = false
+        theta_s_deg = { from = -70, to = 70, step = 0.5 }
+    "#;
+
+    #[test]
+    fn defaults_and_ranges() {
+        let m = Manifest::from_toml(OK, "s.toml").unwrap();
+        assert_eq!(m.maps.height_suffix, ".height");
+        assert_eq!(m.models.topographic, TopoKind::Isotropic);
+        assert_eq!(m.instrument.z_step_um, 0.3);
+        let ts = m.models.theta_s_deg.unwrap().degrees("k").unwrap();
+        assert_eq!((ts.len(), ts[0], ts[1], ts[280]), (281, -70.0, -69.5, 70.0));
+    }
+
+    #[test]
+    fn errors_name_the_key_and_the_file() {
+        let cases = [
+            (
+                OK.replace("cutoff = 0.49", "cutof = 0.49"),
+                "unknown field `cutof`",
+            ),
+            (OK.replace("cutoff = 0.49", "cutoff = \"x\""), "cutoff"),
+            (
+                OK.replace("fit = false", "fit = false\naperture_deg = 0"),
+                "models.aperture_deg",
+            ),
+            (OK.replace("fit = false", "fit = true"), "models.fit"),
+            (
+                OK.replace("[models]", "[coating]\nn = 0.5\n[models]"),
+                "coating.n",
+            ),
+            (
+                OK.replace("fit = false", "fit = false\ntopographic = \"round\""),
+                "topographic",
+            ),
+            (OK.replace("cutoff = 0.49\n", ""), "maps.cutoff"),
+            (format!("name = \"a b\"\n{OK}"), "key `name`"),
+        ];
+        for (text, needle) in cases {
+            let e = Manifest::from_toml(&text, "dir/s.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("dir/s.toml: "), "{e}");
+            assert!(e.contains(needle), "{needle}: {e}");
+        }
+    }
+}

@@ -1,0 +1,308 @@
+//! The maps of a sample as files: a height map with its intensity partner, or a
+//! confocal z-stack (which carries its own intensity), read through [`crate::io`] and
+//! [`crate::stack`] and masked by the intensity cutoff.
+//!
+//! Conventions: heights and pitches in µm as the readers return them; a stack's height
+//! map is µm above its lowest slice and its intensity the brightest sample (full scale
+//! 1 for integer stacks). The cutoff is in the intensity's own stored values.
+
+use std::path::{Path, PathBuf};
+
+use flakescatter_confocal::{PeakOptions, PeakReport};
+use flakescatter_io::stack::{StackInfo, StackOptions};
+use flakescatter_io::{ReadMapError, ReadOptions, read_intensity, read_map};
+use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
+use thiserror::Error;
+
+use crate::stack::{StackPipelineError, localise_stack};
+
+/// What kind of file a map is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SourceKind {
+    /// A height map (X3P, SDF or plain text, recognised from its content).
+    Map,
+    /// A confocal z-stack (multi-page TIFF), localised into a height and an intensity
+    /// map.
+    Stack,
+}
+
+impl SourceKind {
+    /// [`SourceKind::Stack`] for a `.tif`/`.tiff` file name (any case), else
+    /// [`SourceKind::Map`].
+    #[must_use]
+    pub fn of(path: &Path) -> Self {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("tif" | "tiff") => Self::Stack,
+            _ => Self::Map,
+        }
+    }
+}
+
+/// One map of a sample as files.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MapSource {
+    /// The height map or stack file.
+    pub height: PathBuf,
+    /// Its intensity map (height maps only).
+    pub intensity: Option<PathBuf>,
+    /// Height map or stack (from the file name, [`SourceKind::of`]).
+    pub kind: SourceKind,
+}
+
+impl MapSource {
+    /// A source for `height` (kind from its name) with an optional intensity partner.
+    #[must_use]
+    pub fn new(height: impl Into<PathBuf>, intensity: Option<PathBuf>) -> Self {
+        let height = height.into();
+        let kind = SourceKind::of(&height);
+        Self {
+            height,
+            intensity,
+            kind,
+        }
+    }
+}
+
+/// How maps are read.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LoadOptions {
+    /// Reader options of height and intensity maps (pitch override, z unit, ...).
+    pub read: ReadOptions,
+    /// Intensity cutoff: pixels whose intensity is below it are masked (`None`: no
+    /// mask; needs an intensity partner or a stack).
+    pub cutoff: Option<f64>,
+    /// Stack reading options (voxel size overrides, page order).
+    pub stack: StackOptions,
+    /// Peak localisation of stacks.
+    pub peak: PeakOptions,
+}
+
+/// A stack's description and what its localisation did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StackSummary {
+    /// Size, sample type, voxel sizes, page order and their sources.
+    pub info: StackInfo,
+    /// Valid and invalid pixels and why.
+    pub report: PeakReport,
+    /// The localiser options used.
+    pub peak: PeakOptions,
+}
+
+/// A map as read, masked by its intensity cutoff.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadedMap {
+    /// The height map, µm, invalid where the file has no value or the intensity is
+    /// below the cutoff.
+    pub map: HeightMap,
+    /// Format name: `x3p`, `sdf`, `text` or `stack (<convention>)`.
+    pub format: String,
+    /// Valid points before the cutoff.
+    pub valid_before_cutoff: usize,
+    /// For a stack, what it was and how it was localised.
+    pub stack: Option<StackSummary>,
+}
+
+/// Why a map could not be read.
+#[derive(Debug, Error)]
+pub enum LoadError {
+    /// The height map file (names it).
+    #[error(transparent)]
+    Height(Box<ReadMapError>),
+    /// The intensity partner of a height map.
+    #[error("intensity map of {}: {source}", map.display())]
+    Intensity {
+        /// The height map.
+        map: PathBuf,
+        /// What went wrong reading the intensity map (names it).
+        source: Box<ReadMapError>,
+    },
+    /// The cutoff could not be applied (e.g. maps of different sizes or pitches).
+    #[error("{} with intensity {intensity} and cutoff {cutoff}: {source}", map.display())]
+    Cutoff {
+        /// The height map or stack.
+        map: PathBuf,
+        /// The intensity map (or `its own intensity` for a stack).
+        intensity: String,
+        /// The cutoff.
+        cutoff: f64,
+        /// What the height map said.
+        source: HeightMapError,
+    },
+    /// A cutoff is asked for a height map without an intensity partner.
+    #[error("{}: a cutoff of {cutoff} is asked but the map has no intensity map to apply it to", map.display())]
+    NoIntensity {
+        /// The height map.
+        map: PathBuf,
+        /// The cutoff.
+        cutoff: f64,
+    },
+    /// An intensity map is given without a cutoff to apply.
+    #[error("{}: the intensity map {} is given but no cutoff to apply it with", map.display(), intensity.display())]
+    NoCutoff {
+        /// The height map.
+        map: PathBuf,
+        /// The intensity map.
+        intensity: PathBuf,
+    },
+    /// An intensity map was paired with a stack, which carries its own.
+    #[error("{}: a z-stack carries its own intensity; the intensity map {} cannot be paired with it", stack.display(), intensity.display())]
+    StackWithIntensity {
+        /// The stack.
+        stack: PathBuf,
+        /// The intensity map given.
+        intensity: PathBuf,
+    },
+    /// The stack could not be read or localised (names the file).
+    #[error(transparent)]
+    Stack(Box<StackPipelineError>),
+}
+
+/// Reads `source` and masks it with the intensity cutoff; `progress(done, total)` is
+/// called after each slice of a stack.
+///
+/// # Errors
+/// [`LoadError`] naming the file (and its partner) and what is wrong.
+pub fn load_map(
+    source: &MapSource,
+    options: &LoadOptions,
+    progress: &dyn Fn(u64, u64),
+) -> Result<LoadedMap, LoadError> {
+    let path = &source.height;
+    match source.kind {
+        SourceKind::Stack => {
+            if let Some(i) = &source.intensity {
+                return Err(LoadError::StackWithIntensity {
+                    stack: path.clone(),
+                    intensity: i.clone(),
+                });
+            }
+            let maps = localise_stack(path, &options.stack, &options.peak, progress)
+                .map_err(|e| LoadError::Stack(Box::new(e)))?;
+            let mut map = maps.height;
+            let valid_before_cutoff = map.valid_count();
+            if let Some(cutoff) = options.cutoff {
+                map.apply_intensity_cutoff(&maps.intensity, cutoff)
+                    .map_err(|source| LoadError::Cutoff {
+                        map: path.clone(),
+                        intensity: "its own intensity".into(),
+                        cutoff,
+                        source,
+                    })?;
+            }
+            Ok(LoadedMap {
+                map,
+                format: format!("stack ({})", maps.info.format.name()),
+                valid_before_cutoff,
+                stack: Some(StackSummary {
+                    info: maps.info,
+                    report: maps.report,
+                    peak: maps.peak,
+                }),
+            })
+        }
+        SourceKind::Map => {
+            let (mut map, format) =
+                read_map(path, &options.read).map_err(|e| LoadError::Height(Box::new(e)))?;
+            let valid_before_cutoff = map.valid_count();
+            match (&source.intensity, options.cutoff) {
+                (Some(ipath), Some(cutoff)) => {
+                    let (mask, _) = read_intensity(ipath, &options.read).map_err(|source| {
+                        LoadError::Intensity {
+                            map: path.clone(),
+                            source: Box::new(source),
+                        }
+                    })?;
+                    map.apply_intensity_cutoff(&mask, cutoff)
+                        .map_err(|source| LoadError::Cutoff {
+                            map: path.clone(),
+                            intensity: ipath.display().to_string(),
+                            cutoff,
+                            source,
+                        })?;
+                }
+                (None, Some(cutoff)) => {
+                    return Err(LoadError::NoIntensity {
+                        map: path.clone(),
+                        cutoff,
+                    });
+                }
+                (Some(ipath), None) => {
+                    return Err(LoadError::NoCutoff {
+                        map: path.clone(),
+                        intensity: ipath.clone(),
+                    });
+                }
+                (None, None) => {}
+            }
+            Ok(LoadedMap {
+                map,
+                format: format.name().to_owned(),
+                valid_before_cutoff,
+                stack: None,
+            })
+        }
+    }
+}
+
+/// Short names of maps for output files and tables' captions: the file name without
+/// its extension and without a trailing `.height` (`synth-a.height.x3p` → `synth-a`),
+/// `-2`, `-3`, … appended to repeats in order, and every character other than letters,
+/// digits, `-`, `_` and `.` replaced by `_`.
+#[must_use]
+pub fn short_names(sources: &[MapSource]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::with_capacity(sources.len());
+    for s in sources {
+        let stem = s
+            .height
+            .file_stem()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let stem = stem.strip_suffix(".height").unwrap_or(&stem);
+        let mut base: String = stem
+            .chars()
+            .map(|c| {
+                if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        if base.is_empty() || base.starts_with('.') {
+            base.insert(0, 'm');
+        }
+        let mut name = base.clone();
+        let mut k = 2;
+        while out.contains(&name) {
+            name = format!("{base}-{k}");
+            k += 1;
+        }
+        out.push(name);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn short_names_are_unique_and_safe() {
+        let s = |p: &str| MapSource::new(p, None);
+        let names = short_names(&[
+            s("a/synth.height.x3p"),
+            s("b/synth.height.x3p"),
+            s("c/my map#1.txt"),
+            s("d/.hidden.x3p"),
+            s("e/stack.tif"),
+        ]);
+        assert_eq!(names, ["synth", "synth-2", "my_map_1", "m.hidden", "stack"]);
+        assert_eq!(s("e/stack.TIFF").kind, SourceKind::Stack);
+        assert_eq!(s("e/map.x3p").kind, SourceKind::Map);
+    }
+}

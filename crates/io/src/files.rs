@@ -1,0 +1,131 @@
+//! Whole files as they are: the SHA-256 of a file's bytes (so that a rerun can tell
+//! which inputs changed) and a file's UTF-8 text (manifests, caches). Errors name the
+//! file.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use sha2::{Digest, Sha256};
+use thiserror::Error;
+
+/// Why a file could not be read.
+#[derive(Debug, Error)]
+pub enum ReadFileError {
+    /// The operating system could not read it.
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// It is not UTF-8 text.
+    #[error("{} is not UTF-8 text (byte {offset})", path.display())]
+    NotText {
+        /// The file.
+        path: PathBuf,
+        /// Offset of the first invalid byte.
+        offset: usize,
+    },
+}
+
+/// The SHA-256 of the bytes of `path` as 64 lower-case hexadecimal digits, read in
+/// blocks of 64 KiB (memory stays small for large maps and stacks).
+///
+/// # Errors
+/// [`ReadFileError::Io`] naming the file.
+pub fn sha256_file(path: impl AsRef<Path>) -> Result<String, ReadFileError> {
+    let path = path.as_ref();
+    let io = |source| ReadFileError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = file.read(&mut buf).map_err(io)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hex(&hasher.finalize()))
+}
+
+/// The SHA-256 of `bytes` as 64 lower-case hexadecimal digits.
+#[must_use]
+pub fn sha256_bytes(bytes: &[u8]) -> String {
+    hex(&Sha256::digest(bytes))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    use std::fmt::Write as _;
+    bytes.iter().fold(String::with_capacity(64), |mut s, b| {
+        let _ = write!(s, "{b:02x}");
+        s
+    })
+}
+
+/// The text of `path` (UTF-8; a leading byte-order mark is dropped).
+///
+/// # Errors
+/// [`ReadFileError::Io`] or [`ReadFileError::NotText`] naming the file.
+pub fn read_text(path: impl AsRef<Path>) -> Result<String, ReadFileError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ReadFileError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| ReadFileError::NotText {
+        path: path.to_path_buf(),
+        offset: e.utf8_error().valid_up_to(),
+    })?;
+    Ok(text
+        .strip_prefix('\u{feff}')
+        .map(str::to_owned)
+        .unwrap_or(text))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sha256_of_known_strings() {
+        // FIPS 180-2 test vectors ("abc" and the empty string).
+        assert_eq!(
+            sha256_bytes(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+        assert_eq!(
+            sha256_bytes(b""),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"
+        );
+    }
+
+    #[test]
+    fn file_hash_equals_byte_hash_across_blocks() {
+        let dir =
+            std::env::temp_dir().join(format!("flakescatter-io-files-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("big.bin");
+        // Three and a half blocks of 64 KiB.
+        let bytes: Vec<u8> = (0..(7u32 << 15)).map(|i| (i * 7 + 3) as u8).collect();
+        std::fs::write(&p, &bytes).unwrap();
+        assert_eq!(sha256_file(&p).unwrap(), sha256_bytes(&bytes));
+        std::fs::write(&p, b"\xef\xbb\xbfname = 1\n").unwrap();
+        assert_eq!(read_text(&p).unwrap(), "name = 1\n");
+        std::fs::write(&p, b"ok\xff").unwrap();
+        let e = read_text(&p).unwrap_err().to_string();
+        assert!(e.contains("big.bin") && e.contains("byte 2"), "{e}");
+        let missing = dir.join("missing.toml");
+        assert!(
+            sha256_file(&missing)
+                .unwrap_err()
+                .to_string()
+                .contains("missing.toml")
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
