@@ -142,5 +142,14 @@ extra = {
 for target, seeds in extra.items():
     for s in seeds:
         write(target, s)
+# Stacks: the io tests' three stack fixtures (tifffile ImageJ and OME-TIFF, a byte-built
+# LSM file), each behind every voxel-size/page-order option byte.
+STACKS = os.path.join(ROOT, "crates", "io", "tests", "data", "stack")
+for name in sorted(os.listdir(STACKS)):
+    if name.endswith((".tif", ".lsm")):
+        with open(os.path.join(STACKS, name), "rb") as f:
+            data = f.read()
+        for o in (0x00, 0x03, 0x07, 0x0b):
+            write("stack", bytes([o]) + data)
 for t in sorted(os.listdir(OUT)):
     print(t, len(os.listdir(os.path.join(OUT, t))))
