@@ -151,5 +151,20 @@ for name in sorted(os.listdir(STACKS)):
             data = f.read()
         for o in (0x00, 0x03, 0x07, 0x0b):
             write("stack", bytes([o]) + data)
+# Spectral files: the heads of the shipped tables behind each reader byte (0 optical
+# constants, 1 coat index, 2 binder absorption, 3 spectra, 4 measured multi-angle).
+spectral = {
+    0: [os.path.join("crates", "optics", "data", "aluminium_rakic1995.csv")],
+    2: [os.path.join("crates", "flakescatter", "tests", "data", "spectral", "binder_alpha.csv")],
+    3: [os.path.join("crates", "flakescatter", "tests", "data", "spectral", "reference_spectra.csv")],
+}
+for which, files in spectral.items():
+    for rel in files:
+        with open(os.path.join(ROOT, rel), "rb") as f:
+            lines = f.read().split(b"\n")
+        write("spectral", bytes([which]) + b"\n".join(lines[:16]) + b"\n")
+        write("spectral", bytes([which]) + b"\r\n".join(lines[:8]) + b"\r\n")
+write("spectral", b"\x01wavelength_nm,n\n400,1.52\n700,1.50\n")
+write("spectral", b"\x04theta_i_deg,aspecular_deg,L,a,b\n45,15,90.5,-0.6,-1.4\n45,45,40,-0.2,-0.9\n")
 for t in sorted(os.listdir(OUT)):
     print(t, len(os.listdir(os.path.join(OUT, t))))

@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use flakescatter_io::{
     DecimalMark, ReadOptions, ValueKind, ZUnit, curves, detectors, flakes, list_channels_bytes,
-    measured, read_bytes,
+    measured, read_bytes, spectral,
 };
 use proptest::prelude::*;
 
@@ -81,7 +81,7 @@ static MAP_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(|| {
     v
 });
 
-/// `(reader, seed)` for the table readers.
+/// `(reader, seed)` for the table readers (0–4) and the spectral file readers (5–9).
 static TABLE_SEEDS: LazyLock<Vec<(usize, Vec<u8>)>> = LazyLock::new(|| {
     let head = |path: &str, n: usize, eol: &str| {
         let text = std::fs::read_to_string(format!("{}/../../{path}", env!("CARGO_MANIFEST_DIR")))
@@ -108,6 +108,31 @@ static TABLE_SEEDS: LazyLock<Vec<(usize, Vec<u8>)>> = LazyLock::new(|| {
         (2, head("docs/figures/fig7.csv", 8, "\n")),
         (3, b"theta_r_deg,phi_r_deg\n30,0\n30,90\n60,-180\n".to_vec()),
         (4, head("docs/figures/fig4.csv", 8, "\r")),
+        (
+            5,
+            head("crates/optics/data/aluminium_rakic1995.csv", 16, "\n"),
+        ),
+        (6, b"wavelength_nm,n\r\n400,1.52\r\n700,1.50\r\n".to_vec()),
+        (
+            7,
+            head(
+                "crates/flakescatter/tests/data/spectral/binder_alpha.csv",
+                6,
+                "\n",
+            ),
+        ),
+        (
+            8,
+            head(
+                "crates/flakescatter/tests/data/spectral/reference_spectra.csv",
+                8,
+                "\n",
+            ),
+        ),
+        (
+            9,
+            b"theta_i_deg,aspecular_deg,L,a,b\n45,15,90.5,-0.6,-1.4\n45,45,40,-0.2,-0.9\n".to_vec(),
+        ),
     ]
 });
 
@@ -231,7 +256,12 @@ proptest! {
             1 => flakes::read_flakes_from(r, "m.csv").err(),
             2 => flakes::read_histogram_from(r, "m.csv").err(),
             3 => detectors::read_detectors_from(r, "m.csv").err(),
-            _ => curves::read_curve_from(r, "m.csv").err(),
+            4 => curves::read_curve_from(r, "m.csv").err(),
+            5 => spectral::read_complex_index_from(r, "m.csv").err(),
+            6 => spectral::read_coat_index_from(r, "m.csv").err(),
+            7 => spectral::read_absorption_from(r, "m.csv").err(),
+            8 => spectral::read_spectra_from(r, "m.csv").err(),
+            _ => spectral::read_multiangle_from(r, "m.csv").err(),
         };
         if let Some(e) = err {
             prop_assert!(e.to_string().contains("m.csv"), "{}", e);
