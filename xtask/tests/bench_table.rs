@@ -293,8 +293,21 @@ fn the_real_table_is_consistent() {
         // Segments are counted by their bench and read from criterion's output.
         assert_eq!(r.work > 0.0, r.unit != Unit::Segments, "{}", r.id);
     }
+    // A relative target refers to a row of the table (measured in the same run).
+    for r in ROWS {
+        if let Some(Target::MaxTimes { of, .. }) = r.target {
+            assert!(ROWS.iter().any(|x| x.id == of), "{}: {of}", r.id);
+        }
+    }
     // The targets are all present.
     let target = |id: &str| ROWS.iter().find(|r| r.id == id).unwrap().target;
+    assert_eq!(
+        target("topo/isotropic_5inc_281det/2048"),
+        Some(Target::MaxTimes {
+            of: "topo/run_5inc_281det/2048",
+            times: 3.0
+        })
+    );
     assert_eq!(
         target("gaussian/default_set_5x281_exact_1thread"),
         Some(Target::MaxSeconds(0.020))

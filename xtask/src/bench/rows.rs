@@ -14,6 +14,8 @@ pub enum Unit {
     Detectors,
     /// Bytes of data: MB/s (10⁶ bytes per second).
     Bytes,
+    /// Stack voxels (pixels × slices): voxels/s.
+    Voxels,
     /// Straight ray segments of the volume model: segments/s. The bench counts them
     /// (deterministic for its seed) and gives the count to criterion as the
     /// benchmark's throughput; the table reads it from criterion's `benchmark.json`
@@ -31,6 +33,7 @@ impl Unit {
             Self::Evaluations => "evaluations/s",
             Self::Detectors => "detectors/s",
             Self::Bytes => "MB/s",
+            Self::Voxels => "voxels/s",
             Self::Segments => "segments/s",
         }
     }
@@ -119,6 +122,18 @@ pub const TARGETS: &[BenchTarget] = &[
     BenchTarget {
         package: "flakescatter",
         bench: "spectral",
+    },
+    BenchTarget {
+        package: "flakescatter-io",
+        bench: "read_stack",
+    },
+    BenchTarget {
+        package: "flakescatter-confocal",
+        bench: "localise",
+    },
+    BenchTarget {
+        package: "flakescatter-colour",
+        bench: "colour",
     },
 ];
 
@@ -298,10 +313,11 @@ pub const ROWS: &[RowSpec] = &[
         floor: Some("topo/floor_2048"),
         work: usable(2048) * 5.0,
         unit: Unit::Rays,
-        // Issue 17's target is relative (within 3× of `topo/run_5inc_281det/2048`); the
-        // table has no relative targets, so compare the two rows' times.
-        target: None,
-        target_note: "",
+        target: Some(Target::MaxTimes {
+            of: "topo/run_5inc_281det/2048",
+            times: 3.0,
+        }),
+        target_note: "≤ 3× the plain model at 2048²",
         quick: false,
     },
     RowSpec {
@@ -379,6 +395,50 @@ pub const ROWS: &[RowSpec] = &[
         unit: Unit::Segments,
         target: Some(Target::MinPerSecond(1e7)),
         target_note: "≥ 10⁷ segments/s, 2 cores",
+        quick: true,
+    },
+    RowSpec {
+        operation: "Read a confocal z-stack (ImageJ TIFF, uint16), slice by slice",
+        size: "1024² × 100",
+        id: "read_stack/imagej_1024x1024x100_u16",
+        floor: None,
+        work: 1024.0 * 1024.0 * 100.0 * 2.0,
+        unit: Unit::Bytes,
+        target: None,
+        target_note: "",
+        quick: false,
+    },
+    RowSpec {
+        operation: "Confocal localisation, Gaussian peak (default), streaming",
+        size: "1024² × 100",
+        id: "localise/gaussian_1024x1024x100",
+        floor: None,
+        work: 1024.0 * 1024.0 * 100.0,
+        unit: Unit::Voxels,
+        target: None,
+        target_note: "",
+        quick: false,
+    },
+    RowSpec {
+        operation: "Confocal localisation, argmax (brightest slice)",
+        size: "1024² × 100",
+        id: "localise/argmax_1024x1024x100",
+        floor: None,
+        work: 1024.0 * 1024.0 * 100.0,
+        unit: Unit::Voxels,
+        target: None,
+        target_note: "",
+        quick: false,
+    },
+    RowSpec {
+        operation: "Spectrum → CIELAB (ASTM E308 weights built and applied, D65, 10°)",
+        size: "1 nm, 360–830 nm",
+        id: "spectrum_to_lab/build_and_apply/1nm_360_830",
+        floor: None,
+        work: 1.0,
+        unit: Unit::Evaluations,
+        target: None,
+        target_note: "",
         quick: true,
     },
 ];
