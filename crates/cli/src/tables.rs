@@ -187,16 +187,27 @@ pub fn write_curves_with(
 pub fn rows_json(curves: &Curves) -> Value {
     let aperture = deg_num(curves.instrument.aperture());
     let finite = |x: f64| x.is_finite().then_some(x);
+    // Angles as given, once per detector and per incidence (as in `write_curves_with`).
+    let detectors: Vec<(f64, f64)> = (0..curves.instrument.detectors().len())
+        .map(|j| {
+            let (ts, ps) = detector_rad(&curves.instrument, j);
+            (deg_num(ts), deg_num(ps))
+        })
+        .collect();
+    let mut incidence = (f64::NAN, 0.0);
     Value::Array(
         curves
             .rows
             .iter()
             .map(|row| {
-                let (ts, ps) = detector_rad(&curves.instrument, row.detector);
+                if row.theta_i.to_bits() != incidence.0.to_bits() {
+                    incidence = (row.theta_i, deg_num(row.theta_i));
+                }
+                let (ts, ps) = detectors[row.detector];
                 json!({
-                    "theta_i_deg": deg_num(row.theta_i),
-                    "theta_s_deg": deg_num(ts),
-                    "phi_s_deg": deg_num(ps),
+                    "theta_i_deg": incidence.1,
+                    "theta_s_deg": ts,
+                    "phi_s_deg": ps,
                     "aperture_deg": aperture,
                     "brdf_per_sr": finite(row.brdf),
                     "reflectance": row.reflectance.and_then(finite),
