@@ -95,6 +95,7 @@ pub struct Args {
     pub json: bool,
 }
 
+/// Runs the subcommand.
 #[allow(clippy::too_many_lines)]
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();

@@ -94,8 +94,6 @@ pub(super) fn write_per_map(
     Ok(())
 }
 
-/// Runs the subcommand.
-
 /// The histogram plot, when asked for: the flake histogram with the ML Gaussian and the
 /// quoted interval's band.
 pub(super) fn write_plot(
