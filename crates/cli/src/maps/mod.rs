@@ -18,16 +18,21 @@
 //! suffix, or whose partner does not exist, is an error naming both. A z-stack
 //! (`.tif`/`.tiff`) carries its own intensity and takes no partner.
 
-use std::path::{Path, PathBuf};
+mod collect;
+mod load;
+
+use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::confocal::{PeakMethod, PeakOptions};
-use flakescatter::inputs::{LoadError, LoadOptions, LoadedMap, MapSource, SourceKind, load_map};
+use flakescatter::inputs::{LoadOptions, MapSource, SourceKind};
 use flakescatter::io::ReadOptions;
 use flakescatter::io::stack::{PageOrder, StackOptions};
 
 use crate::flags::MapArgs;
 use crate::output::Plan;
+pub use collect::{expand, pair};
+pub use load::{load_all, read_detectors};
 
 /// Extensions of files taken from a directory as maps or stacks.
 pub const MAP_EXTENSIONS: [&str; 6] = ["x3p", "sdf", "txt", "asc", "tif", "tiff"];
@@ -245,261 +250,10 @@ pub enum Repeats {
     Warn,
 }
 
-/// Whether a path segment is a glob pattern.
-fn is_pattern(s: &str) -> bool {
-    s.contains(['*', '?', '['])
-}
-
-fn has_map_extension(p: &Path) -> bool {
-    p.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| MAP_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
-}
-
-/// The file name of `p` without its extension (`a.height` for `a.height.x3p`).
-fn stem_of(p: &Path) -> String {
-    p.file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
-/// Expands files, directories and glob patterns into map files (module docs), each
-/// relative to `base` when given and not absolute. `flag` names the argument in errors.
-pub fn expand(
-    flag: &str,
-    items: &[PathBuf],
-    base: Option<&Path>,
-    pairing: &Pairing,
-    repeats: Repeats,
-) -> anyhow::Result<Vec<PathBuf>> {
-    let mut out: Vec<PathBuf> = Vec::new();
-    for item in items {
-        let path = match base {
-            Some(b) if item.is_relative() => b.join(item),
-            _ => item.clone(),
-        };
-        let shown = path.display().to_string();
-        if path.is_dir() {
-            let mut found: Vec<PathBuf> = std::fs::read_dir(&path)
-                .with_context(|| format!("{flag} {shown}: cannot list the directory"))?
-                .filter_map(Result::ok)
-                .map(|e| e.path())
-                .filter(|p| p.is_file() && has_map_extension(p))
-                .filter(|p| {
-                    !p.file_name()
-                        .is_some_and(|n| n.to_string_lossy().starts_with('.'))
-                })
-                .filter(|p| match pairing {
-                    Pairing::Suffix { height, .. } if !height.is_empty() => {
-                        stem_of(p).ends_with(height.as_str())
-                    }
-                    _ => true,
-                })
-                .collect();
-            found.sort();
-            if found.is_empty() {
-                match pairing {
-                    Pairing::Suffix { height, .. } => bail!(
-                        "{flag} {shown}: the directory holds no map whose name ends in `{height}` before the extension ({})",
-                        MAP_EXTENSIONS.join(", ")
-                    ),
-                    _ => bail!(
-                        "{flag} {shown}: the directory holds no map file ({})",
-                        MAP_EXTENSIONS.join(", ")
-                    ),
-                }
-            }
-            out.extend(found);
-        } else if path.exists() {
-            out.push(path);
-        } else if is_pattern(&shown) {
-            let mut found: Vec<PathBuf> = glob::glob(&shown)
-                .with_context(|| format!("{flag} {shown}: not a valid pattern"))?
-                .filter_map(Result::ok)
-                .filter(|p| p.is_file())
-                .collect();
-            found.sort();
-            if found.is_empty() {
-                bail!("{flag} {shown}: the pattern matches no file");
-            }
-            out.extend(found);
-        } else {
-            bail!("{flag} {shown}: no such file or directory");
-        }
-        if out.len() > MAX_MAPS {
-            bail!("{flag}: more than {MAX_MAPS} maps");
-        }
-    }
-    for (k, p) in out.iter().enumerate() {
-        let same = |q: &PathBuf| {
-            q == p
-                || matches!((std::fs::canonicalize(q), std::fs::canonicalize(p)), (Ok(a), Ok(b)) if a == b)
-        };
-        if let Some(q) = out[..k].iter().find(|q| same(q)) {
-            match repeats {
-                Repeats::Refuse => bail!(
-                    "{flag}: {} is given twice (also as {}); each map may be counted once",
-                    p.display(),
-                    q.display()
-                ),
-                Repeats::Warn => crate::output::warn(&format!(
-                    "{flag}: {} is given twice (also as {}); it is counted twice",
-                    p.display(),
-                    q.display()
-                )),
-            }
-        }
-    }
-    Ok(out)
-}
-
-/// The intensity partner of `map` under the suffix rule (module docs).
-pub fn partner(map: &Path, height: &str, intensity: &str) -> anyhow::Result<PathBuf> {
-    let name = map
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let (stem, ext) = match map.extension() {
-        Some(e) => (
-            name[..name.len() - e.len() - 1].to_owned(),
-            format!(".{}", e.to_string_lossy()),
-        ),
-        None => (name.clone(), String::new()),
-    };
-    let Some(at) = (!height.is_empty()).then(|| stem.rfind(height)).flatten() else {
-        bail!(
-            "{}: the name has no `{height}` before its extension, so --intensity-suffix {intensity} finds no partner (set --height-suffix, or give --intensity once per map)",
-            map.display()
-        );
-    };
-    let new = format!(
-        "{}{intensity}{}{ext}",
-        &stem[..at],
-        &stem[at + height.len()..]
-    );
-    Ok(map.with_file_name(new))
-}
-
-/// Pairs map files with their intensity maps (module docs).
-pub fn pair(files: &[PathBuf], pairing: &Pairing) -> anyhow::Result<Vec<MapSource>> {
-    match pairing {
-        Pairing::None => Ok(files.iter().map(|f| MapSource::new(f, None)).collect()),
-        Pairing::Explicit(list) => {
-            if let Some(stack) = files
-                .iter()
-                .find(|f| SourceKind::of(f) == SourceKind::Stack)
-            {
-                bail!(
-                    "--intensity with the z-stack {}: a stack carries its own intensity; give --intensity only with height maps (or use --intensity-suffix, which skips stacks)",
-                    stack.display()
-                );
-            }
-            if list.len() != files.len() {
-                bail!(
-                    "--intensity given {} times for {} height maps: give one intensity map per height map, in the same order",
-                    list.len(),
-                    files.len()
-                );
-            }
-            for i in list {
-                if !i.is_file() {
-                    bail!("--intensity {}: no such file", i.display());
-                }
-            }
-            Ok(files
-                .iter()
-                .zip(list)
-                .map(|(f, i)| MapSource::new(f, Some(i.clone())))
-                .collect())
-        }
-        Pairing::Suffix { height, intensity } => files
-            .iter()
-            .map(|f| {
-                if SourceKind::of(f) == SourceKind::Stack {
-                    return Ok(MapSource::new(f, None));
-                }
-                let p = partner(f, height, intensity)?;
-                if !p.is_file() {
-                    bail!(
-                        "{}: its intensity map {} (--intensity-suffix {intensity}) does not exist",
-                        f.display(),
-                        p.display()
-                    );
-                }
-                Ok(MapSource::new(f, Some(p)))
-            })
-            .collect(),
-    }
-}
-
-/// A map as read, with the file it came from.
-pub struct Input {
-    /// The files.
-    pub source: MapSource,
-    /// The map and how it was read.
-    pub loaded: LoadedMap,
-}
-
-/// Reads every source (progress on stderr for stacks when it is a terminal); errors
-/// name the file.
-pub fn load_all(sources: &[MapSource], options: &LoadOptions) -> anyhow::Result<Vec<Input>> {
-    use std::io::IsTerminal;
-    let mut out = Vec::with_capacity(sources.len());
-    for s in sources {
-        let bar = (s.kind == SourceKind::Stack && std::io::stderr().is_terminal()).then(|| {
-            let b = indicatif::ProgressBar::new(0);
-            b.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "localising {msg} {bar:40} {pos}/{len} slices",
-                )
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
-            b.set_message(s.height.display().to_string());
-            b
-        });
-        let progress = |done: u64, total: u64| {
-            if let Some(b) = &bar {
-                b.set_length(total);
-                b.set_position(done);
-            }
-        };
-        let loaded = load_map(s, options, &progress).map_err(|e| match e {
-            LoadError::Cutoff {
-                map,
-                intensity,
-                cutoff,
-                source,
-            } => anyhow::anyhow!(
-                "{} with intensity {intensity} and --cutoff {cutoff}: {source}",
-                map.display()
-            ),
-            e => anyhow::Error::from(e),
-        })?;
-        if let Some(b) = &bar {
-            b.finish_and_clear();
-        }
-        out.push(Input {
-            source: s.clone(),
-            loaded,
-        });
-    }
-    Ok(out)
-}
-
 /// Checks an intensity cutoff: a finite number.
 pub fn check_cutoff(cutoff: Option<f64>) -> anyhow::Result<()> {
     match cutoff {
         Some(c) if !c.is_finite() => bail!("--cutoff {c}: expected a finite number"),
         _ => Ok(()),
     }
-}
-
-/// Reads out-of-plane detectors (io's detector reader: CSV with header
-/// `theta_r_deg, phi_r_deg`, degrees, ranges checked); returns `(θr, φr)` in radians.
-pub fn read_detectors(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
-    Ok(flakescatter::io::detectors::read_detectors(path)
-        .with_context(|| format!("--detectors {}", path.display()))?
-        .into_iter()
-        .map(|d| (d.theta_r, d.phi_r))
-        .collect())
 }

@@ -1,17 +1,21 @@
 //! `flakescatter fit`: the flake orientation distribution from a measured curve.
 
+mod multi_angle;
+mod report;
+
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::compare::{FAR_REGION, SPECULAR_REGION};
-use flakescatter::fit::{FitSetup, GaussianFit, NonParametricFit, fit_gaussian, fit_nonparametric};
+use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
 use flakescatter::io::flakes::write_histogram_bins;
-use serde_json::{Value, json};
+use serde_json::json;
 
-use crate::flags::{ColourArgs, DEFAULT_WAVELENGTHS, MeasuredArgs, SpectralArgs};
+use crate::flags::{ColourArgs, MeasuredArgs, SpectralArgs};
 use crate::output::{Kind, Plan, print, print_json, warn};
-use crate::parse::{angles, deg, deg_num, fixed, shortest};
+use crate::parse::{angles, deg, deg_num, shortest};
+use multi_angle::multi_angle;
+use report::{gaussian_json, gaussian_text, nonparametric_json};
 
 /// Fit the flake orientation distribution to a measured curve.
 ///
@@ -236,214 +240,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         print(&gaussian_text(&fit))
     }
-}
-
-/// `--measured-multiangle`: the Gaussian width (with a common scale, and `n` with
-/// --fit-n) fitted to the measured L* by the spectral distribution model.
-fn multi_angle(args: &Args, plan: Plan) -> anyhow::Result<()> {
-    let Some(path) = &args.measured.measured_multiangle else {
-        bail!("--measured-multiangle FILE is needed here");
-    };
-    if args.nonparametric {
-        bail!("--nonparametric fits a curve; the L* fit of --measured-multiangle is Gaussian");
-    }
-    if args.out.is_some() {
-        bail!("--out writes the --nonparametric histogram; the L* fit reports on stdout (--json)");
-    }
-    if args.region != "5:40" {
-        bail!(
-            "--region {}: the L* fit uses every measured geometry (leave out the ones you do not want in the file)",
-            args.region
-        );
-    }
-    if !(args.hwhm_start.is_finite() && args.hwhm_start > 0.0 && args.hwhm_start < 60.0) {
-        bail!(
-            "--hwhm-start {}: expected a width in (0, 60) degrees",
-            args.hwhm_start
-        );
-    }
-    args.spectral.validate()?;
-    let aperture = args.measured.optics.aperture_rad()?;
-    if aperture <= 0.0 {
-        bail!("--aperture 0: multi-angle colour needs the instrument's cone half-angle (> 0)");
-    }
-    let wavelengths = args
-        .spectral
-        .wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
-        .unwrap_or_default();
-    plan.check()?;
-    let file = flakescatter::io::spectral::read_multiangle(path)
-        .with_context(|| format!("reading --measured-multiangle {}", path.display()))?;
-    let (coating, coating_echo) = args.spectral.coating(&args.measured.optics)?;
-    let setup = flakescatter::spectral::LightnessFitSetup {
-        coating: &coating,
-        settings: args.measured.settings(),
-        aperture,
-        wavelengths_nm: &wavelengths,
-        illuminant: args.colour.illuminant(),
-        observer: args.colour.observer(),
-        fit_n: args.fit_n,
-    };
-    let fit = flakescatter::spectral::fit_lightness(&file, &setup, args.hwhm_start.to_radians())
-        .with_context(|| format!("L* fit of {}", path.display()))?;
-    for w in &fit.warnings {
-        warn(&format!("{}: {w}", path.display()));
-    }
-    plan.finish()?;
-    if args.json {
-        let inputs = json!({
-            "measured_multiangle": path.display().to_string(),
-            "model": args.measured.optics.echo(args.measured.clearcoat()),
-            "aperture_deg": args.measured.optics.aperture,
-            "spectral": coating_echo,
-            "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
-            "colorimetry": args.colour.echo(),
-        });
-        print_json(&lightness_json(&fit, inputs))
-    } else {
-        print(&lightness_text(&fit))
-    }
-}
-
-fn lightness_json(fit: &flakescatter::spectral::LightnessFit, inputs: Value) -> Value {
-    json!({
-        "version": env!("CARGO_PKG_VERSION"),
-        "command": "fit --measured-multiangle",
-        "inputs": inputs,
-        "hwhm_deg": fit.hwhm.to_degrees(),
-        "hwhm_std_deg": fit.hwhm_std.to_degrees(),
-        "scale": fit.scale,
-        "scale_std": fit.scale_std,
-        "n": fit.n,
-        "n_std": fit.n_std,
-        "chi2": fit.chi2,
-        "dof": fit.dof,
-        "points": fit.points,
-        "iterations": fit.iterations,
-        "uncertainty_basis": fit.uncertainty_basis.describe(),
-        "uncertainty_scale": fit.uncertainty_scale,
-        "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
-        "geometries": fit.residuals.iter().map(|(g, m, l)| json!({
-            "theta_i_deg": deg_num(g.theta_i()),
-            "aspecular_deg": deg_num(g.aspecular()),
-            "measured_L": m.l,
-            "model_L": l.l,
-            "model_a": l.a,
-            "model_b": l.b,
-        })).collect::<Vec<_>>(),
-        "residual": "L*_model - L*_measured (divided by L_uncertainty when every geometry has one)",
-        "scale_meaning": "the model's reflectance factors are multiplied by scale (the flake coverage a fully covering layer does not know)",
-    })
-}
-
-/// The L* fit for the terminal (display rounding).
-fn lightness_text(fit: &flakescatter::spectral::LightnessFit) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "hwhm_deg = {} ± {}",
-        fixed(fit.hwhm.to_degrees(), 4),
-        fixed(fit.hwhm_std.to_degrees(), 4)
-    );
-    let _ = writeln!(
-        s,
-        "scale = {} ± {}",
-        fixed(fit.scale, 4),
-        fixed(fit.scale_std, 4)
-    );
-    if let (Some(n), Some(e)) = (fit.n, fit.n_std) {
-        let _ = writeln!(s, "n = {} ± {}", fixed(n, 4), fixed(e, 4));
-    }
-    let _ = writeln!(
-        s,
-        "chi2 = {} for {} degrees of freedom ({} geometries)",
-        fixed(fit.chi2, 3),
-        fit.dof,
-        fit.points
-    );
-    s.push_str("theta_i  aspecular  measured L*  model L*\n");
-    for (g, m, l) in &fit.residuals {
-        let _ = writeln!(
-            s,
-            "{:<8} {:<9} {:>12} {:>9}",
-            deg(g.theta_i()),
-            deg(g.aspecular()),
-            fixed(m.l, 2),
-            fixed(l.l, 2)
-        );
-    }
-    s
-}
-
-fn nonparametric_json(est: &NonParametricFit, inputs: Value) -> Value {
-    json!({
-        "version": env!("CARGO_PKG_VERSION"),
-        "command": "fit --nonparametric",
-        "inputs": inputs,
-        "lambda": est.lambda,
-        "points": est.points,
-        "chi2_relative": est.chi2,
-        "bins": est.edges.windows(2).zip(&est.area_fractions).zip(&est.p_tilde).map(|((e, f), p)| json!({
-            "theta_lo_deg": deg_num(e[0]),
-            "theta_hi_deg": deg_num(e[1]),
-            "area_fraction": f,
-            "p_tilde": p,
-        })).collect::<Vec<_>>(),
-        "units": {"p_tilde": "per steradian x 2 pi, normalised so that the integral of p~ sin(theta) dtheta is 1"},
-    })
-}
-
-fn gaussian_json(fit: &GaussianFit, inputs: Value) -> Value {
-    let scales: Vec<_> = fit
-        .scales
-        .iter()
-        .map(|(t, s)| json!({"theta_i_deg": if t.is_nan() { None } else { Some(deg_num(*t)) }, "scale": s}))
-        .collect();
-    json!({
-        "version": env!("CARGO_PKG_VERSION"),
-        "command": "fit",
-        "inputs": inputs,
-        "hwhm_deg": fit.hwhm.to_degrees(),
-        "hwhm_std_deg": fit.hwhm_std.to_degrees(),
-        "n": fit.n,
-        "n_std": fit.n_std,
-        "scales": scales,
-        "chi2": fit.chi2,
-        "dof": fit.dof,
-        "points": fit.points,
-        "iterations": fit.iterations,
-        "uncertainty_basis": fit.uncertainty_basis.describe(),
-        "uncertainty_scale": fit.uncertainty_scale,
-        "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
-        "default_region_deg": [deg_num(SPECULAR_REGION), deg_num(FAR_REGION)],
-    })
-}
-
-/// The result for the terminal (display rounding).
-fn gaussian_text(fit: &GaussianFit) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "hwhm_deg = {} ± {}",
-        fixed(fit.hwhm.to_degrees(), 4),
-        fixed(fit.hwhm_std.to_degrees(), 4)
-    );
-    if let Some(e) = fit.n_std {
-        let _ = writeln!(s, "n = {} ± {}", fixed(fit.n, 4), fixed(e, 4));
-    }
-    for (t, sc) in &fit.scales {
-        if t.is_nan() {
-            let _ = writeln!(s, "scale (all incidences) = {sc:.5e}");
-        } else {
-            let _ = writeln!(s, "scale at theta_i_deg {} = {sc:.5e}", deg(*t));
-        }
-    }
-    let _ = writeln!(
-        s,
-        "chi2 = {} for {} degrees of freedom ({} points)",
-        fixed(fit.chi2, 3),
-        fit.dof,
-        fit.points
-    );
-    s
 }

@@ -2,26 +2,26 @@
 //! more height maps, accumulated into one result; with `--isotropic`, averaged over the
 //! sample's rotation about its normal (§5.1).
 
+mod spectral;
+mod summary;
+
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::chart::topographic_chart;
-use flakescatter::spectral::{MultiAngleSource, multi_angle_colour, spectral_topographic_curves};
+use flakescatter::inputs::MapSource;
 use flakescatter::stats::heightmap::HeightMap;
-use flakescatter::topo::{DEFAULT_BLOCK_UM, IsotropicResult, TopoResult, TopoWarning};
-use flakescatter::{
-    Curves, TopoSettings, isotropic_curves, topographic_curves, topographic_mueller,
-};
-use serde_json::{Value, json};
+use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoWarning};
+use flakescatter::{TopoSettings, isotropic_curves, topographic_curves, topographic_mueller};
+use serde_json::json;
 
-use crate::flags::{
-    ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, PolarizationArgs, SpectralArgs,
-};
+use crate::flags::{ColourArgs, GeometryArgs, InstrumentArgs, PolarizationArgs, SpectralArgs};
 use crate::maps::{MapInputArgs, Repeats, load_all};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
-use crate::tables::{curve_warnings, rows_json, units_json, write_curves, write_curves_with};
-use flakescatter::inputs::MapSource;
+use crate::tables::{curve_warnings, rows_json, write_curves, write_curves_with};
+use spectral::{multi_angle, spectral_curves};
+use summary::{Totals, summary};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -209,14 +209,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Progress on stderr when it is a terminal and the run is long.
     let pixels: usize = maps.iter().map(HeightMap::len).sum();
     let work = pixels as f64 * instrument.theta_i().len() as f64;
-    let bar = (std::io::stderr().is_terminal() && work > 2e7).then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("tracing {bar:40} {pos}/{len} tiles {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
+    let bar = progress_bar(work);
     let progress = |done: u64, total: u64| {
         if let Some(b) = &bar {
             b.set_length(total);
@@ -330,69 +323,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What the model run gives besides the curves: the plain model's or the isotropic
-/// model's totals.
-enum Totals {
-    Plain(TopoResult),
-    Isotropic(IsotropicResult),
-}
-
-impl Totals {
-    fn warnings(&self) -> &[TopoWarning] {
-        match self {
-            Self::Plain(r) => &r.warnings,
-            Self::Isotropic(r) => &r.warnings,
-        }
-    }
-
-    /// The `counts` object of the JSON summary.
-    fn counts(&self) -> Value {
-        match self {
-            Self::Plain(r) => json!({
-                "maps": r.maps,
-                "pixels": r.pixels,
-                "usable_pixels": r.usable_pixels,
-                "usable_fraction": r.usable_fraction(),
-                "rays_traced": r.rays_traced,
-                "rays_lost_tir": r.rays_lost_tir,
-                "rays_lost_down": r.rays_lost_down,
-                "tiles": r.tiles,
-            }),
-            Self::Isotropic(r) => json!({
-                "maps": r.maps,
-                "pixels": r.pixels,
-                "usable_pixels": r.usable_pixels,
-                "usable_fraction": r.usable_fraction(),
-                "rings_traced": r.rings_traced,
-                "rings_lost_tir": r.rings_lost_tir,
-                "rings_lost_down": r.rings_lost_down,
-                "tiles": r.tiles,
-                "node_spacing_deg": r.node_spacing.to_degrees(),
-                "nodes": r.nodes,
-            }),
-        }
-    }
-}
-
-/// The largest interpolation error estimate of an isotropic run, absolute (reflectance
-/// units) and relative to the row's reflectance (over rows with light).
-fn interpolation_summary(r: &IsotropicResult) -> Value {
-    let max = r
-        .interpolation_error
-        .iter()
-        .copied()
-        .filter(|e| e.is_finite())
-        .fold(0.0, f64::max);
-    let max_relative = r
-        .interpolation_error
-        .iter()
-        .zip(&r.points)
-        .filter(|(e, p)| e.is_finite() && p.reflectance > 0.0)
-        .map(|(e, p)| e / p.reflectance)
-        .fold(0.0, f64::max);
-    json!({ "max": max, "max_relative": max_relative })
-}
-
 /// A progress bar on stderr when it is a terminal and `work` (pixels × runs) is large.
 fn progress_bar(work: f64) -> Option<indicatif::ProgressBar> {
     (std::io::stderr().is_terminal() && work > 2e7).then(|| {
@@ -403,283 +333,4 @@ fn progress_bar(work: f64) -> Option<indicatif::ProgressBar> {
         );
         b
     })
-}
-
-/// `--wavelengths` without `--multi-angle`: the curves at every wavelength.
-fn spectral_curves(
-    args: &Args,
-    sources: &[MapSource],
-    mut plan: Plan,
-    table: Option<Dest>,
-    plot: bool,
-    settings: &flakescatter::Settings,
-) -> anyhow::Result<()> {
-    let Some(wavelengths) = args.spectral.wavelengths_nm(None)? else {
-        bail!(
-            "{} describes the coating versus wavelength: give --wavelengths LIST (nm), e.g. 380:780:10, or --multi-angle",
-            args.spectral.first_flag().unwrap_or("a spectral flag")
-        );
-    };
-    if plot {
-        bail!("--plot draws the curves of one wavelength; it does not apply to --wavelengths");
-    }
-    args.spectral.validate()?;
-    let instrument = args.instrument.instrument()?;
-    let rows = instrument.theta_i().len() as f64
-        * instrument.detectors().len() as f64
-        * wavelengths.len() as f64;
-    if rows > crate::flags::MAX_ROWS as f64 {
-        bail!(
-            "--wavelengths with --theta-i and --theta-s: {rows:e} rows is more than the limit of {}",
-            crate::flags::MAX_ROWS
-        );
-    }
-    plan.check()?;
-    let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
-    let maps = load_maps(args, sources)?;
-    let refs: Vec<&HeightMap> = maps.iter().collect();
-    let runs = if coating.is_wavelength_independent() {
-        1
-    } else {
-        wavelengths.len()
-    };
-    let pixels: usize = maps.iter().map(HeightMap::len).sum();
-    let bar = progress_bar(pixels as f64 * instrument.theta_i().len() as f64 * runs as f64);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
-    let topo = TopoSettings {
-        window: args.window,
-        tile_um: args.tile_um,
-    };
-    let s = spectral_topographic_curves(
-        &coating,
-        &wavelengths,
-        &instrument,
-        settings,
-        &topo,
-        &refs,
-        &progress,
-    )
-    .with_context(|| format!("--window {}, --tile-um {}", args.window, args.tile_um))?;
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
-    let mut warnings: Vec<String> = s.topo[0]
-        .warnings
-        .iter()
-        .map(|w| format!("{w} (--tile-um {})", args.tile_um))
-        .collect();
-    let all_missing = s.topo[0]
-        .warnings
-        .iter()
-        .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
-    for (w, c) in s.wavelengths_nm.iter().zip(&s.curves) {
-        for msg in curve_warnings(c, !all_missing) {
-            let msg = format!("{w} nm: {msg}");
-            if !warnings.contains(&msg) {
-                warnings.push(msg);
-            }
-        }
-    }
-    for w in &warnings {
-        warn(w);
-    }
-    if let Some(dest) = &table {
-        let n: usize = s.curves.iter().map(|c| c.rows.len()).sum();
-        plan.write(
-            dest,
-            |w| crate::spectra::write_spectral_curves(w, &s, true),
-            Some(format!("{n} rows")),
-        )?;
-    }
-    plan.finish()?;
-    if args.json {
-        let mut j = summary(
-            args,
-            sources,
-            &maps,
-            &Totals::Plain(s.topo[0].clone()),
-            &s.curves[0],
-        );
-        j["command"] = json!("topo --wavelengths");
-        j["inputs"]["spectral"] = coating_echo;
-        j["inputs"]["wavelengths_nm"] = json!(args.spectral.wavelengths_text(""));
-        j["warnings"] = json!(warnings);
-        if table.is_none() {
-            j["rows"] = crate::spectra::spectral_rows_json(&s);
-        } else {
-            j["row_count"] = json!(s.curves.iter().map(|c| c.rows.len()).sum::<usize>());
-        }
-        print_json(&j)?;
-    }
-    Ok(())
-}
-
-/// `--multi-angle`: CIELAB per geometry of the set, from the spectral topographic model.
-fn multi_angle(
-    args: &Args,
-    sources: &[MapSource],
-    mut plan: Plan,
-    table: Option<Dest>,
-    plot: bool,
-    settings: &flakescatter::Settings,
-) -> anyhow::Result<()> {
-    if plot {
-        bail!("--plot draws curves; it does not apply to --multi-angle");
-    }
-    if args.instrument.theta_s.is_some() || args.instrument.detectors.is_some() {
-        bail!(
-            "--theta-s/--detectors do not apply to --multi-angle: its detectors are the geometry set's aspecular angles"
-        );
-    }
-    let spectra = plan.output(
-        "--spectra-out",
-        args.geometry.spectra_out.as_deref(),
-        Kind::Table,
-    );
-    let set = args.geometry.set(args.instrument.theta_i.as_deref())?;
-    let aperture = args.instrument.optics.aperture_rad()?;
-    let wavelengths = args
-        .spectral
-        .wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
-        .unwrap_or_default();
-    args.spectral.validate()?;
-    plan.check()?;
-    let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
-    let maps = load_maps(args, sources)?;
-    let refs: Vec<&HeightMap> = maps.iter().collect();
-    let runs = if coating.is_wavelength_independent() {
-        1
-    } else {
-        wavelengths.len()
-    };
-    let pixels: usize = maps.iter().map(HeightMap::len).sum();
-    let bar = progress_bar(pixels as f64 * set.incidences().len() as f64 * runs as f64);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
-    let topo = TopoSettings {
-        window: args.window,
-        tile_um: args.tile_um,
-    };
-    let m = multi_angle_colour(
-        &coating,
-        settings,
-        MultiAngleSource::Topographic {
-            topo: &topo,
-            maps: &refs,
-        },
-        &set,
-        aperture,
-        &wavelengths,
-        args.colour.illuminant(),
-        args.colour.observer(),
-        &progress,
-    )
-    .with_context(|| {
-        format!(
-            "--multi-angle (--window {}, --tile-um {})",
-            args.window, args.tile_um
-        )
-    })?;
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
-    let inputs = json!({
-        "maps": sources.iter().map(|p| p.height.display().to_string()).collect::<Vec<_>>(),
-        "intensity": sources.iter().filter_map(|s| s.intensity.as_ref().map(|p| p.display().to_string())).collect::<Vec<_>>(),
-        "cutoff": args.input.cutoff,
-        "map_inputs": args.input.echo(sources),
-        "window": args.window,
-        "tile_um": args.tile_um,
-        "instrument": args.instrument.optics.echo(args.instrument.clearcoat),
-        "spectral": coating_echo,
-        "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
-        "colorimetry": args.colour.echo(),
-    });
-    crate::spectra::multi_angle_outputs(
-        plan,
-        "topo --multi-angle",
-        &m,
-        inputs,
-        table.as_ref(),
-        spectra.as_ref(),
-        args.json,
-        args.out.as_deref(),
-    )
-}
-
-/// The `--json` summary (without the rows).
-fn summary(
-    args: &Args,
-    sources: &[MapSource],
-    maps: &[HeightMap],
-    r: &Totals,
-    curves: &Curves,
-) -> Value {
-    let per_map: Vec<Value> = sources
-        .iter()
-        .zip(maps)
-        .map(|(p, m)| {
-            json!({
-                "file": p.height.display().to_string(),
-                "nx": m.nx(),
-                "ny": m.ny(),
-                "dx_um": m.dx(),
-                "dy_um": m.dy(),
-                "valid_pixels": m.valid_count(),
-            })
-        })
-        .collect();
-    let mut s = json!({
-        "version": env!("CARGO_PKG_VERSION"),
-        "command": "topo",
-        "model": curves.model,
-        "inputs": {
-            "maps": per_map,
-            "intensity": sources.iter().filter_map(|s| s.intensity.as_ref().map(|p| p.display().to_string())).collect::<Vec<_>>(),
-            "cutoff": args.input.cutoff,
-            "pixel_um": args.input.calibration.pixel_um,
-            "z_unit": args.input.calibration.z_unit,
-            "map_inputs": args.input.echo(sources),
-            "window": args.window,
-            "tile_um": args.tile_um,
-            "isotropic": args.isotropic,
-            "node_spacing_deg": args.node_spacing_deg,
-            "instrument": args.instrument.echo(),
-        },
-        "counts": r.counts(),
-        "warnings": r.warnings().iter().map(ToString::to_string).collect::<Vec<_>>(),
-        "units": {
-            "columns": units_json(),
-            "rays": "number of rays counted in the detector",
-            "std_err": "1/sr, standard error of brdf_per_sr from the spread between map tiles; null (empty in the CSV) when not estimable: fewer than 2 tiles, or no ray in the detector",
-            "reflectance_normalisation": "fraction of the incident beam over all pixels of all maps (invalid pixels are black substrate)",
-        },
-        "out": args.out.as_ref().map(|p| p.display().to_string()),
-        "plot": args.plot.as_ref().map(|p| p.display().to_string()),
-    });
-    if let Totals::Isotropic(iso) = r {
-        s["interpolation_error"] = interpolation_summary(iso);
-        let units = &mut s["units"];
-        units["rays"] = json!(
-            "number of usable pixels whose ring of exit directions (every azimuth of the sample) meets the detector"
-        );
-        units["interpolation_error"] = json!(
-            "fraction of the incident beam (reflectance units): estimated error of the row's reflectance from tabulating each ring response on tilt nodes (docs/physics.md §5.1); interpolation_error.max is the largest over the rows, max_relative the largest relative to the row's reflectance"
-        );
-        units["node_spacing_deg"] =
-            json!("degree, spacing of the tilt nodes of the ring-response table");
-        units["rings"] = json!(
-            "rings_traced: usable pixels x incidences; rings_lost_tir / rings_lost_down: summed azimuth fractions of the rings totally internally reflected / heading down (rays' worth)"
-        );
-    }
-    s
 }

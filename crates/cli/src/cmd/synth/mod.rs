@@ -1,23 +1,26 @@
 //! `flakescatter synth`: a synthetic confocal map of a flake layer with known truth, and
 //! with `--stack-out` the confocal z-stack a microscope would record of it.
 
+mod errors;
+mod stack;
+
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use flakescatter::io::stack::PageOrder;
 use flakescatter::io::{MapFormat, write_intensity, write_map};
-use flakescatter::stack::{covering_slices, write_synthetic_stack_with};
+use flakescatter::stack::write_synthetic_stack_with;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::synth::{
-    AxialResponse, BitDepth, DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, Param,
-    StackSpec, SynthError, SyntheticStack, generate, truth_csv,
+    BitDepth, DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, generate, truth_csv,
 };
 use serde_json::json;
 
 use crate::output::{Kind, Plan, print_json};
 use crate::parse::{pair, whole, whole_u64};
+use errors::invalid;
+pub use stack::{AxialKind, FirstPage, StackOutArgs};
 
 /// Generate a synthetic layer of aluminium flakes (thin discs in a clear film) as a
 /// confocal microscope would see it: a height map, an intensity map and the exact table
@@ -157,219 +160,6 @@ pub struct Args {
     /// Print a JSON summary (inputs, counts, suggested intensity cutoff) on stdout.
     #[arg(long)]
     pub json: bool,
-}
-
-/// The axial response of a synthetic stack.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum AxialKind {
-    /// exp(-4 ln2 u²/W²).
-    Gaussian,
-    /// (sin(a u)/(a u))², the paraxial plane-mirror response of a confocal microscope.
-    Sinc2,
-}
-
-/// Which end of the stack page 0 is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum FirstPage {
-    /// Page 0 is the lowest slice (ImageJ's convention).
-    Bottom,
-    /// Page 0 is the highest slice.
-    Top,
-}
-
-impl FirstPage {
-    /// The io crate's page order.
-    pub fn order(self) -> PageOrder {
-        match self {
-            Self::Bottom => PageOrder::BottomFirst,
-            Self::Top => PageOrder::TopFirst,
-        }
-    }
-}
-
-/// The confocal z-stack of the layer (`--stack-out`, docs/physics.md §9): each pixel's
-/// axial response at its surface height, scaled by the flake's reflectivity and tilt,
-/// with photon (Poisson) and read (Gaussian) noise.
-#[derive(Debug, clap::Args)]
-pub struct StackOutArgs {
-    /// Write the layer's confocal z-stack here: a multi-page TIFF (.tif) with ImageJ
-    /// metadata (pixel size, z step), one page per slice, --z-step-um apart, covering
-    /// every height with 3 axial FWHM to spare (or --z-first-um/--slices). Read it with
-    /// `flakescatter stack`; its heights are above the lowest slice (the JSON's
-    /// stack.z_first_um above the substrate).
-    #[arg(long, value_name = "STACK.tif")]
-    pub stack_out: Option<PathBuf>,
-    /// Axial response of a reflecting surface (docs/physics.md §9).
-    #[arg(long, value_enum, default_value = "gaussian", requires = "stack_out")]
-    pub axial: AxialKind,
-    /// Full width at half maximum of the axial response, µm (0.5-0.7 µm for a high-NA
-    /// objective).
-    #[arg(
-        long,
-        value_name = "UM",
-        default_value_t = 0.6,
-        requires = "stack_out",
-        allow_negative_numbers = true
-    )]
-    pub axial_fwhm_um: f64,
-    /// Photoelectrons of a level-1, untilted mirror in focus (the shot noise: 2000 gives
-    /// 2.2 % at the peak); a mirror in focus fills the sample scale.
-    #[arg(
-        long,
-        value_name = "N",
-        default_value_t = 2000.0,
-        requires = "stack_out",
-        allow_negative_numbers = true
-    )]
-    pub photons: f64,
-    /// Read noise, sd in electrons.
-    #[arg(
-        long,
-        value_name = "E",
-        default_value_t = 4.0,
-        requires = "stack_out",
-        allow_negative_numbers = true
-    )]
-    pub read_noise: f64,
-    /// Bits per sample: 8 or 16.
-    #[arg(long, value_name = "BITS", default_value = "16", value_parser = ["8", "16"], requires = "stack_out")]
-    pub bit_depth: String,
-    /// sin α of the objective's half-angle in the medium around the flakes (NA / n), in
-    /// (0, 1]: how far a flake may tilt and still return light (default 1.3/1.5, the
-    /// paper's 100×/1.3 oil objective in a coat of index 1.5).
-    #[arg(
-        long,
-        value_name = "S",
-        default_value_t = 1.3 / 1.5,
-        requires = "stack_out",
-        allow_negative_numbers = true
-    )]
-    pub aperture_sin: f64,
-    /// Height of the lowest slice above the substrate, µm (with --slices; default: 3
-    /// FWHM below the lowest surface point, on a multiple of the step).
-    #[arg(
-        long,
-        value_name = "UM",
-        requires = "slices",
-        allow_negative_numbers = true
-    )]
-    pub z_first_um: Option<f64>,
-    /// Number of slices (with --z-first-um; default: enough to reach 3 FWHM above the
-    /// highest surface point).
-    #[arg(long, value_name = "N", value_parser = whole, requires = "z_first_um", allow_negative_numbers = true)]
-    pub slices: Option<usize>,
-    /// Which end of the stack page 0 holds (ImageJ has no field for it: read a `top`
-    /// file with `stack --first-page top`).
-    #[arg(long, value_enum, default_value = "bottom", requires = "stack_out")]
-    pub stack_first_page: FirstPage,
-}
-
-/// Largest number of slices of a synthetic stack (the synth crate's limit).
-const MAX_SLICES: usize = 100_000;
-
-impl StackOutArgs {
-    /// Checks the stack flags that need no layer (the library checks them again).
-    fn validate(&self, z_step_um: f64, height_noise_um: f64) -> anyhow::Result<()> {
-        if self.stack_out.is_none() {
-            if self.z_first_um.is_some() {
-                anyhow::bail!("--z-first-um and --slices need --stack-out");
-            }
-            return Ok(());
-        }
-        if !(z_step_um.is_finite() && z_step_um > 0.0) {
-            anyhow::bail!(
-                "--z-step-um {z_step_um}: with --stack-out it is the distance between slices, a finite length > 0 µm"
-            );
-        }
-        if height_noise_um != 0.0 {
-            anyhow::bail!(
-                "--height-noise-um {height_noise_um}: not with --stack-out; the stack has its own noise (--photons, --read-noise)"
-            );
-        }
-        let positive = |flag: &str, v: f64, what: &str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(anyhow::anyhow!("{flag} {v}: expected {what}"))
-            }
-        };
-        positive(
-            "--axial-fwhm-um",
-            self.axial_fwhm_um,
-            "a finite width > 0 µm",
-        )?;
-        positive("--photons", self.photons, "a finite number > 0")?;
-        if !(self.read_noise.is_finite() && self.read_noise >= 0.0) {
-            anyhow::bail!(
-                "--read-noise {}: expected a finite sd >= 0 electrons",
-                self.read_noise
-            );
-        }
-        if !(self.aperture_sin > 0.0 && self.aperture_sin <= 1.0) {
-            anyhow::bail!(
-                "--aperture-sin {}: expected a value in (0, 1]",
-                self.aperture_sin
-            );
-        }
-        if let Some(z) = self.z_first_um
-            && !z.is_finite()
-        {
-            anyhow::bail!("--z-first-um {z}: expected a finite height (µm)");
-        }
-        if let Some(n) = self.slices
-            && !(3..=MAX_SLICES).contains(&n)
-        {
-            anyhow::bail!("--slices {n}: expected 3 to {MAX_SLICES} slices");
-        }
-        Ok(())
-    }
-
-    fn axial(&self) -> AxialResponse {
-        match self.axial {
-            AxialKind::Gaussian => AxialResponse::Gaussian {
-                fwhm_um: self.axial_fwhm_um,
-            },
-            AxialKind::Sinc2 => AxialResponse::Sinc2 {
-                fwhm_um: self.axial_fwhm_um,
-            },
-        }
-    }
-
-    /// The stack of `layer` as these flags record it (slices `z_step_um` apart).
-    fn stack(
-        &self,
-        z_step_um: f64,
-        seed: u64,
-        params: &LayerParams,
-        layer: &flakescatter::synth::SyntheticLayer,
-    ) -> anyhow::Result<SyntheticStack> {
-        let margin = 3.0 * self.axial_fwhm_um;
-        let (z_first, slices) = match (self.z_first_um, self.slices) {
-            (Some(z), Some(n)) => (z, n),
-            _ => covering_slices(&layer.height, z_step_um, margin).ok_or_else(|| {
-                anyhow::anyhow!("the layer has no surface point to cover with slices")
-            })?,
-        };
-        if slices > MAX_SLICES {
-            let s = layer.height.summary();
-            anyhow::bail!(
-                "--z-step-um {z_step_um}: covering the layer's heights ({} to {} µm) takes {slices} slices, more than {MAX_SLICES}; use a larger step",
-                s.map_or(f64::NAN, |s| s.min),
-                s.map_or(f64::NAN, |s| s.max)
-            );
-        }
-        let mut spec = StackSpec::new(z_step_um, slices, z_first, seed);
-        spec.axial = self.axial();
-        spec.photons = self.photons;
-        spec.read_noise = self.read_noise;
-        spec.aperture_sin = self.aperture_sin;
-        spec.bit_depth = if self.bit_depth == "8" {
-            BitDepth::Eight
-        } else {
-            BitDepth::Sixteen
-        };
-        SyntheticStack::new(&spec, params, layer).map_err(|e| invalid(&e))
-    }
 }
 
 /// Writes a map output through the output layer (X3P, or text for `.txt`).
@@ -568,72 +358,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }))?;
     }
     Ok(())
-}
-
-/// The flag a library parameter comes from, if it has one.
-fn flag(param: Param) -> Option<&'static str> {
-    Some(match param {
-        Param::DxUm | Param::DyUm => "--pixel-um",
-        Param::FilmUm => "--film-um",
-        Param::ThicknessUm => "--thickness-um",
-        Param::DiameterMeanUm => "--diameter-um",
-        Param::DiameterRelSd => "--diameter-rel-sd",
-        Param::Coverage => "--coverage",
-        Param::Count => "--count",
-        Param::RoughnessRmsUm => "--roughness-um",
-        Param::RoughnessCorrelationUm => "--correlation-um",
-        Param::PsfSdUm => "--psf-sd-um",
-        Param::ZStepUm => "--z-step-um",
-        Param::HeightNoiseSdUm => "--height-noise-um",
-        Param::StackZStepUm => "--z-step-um",
-        Param::StackSlices => "--slices",
-        Param::StackZFirstUm => "--z-first-um",
-        Param::AxialFwhmUm => "--axial-fwhm-um",
-        Param::Photons => "--photons",
-        Param::ReadNoise => "--read-noise",
-        Param::ApertureSin => "--aperture-sin",
-        _ => return None,
-    })
-}
-
-/// A refused specification, in the flags and units the user typed (µm for lengths).
-fn invalid(e: &SynthError) -> anyhow::Error {
-    match *e {
-        SynthError::InvalidParameter {
-            param,
-            value,
-            expected,
-        } => match flag(param) {
-            Some(f) => anyhow::anyhow!(
-                "{f} {value}: expected {expected}{}",
-                if param.name().ends_with("_um") {
-                    " (µm)"
-                } else {
-                    ""
-                }
-            ),
-            None => anyhow::anyhow!("invalid synth parameters (see --help): {e}"),
-        },
-        SynthError::FilmThinnerThanFlakes {
-            film_um,
-            thickness_um,
-        } => anyhow::anyhow!(
-            "--film-um {film_um}: the film is thinner than the flakes (--thickness-um {thickness_um}); every flake must lie inside the film"
-        ),
-        SynthError::FlakesDoNotFit {
-            film_um,
-            diameter_um,
-            max_diameter_um,
-            thickness_um,
-            fraction,
-        } => anyhow::anyhow!(
-            "--film-um {film_um}: flakes of --diameter-um {diameter_um} (up to {max_diameter_um} um) and --thickness-um {thickness_um} do not fit: {:.2} % of them are tilted too far to lie inside the film (at most {:.1} % may be drawn again); use a thicker --film-um, a smaller --diameter-um or a narrower --hwhm",
-            100.0 * fraction,
-            100.0 * flakescatter::synth::MAX_REDRAWN_FRACTION
-        ),
-        SynthError::EmptyMap { .. } | SynthError::TooLarge { .. } => {
-            anyhow::anyhow!("--size: {e}")
-        }
-        _ => anyhow::anyhow!("invalid synth parameters (see --help): {e}"),
-    }
 }

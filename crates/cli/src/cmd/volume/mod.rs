@@ -1,0 +1,264 @@
+//! `flakescatter volume`: the three-dimensional flake layer with multiple scattering
+//! (physics.md §10, issue 20), composed by [`flakescatter::volume_curves`]; this command
+//! parses and checks the flags, shows progress, and writes the curves, the energy
+//! balance and what the layer realised.
+
+mod rows;
+mod settings;
+mod summary;
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use anyhow::bail;
+use flakescatter::chart::volume_chart;
+use flakescatter::{OrientationSource, volume_curves};
+use serde_json::json;
+
+use crate::flags::OrientationArgs;
+use crate::output::{Dest, Kind, Plan, print_json, warn};
+use rows::{rows_json, volume_warnings, write_volume};
+use settings::explain;
+use summary::summary;
+
+/// What a flake's rim does to a ray (physics.md §10).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Rims {
+    /// Absorbs (broken edges are not mirrors; the share is reported).
+    Absorb,
+    /// Transparent: the ray passes through the flake.
+    Ignore,
+    /// Reflects diffusely (cosine law) with the flake's normal-incidence reflectance.
+    Diffuse,
+}
+
+/// How a substrate of `--substrate-reflectance R > 0` reflects.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SubstrateKind {
+    /// Cosine law (a diffuse primer); depolarises.
+    Lambertian,
+    /// A mirror (a polished panel).
+    Mirror,
+}
+
+/// Multiple scattering in a three-dimensional flake layer: thin circular flakes placed
+/// without overlap in a film under a smooth top interface, every ray followed until it
+/// escapes or is absorbed (docs/physics.md §10).
+///
+/// Writes one CSV row per incidence × detector: theta_i_deg, theta_s_deg, phi_s_deg,
+/// aperture_deg, brdf_per_sr, reflectance, relative (as `model`), rays (escapes counted
+/// in the detector), std_err_per_sr, and the split coat_brdf_per_sr (first surface),
+/// single_bounce_brdf_per_sr (one flake reflection) and multiple_bounce_brdf_per_sr
+/// (everything else), with standard errors. The defaults are the paper's coating: 38 µm
+/// film, 16 µm flakes (relative sd 0.25), 1 µm thick, 5 % aluminium by mass.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Film thickness, µm (the flakes lie wholly inside it).
+    #[arg(
+        long = "film-um",
+        value_name = "UM",
+        default_value_t = 38.0,
+        allow_negative_numbers = true
+    )]
+    pub film_um: f64,
+    /// Film (binder) refractive index (real, >= 1).
+    #[arg(
+        long = "n",
+        value_name = "X",
+        default_value_t = 1.5,
+        allow_negative_numbers = true
+    )]
+    pub n: f64,
+    /// Complex flake index `N,K` (e.g. `0.96,6.69` for aluminium at 550 nm); default a
+    /// perfect conductor.
+    #[arg(long, value_name = "N,K", allow_hyphen_values = true)]
+    pub flake_index: Option<String>,
+    /// Mean flake diameter, µm.
+    #[arg(
+        long = "diameter-um",
+        value_name = "UM",
+        default_value_t = 16.0,
+        allow_negative_numbers = true
+    )]
+    pub diameter_um: f64,
+    /// Relative standard deviation of the log-normal diameters, in [0, 1] (0 = all
+    /// equal; truncated to [mean/4, 3 mean]).
+    #[arg(
+        long = "diameter-rel-sd",
+        value_name = "X",
+        default_value_t = 0.25,
+        allow_negative_numbers = true
+    )]
+    pub diameter_rel_sd: f64,
+    /// Flake thickness, µm.
+    #[arg(
+        long = "thickness-um",
+        value_name = "UM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    pub thickness_um: f64,
+    /// Flake volume per film volume, in [0, 1) [default: --mass-loading 0.05].
+    #[arg(
+        long,
+        value_name = "X",
+        conflicts_with = "mass_loading",
+        allow_negative_numbers = true
+    )]
+    pub volume_fraction: Option<f64>,
+    /// Mass fraction of aluminium (2.70 g/cm³) in the dry film, in [0, 1) [default:
+    /// 0.05, the paper's loading].
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub mass_loading: Option<f64>,
+    /// Density of the dry binder, g/cm³, for --mass-loading [default: 1.2].
+    #[arg(long, value_name = "G_CM3", allow_negative_numbers = true)]
+    pub binder_density: Option<f64>,
+    /// Flake centres uniform between depths A and B (µm below the top interface,
+    /// 0 <= A <= B <= --film-um), each restricted so that the flake lies in the film
+    /// [default: the whole film].
+    #[arg(long = "depth-um", value_name = "A:B", allow_hyphen_values = true)]
+    pub depth_um: Option<String>,
+    #[command(flatten)]
+    pub source: OrientationArgs,
+    /// Incidence angles in degrees, in [0, 90): a list `0,30,60`, an inclusive range
+    /// `start:stop:step`, or both [default: 0,30,45,60,75].
+    #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+    pub theta_i: Option<String>,
+    /// Signed in-plane detector angles in degrees, in (-90, 90); `theta_s = -theta_i`
+    /// is specular [default: -70:70:0.5].
+    #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+    pub theta_s: Option<String>,
+    /// Out-of-plane detectors: CSV with header `theta_r_deg,phi_r_deg`; replaces
+    /// --theta-s.
+    #[arg(long, value_name = "FILE", conflicts_with = "theta_s")]
+    pub detectors: Option<PathBuf>,
+    /// Detector cone half-angle in degrees, in (0, 20] (rays are counted into cones).
+    #[arg(
+        long,
+        value_name = "A",
+        default_value_t = 1.5,
+        allow_negative_numbers = true
+    )]
+    pub aperture: f64,
+    /// Rays per incidence (rounded up to a multiple of 64, the batches of the standard
+    /// errors).
+    #[arg(long, value_name = "N", default_value_t = 1_000_000, value_parser = crate::parse::whole_u64, allow_negative_numbers = true)]
+    pub rays: u64,
+    /// Seed of the layer and of the rays (separate streams); a run is reproducible
+    /// from it alone, for any number of threads.
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = crate::parse::whole_u64, allow_negative_numbers = true)]
+    pub seed: u64,
+    /// Side of the periodic square tile, µm (larger than the largest flake).
+    #[arg(
+        long = "tile-um",
+        value_name = "UM",
+        default_value_t = 1000.0,
+        allow_negative_numbers = true
+    )]
+    pub tile_um: f64,
+    /// Reflectance of the substrate under the film, in [0, 1] (0 = black, the default).
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub substrate_reflectance: f64,
+    /// How a reflecting substrate reflects (with --substrate-reflectance > 0).
+    #[arg(long, value_enum, value_name = "K", default_value = "lambertian")]
+    pub substrate: SubstrateKind,
+    /// What flake rims do to a ray.
+    #[arg(long, value_enum, value_name = "RULE", default_value = "absorb")]
+    pub rims: Rims,
+    /// Write the CSV here (`-` = stdout). Without --out and --json the CSV goes to stdout.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Print a JSON summary on stdout (inputs, energy balance, realised layer, units,
+    /// version; the rows unless --out writes them).
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the relative curves and their multiple-scattering part (log axis) to this
+    /// .svg or .png file.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut plan = Plan::new();
+    let instrument_args = args.instrument_args();
+    instrument_args.inputs(&mut plan);
+    args.source.inputs(&mut plan);
+    let table = plan.table("--out", args.out.as_deref(), args.json);
+    if args.json {
+        plan.stdout("--json");
+    }
+    let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
+    args.source.validate()?;
+    let coating = instrument_args.optics.coating()?;
+    if instrument_args.optics.aperture_rad()? <= 0.0 {
+        bail!(
+            "--aperture 0: the volume model counts rays into detector cones; give a half-angle > 0"
+        );
+    }
+    let settings = args.settings()?;
+    let instrument = instrument_args.instrument()?;
+    plan.check()?;
+    let (orientation, orientation_echo) = args.source.orientation()?;
+    let source = OrientationSource::Distribution(orientation);
+
+    // Progress on stderr when it is a terminal and the run is long.
+    let rays_total = settings.rays as f64 * instrument.theta_i().len() as f64;
+    let bar = (std::io::stderr().is_terminal() && rays_total > 2e6).then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "tracing {bar:40} {pos}/{len} ray batches {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    };
+    let curves = volume_curves(&coating, &instrument, &settings, &source, &progress)
+        .map_err(|e| explain(e, &args))?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let warnings = volume_warnings(&curves);
+    for w in &warnings {
+        warn(w);
+    }
+    let plot_bytes = match &plot {
+        Some(Dest::File(p)) => Some((p.clone(), crate::plot::encode(p, &volume_chart(&curves))?)),
+        _ => None,
+    };
+    if let Some(dest) = &table {
+        let rows = curves.rows.len();
+        plan.write(
+            dest,
+            |w| write_volume(w, &curves),
+            Some(format!("{rows} rows")),
+        )?;
+    }
+    if let Some((p, bytes)) = plot_bytes {
+        plan.write(&Dest::File(p), |w| Ok(w.write_all(&bytes)?), None)?;
+    }
+    plan.finish()?;
+    if args.json {
+        let mut s = summary(&args, &instrument_args, &curves, orientation_echo);
+        s["warnings"] = json!(warnings);
+        if table.is_none() {
+            s["rows"] = rows_json(&curves);
+        } else {
+            s["row_count"] = json!(curves.rows.len());
+        }
+        print_json(&s)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,71 @@
+//! Loading what was collected: every map source read through the facade (stacks
+//! localised, progress for stacks), and the out-of-plane detector file read through `io`.
+
+use std::path::Path;
+
+use anyhow::Context;
+use flakescatter::inputs::{LoadError, LoadOptions, LoadedMap, MapSource, SourceKind, load_map};
+
+/// A map as read, with the file it came from.
+pub struct Input {
+    /// The files.
+    pub source: MapSource,
+    /// The map and how it was read.
+    pub loaded: LoadedMap,
+}
+
+/// Reads every source (progress on stderr for stacks when it is a terminal); errors
+/// name the file.
+pub fn load_all(sources: &[MapSource], options: &LoadOptions) -> anyhow::Result<Vec<Input>> {
+    use std::io::IsTerminal;
+    let mut out = Vec::with_capacity(sources.len());
+    for s in sources {
+        let bar = (s.kind == SourceKind::Stack && std::io::stderr().is_terminal()).then(|| {
+            let b = indicatif::ProgressBar::new(0);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "localising {msg} {bar:40} {pos}/{len} slices",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b.set_message(s.height.display().to_string());
+            b
+        });
+        let progress = |done: u64, total: u64| {
+            if let Some(b) = &bar {
+                b.set_length(total);
+                b.set_position(done);
+            }
+        };
+        let loaded = load_map(s, options, &progress).map_err(|e| match e {
+            LoadError::Cutoff {
+                map,
+                intensity,
+                cutoff,
+                source,
+            } => anyhow::anyhow!(
+                "{} with intensity {intensity} and --cutoff {cutoff}: {source}",
+                map.display()
+            ),
+            e => anyhow::Error::from(e),
+        })?;
+        if let Some(b) = &bar {
+            b.finish_and_clear();
+        }
+        out.push(Input {
+            source: s.clone(),
+            loaded,
+        });
+    }
+    Ok(out)
+}
+
+/// Reads out-of-plane detectors (io's detector reader: CSV with header
+/// `theta_r_deg, phi_r_deg`, degrees, ranges checked); returns `(θr, φr)` in radians.
+pub fn read_detectors(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
+    Ok(flakescatter::io::detectors::read_detectors(path)
+        .with_context(|| format!("--detectors {}", path.display()))?
+        .into_iter()
+        .map(|d| (d.theta_r, d.phi_r))
+        .collect())
+}
