@@ -12,6 +12,7 @@ mod common;
 mod flags;
 mod maps;
 mod mueller;
+mod number;
 mod output;
 mod parse;
 mod picture;

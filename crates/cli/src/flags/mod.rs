@@ -5,17 +5,19 @@
 //!
 //! Degrees on the command line; every method here hands radians to the library.
 
+mod colour;
 mod instrument;
 mod measured;
 mod polarization;
 mod source;
 mod spectral;
 
+pub use colour::{ColourArgs, GeometryArgs};
 pub use instrument::{InstrumentArgs, MAX_ROWS, OpticsArgs};
 pub use measured::MeasuredArgs;
 pub use polarization::PolarizationArgs;
 pub use source::{MapArgs, OrientationArgs, SegmentArgs, width};
-pub use spectral::{ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, SpectralArgs};
+pub use spectral::{DEFAULT_WAVELENGTHS, SpectralArgs};
 
 /// Default incidences of `model` and `topo`, degrees.
 pub const DEFAULT_THETA_I: &str = "0,30,45,60,75";
