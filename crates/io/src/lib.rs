@@ -34,6 +34,7 @@ pub mod curves;
 pub mod detectors;
 pub mod files;
 pub mod flakes;
+pub mod gwy;
 pub mod map;
 pub mod measured;
 pub mod reader;

@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::gwy::{self, GwyError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
 use crate::text::{self, TextError};
@@ -35,6 +36,8 @@ pub enum MapFormat {
     /// Plain-text matrix (whitespace, comma or semicolon separated), Gwyddion `#`
     /// headers understood.
     Text,
+    /// Gwyddion native file (`GWYP` magic), one channel per data field.
+    Gwy,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -46,7 +49,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 3] = [
+const FORMATS: [Spec; 4] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -65,6 +68,12 @@ const FORMATS: [Spec; 3] = [
         channels: |b, o| text::channels(b, o).map_err(MapError::Text),
         read: |b, o, k| text::read(b, o, k).map_err(MapError::Text),
     },
+    Spec {
+        format: MapFormat::Gwy,
+        detect: gwy::detect,
+        channels: |b, o| gwy::channels(b, o).map_err(MapError::Gwy),
+        read: |b, o, k| gwy::read(b, o, k).map_err(MapError::Gwy),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -76,7 +85,12 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 3] = [MapFormat::X3p, MapFormat::Sdf, MapFormat::Text];
+    pub const ALL: [MapFormat; 4] = [
+        MapFormat::X3p,
+        MapFormat::Sdf,
+        MapFormat::Text,
+        MapFormat::Gwy,
+    ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
     /// highest, `None` if none scores above 0 (empty or unknown binary content).
@@ -95,6 +109,7 @@ impl MapFormat {
             MapFormat::X3p => "x3p",
             MapFormat::Sdf => "sdf",
             MapFormat::Text => "text",
+            MapFormat::Gwy => "gwy",
         }
     }
 
@@ -104,6 +119,7 @@ impl MapFormat {
             MapFormat::X3p => "an X3P file (ISO 25178-72)",
             MapFormat::Sdf => "an SDF file (ISO 25178-71)",
             MapFormat::Text => "a plain-text matrix",
+            MapFormat::Gwy => "a Gwyddion GWY file",
         }
     }
 
@@ -115,6 +131,7 @@ impl MapFormat {
                 "it does not start with aISO- or bISO-, so not an ISO 25178-71 SDF file"
             }
             MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
+            MapFormat::Gwy => "it does not start with GWYP, so not a Gwyddion GWY file",
         }
     }
 
@@ -124,6 +141,7 @@ impl MapFormat {
             MapFormat::X3p => &["x3p"],
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
+            MapFormat::Gwy => &["gwy"],
         }
     }
 
@@ -197,6 +215,9 @@ pub enum MapError {
     /// A plain-text matrix problem.
     #[error("text matrix: {0}")]
     Text(TextError),
+    /// A Gwyddion GWY problem.
+    #[error("GWY: {0}")]
+    Gwy(GwyError),
     /// The pitch override is not usable.
     #[error("pixel pitch option: {0}")]
     Pitch(HeightMapError),
@@ -210,7 +231,7 @@ pub enum MapError {
         expected: Option<MapFormat>,
     },
     /// The content is no format this crate reads.
-    #[error("not a height-map format this crate reads (X3P, SDF, plain text): {content}")]
+    #[error("not a height-map format this crate reads (X3P, SDF, GWY, plain text): {content}")]
     Unrecognised {
         /// What the content is.
         content: String,
@@ -360,7 +381,9 @@ pub fn read_bytes(
     // A flag is honoured or refused: the text-only options are refused for the
     // calibrated formats (intensity reads share the height map's flags and ignore them).
     if kind == ValueKind::Height && format != MapFormat::Text {
-        if options.z_unit.is_some() {
+        // GWY data fields may store no unit; the GWY reader then needs (and otherwise
+        // refuses) `z_unit` itself.
+        if options.z_unit.is_some() && format != MapFormat::Gwy {
             return Err(MapError::NotApplicable {
                 option: "z_unit (`--z-unit` on the command line)",
                 format,
@@ -545,7 +568,7 @@ fn write_with(
         (MapFormat::Text, ValueKind::Intensity) => {
             text::write_intensity_text_string(map).into_bytes()
         }
-        (MapFormat::Sdf, _) => {
+        (MapFormat::Sdf | MapFormat::Gwy, _) => {
             return Err(WriteMapError::Unsupported {
                 path: path.to_path_buf(),
                 format,

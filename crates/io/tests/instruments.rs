@@ -1,0 +1,178 @@
+//! Native instrument files in `fixtures/real/instruments`: each reader against numbers
+//! established outside this project (see `fixtures/real/instruments/README.md`, which
+//! says how they were made, by which independent reader, and where those readers
+//! disagree). The statistics compared are of the valid points only: mean and RMS
+//! (population, about the mean), heights in metres as the independent readers report.
+
+use std::path::PathBuf;
+
+use flakescatter_io::{
+    MapError, MapFormat, ReadMapError, ReadOptions, ZUnit, list_channels, read_map,
+};
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../fixtures/real/instruments"
+    ))
+    .join(name)
+}
+
+/// Expected numbers, all lengths in metres.
+struct Expect {
+    nx: usize,
+    ny: usize,
+    dx: f64,
+    dy: f64,
+    invalid: usize,
+    mean: f64,
+    rms: f64,
+}
+
+fn close(what: &str, got: f64, want: f64, rel: f64) {
+    assert!(
+        (got - want).abs() <= rel * want.abs(),
+        "{what}: got {got:e}, expected {want:e} (relative tolerance {rel:e})"
+    );
+}
+
+/// Reads `name` with `options` and compares it with `e` (µm in the map, m in `e`).
+fn check(name: &str, options: &ReadOptions, format: MapFormat, e: &Expect) {
+    let (map, found) = read_map(data(name), options).unwrap_or_else(|err| panic!("{name}: {err}"));
+    assert_eq!(found, format, "{name}");
+    assert_eq!((map.nx(), map.ny()), (e.nx, e.ny), "{name} size");
+    close("dx", map.dx() * 1e-6, e.dx, 1e-12);
+    close("dy", map.dy() * 1e-6, e.dy, 1e-12);
+    assert_eq!(
+        map.len() - map.valid_count(),
+        e.invalid,
+        "{name} invalid points"
+    );
+    let v: Vec<f64> = map
+        .heights()
+        .iter()
+        .zip(map.valid())
+        .filter(|(_, ok)| **ok)
+        .map(|(z, _)| z * 1e-6)
+        .collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let rms = (v.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / n).sqrt();
+    // numpy sums pairwise, we sum in order: agreement to ~1e-10 relative, far below
+    // any unit or scale-factor error (which would be a factor of 10 or more).
+    close("mean", mean, e.mean, 1e-9);
+    close("rms", rms, e.rms, 1e-8);
+}
+
+#[test]
+fn gwyddion_gwy() {
+    // tuxu/gwyfile's test.gwy: one data field "Test", 128 x 128, xreal = yreal = 128,
+    // and neither a lateral nor a z unit (empty unitstr). SurfaceTopography 1.27.1 finds
+    // no channel in it, surfalize 0.19.2 refuses it ("does not contain height data");
+    // the numbers are from the `gwyfile` Python package (the same author's reference
+    // reader): mean 0.0005152968462939743, std 0.00018771126171581148, no NaN.
+    // Without units the file is uncalibrated, so the reader refuses it unless the user
+    // says what the numbers are: here metres and 1 µm pixels (128 / 128 = 1 unit).
+    let name = "gwyfile-test.gwy";
+    let err = read_map(data(name), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("gwyfile-test.gwy") && err.contains("--pixel-um"),
+        "{err}"
+    );
+    let with_pitch = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        ..ReadOptions::default()
+    };
+    let err = read_map(data(name), &with_pitch).unwrap_err().to_string();
+    assert!(
+        err.contains("no z unit") && err.contains("--z-unit"),
+        "{err}"
+    );
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::M),
+        ..ReadOptions::default()
+    };
+    check(
+        name,
+        &options,
+        MapFormat::Gwy,
+        &Expect {
+            nx: 128,
+            ny: 128,
+            dx: 1e-6,
+            dy: 1e-6,
+            invalid: 0,
+            mean: 0.0005152968462939743,
+            rms: 0.00018771126171581148,
+        },
+    );
+    let (channels, format) = list_channels(data(name), &ReadOptions::default()).unwrap();
+    assert_eq!(format, MapFormat::Gwy);
+    assert_eq!(channels.len(), 1);
+    assert_eq!(
+        (channels[0].name.as_str(), channels[0].nx, channels[0].ny),
+        ("Test", 128, 128)
+    );
+    assert_eq!(
+        (channels[0].unit.clone(), channels[0].pitch_um),
+        (None, None)
+    );
+}
+
+/// Every prefix of a real file is refused (never a panic), and the error names a byte
+/// offset inside the file.
+fn truncations_refused(name: &str, cuts: &[usize]) {
+    let bytes = std::fs::read(data(name)).unwrap();
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: None,
+        ..ReadOptions::default()
+    };
+    for &cut in cuts {
+        let cut = cut.min(bytes.len() - 1);
+        let err = flakescatter_io::read_bytes(
+            &bytes[..cut],
+            None,
+            &options,
+            flakescatter_io::ValueKind::Height,
+        )
+        .map(|_| ())
+        .unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.contains("truncated") && text.contains(&format!("ends at byte {cut}")),
+            "{name} cut at {cut}: {text}"
+        );
+    }
+}
+
+#[test]
+fn gwy_truncated_refused_with_offset() {
+    // Inside the container header, a component name, the data array, the last byte.
+    truncations_refused(
+        "gwyfile-test.gwy",
+        &[20, 150, 300, 70_000, 131_000, usize::MAX],
+    );
+}
+
+#[test]
+fn extension_contradicting_content_is_refused() {
+    // A GWY file named .sdf: the magic decides, and the message says both.
+    let dir = std::env::temp_dir().join(format!("flakescatter-instruments-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("really-gwy.sdf");
+    std::fs::copy(data("gwyfile-test.gwy"), &p).unwrap();
+    let err = read_map(&p, &ReadOptions::default()).unwrap_err();
+    let ReadMapError::Format {
+        error: MapError::NotThisFormat { .. },
+        ..
+    } = &err
+    else {
+        panic!("{err}")
+    };
+    assert!(err.to_string().contains("Gwyddion"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
