@@ -20,6 +20,7 @@ use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
 use crate::gwy::{self, GwyError};
+use crate::plu::{self, PluError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
 use crate::text::{self, TextError};
@@ -38,6 +39,8 @@ pub enum MapFormat {
     Text,
     /// Gwyddion native file (`GWYP` magic), one channel per data field.
     Gwy,
+    /// Sensofar PLu topography (no magic; recognised from its header).
+    Plu,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -49,7 +52,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 4] = [
+const FORMATS: [Spec; 5] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -74,6 +77,12 @@ const FORMATS: [Spec; 4] = [
         channels: |b, o| gwy::channels(b, o).map_err(MapError::Gwy),
         read: |b, o, k| gwy::read(b, o, k).map_err(MapError::Gwy),
     },
+    Spec {
+        format: MapFormat::Plu,
+        detect: plu::detect,
+        channels: |b, o| plu::channels(b, o).map_err(MapError::Plu),
+        read: |b, o, k| plu::read(b, o, k).map_err(MapError::Plu),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -85,11 +94,12 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 4] = [
+    pub const ALL: [MapFormat; 5] = [
         MapFormat::X3p,
         MapFormat::Sdf,
         MapFormat::Text,
         MapFormat::Gwy,
+        MapFormat::Plu,
     ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
@@ -110,6 +120,7 @@ impl MapFormat {
             MapFormat::Sdf => "sdf",
             MapFormat::Text => "text",
             MapFormat::Gwy => "gwy",
+            MapFormat::Plu => "plu",
         }
     }
 
@@ -120,6 +131,7 @@ impl MapFormat {
             MapFormat::Sdf => "an SDF file (ISO 25178-71)",
             MapFormat::Text => "a plain-text matrix",
             MapFormat::Gwy => "a Gwyddion GWY file",
+            MapFormat::Plu => "a Sensofar PLU file",
         }
     }
 
@@ -132,6 +144,9 @@ impl MapFormat {
             }
             MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
             MapFormat::Gwy => "it does not start with GWYP, so not a Gwyddion GWY file",
+            MapFormat::Plu => {
+                "it lacks the PLU header (a date, a topography type and matching sizes), so not a Sensofar PLU file"
+            }
         }
     }
 
@@ -142,6 +157,7 @@ impl MapFormat {
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
             MapFormat::Gwy => &["gwy"],
+            MapFormat::Plu => &["plu", "apx"],
         }
     }
 
@@ -218,6 +234,9 @@ pub enum MapError {
     /// A Gwyddion GWY problem.
     #[error("GWY: {0}")]
     Gwy(GwyError),
+    /// A Sensofar PLU problem.
+    #[error("PLU: {0}")]
+    Plu(PluError),
     /// The pitch override is not usable.
     #[error("pixel pitch option: {0}")]
     Pitch(HeightMapError),
@@ -231,7 +250,9 @@ pub enum MapError {
         expected: Option<MapFormat>,
     },
     /// The content is no format this crate reads.
-    #[error("not a height-map format this crate reads (X3P, SDF, GWY, plain text): {content}")]
+    #[error(
+        "not a height-map format this crate reads (see MapFormat::ALL: X3P, SDF, plain text and the instrument formats): {content}"
+    )]
     Unrecognised {
         /// What the content is.
         content: String,
@@ -568,7 +589,7 @@ fn write_with(
         (MapFormat::Text, ValueKind::Intensity) => {
             text::write_intensity_text_string(map).into_bytes()
         }
-        (MapFormat::Sdf | MapFormat::Gwy, _) => {
+        (MapFormat::Sdf | MapFormat::Gwy | MapFormat::Plu, _) => {
             return Err(WriteMapError::Unsupported {
                 path: path.to_path_buf(),
                 format,
