@@ -37,6 +37,7 @@ pub mod flakes;
 pub mod gwy;
 pub mod map;
 pub mod measured;
+pub mod metropro;
 pub mod plu;
 pub mod reader;
 pub mod sdf;

@@ -20,6 +20,7 @@ use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
 use crate::gwy::{self, GwyError};
+use crate::metropro::{self, MetroProError};
 use crate::plu::{self, PluError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
@@ -41,6 +42,8 @@ pub enum MapFormat {
     Gwy,
     /// Sensofar PLu topography (no magic; recognised from its header).
     Plu,
+    /// Zygo MetroPro phase map (`.dat`).
+    MetroPro,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -52,7 +55,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 5] = [
+const FORMATS: [Spec; 6] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -83,6 +86,12 @@ const FORMATS: [Spec; 5] = [
         channels: |b, o| plu::channels(b, o).map_err(MapError::Plu),
         read: |b, o, k| plu::read(b, o, k).map_err(MapError::Plu),
     },
+    Spec {
+        format: MapFormat::MetroPro,
+        detect: metropro::detect,
+        channels: |b, o| metropro::channels(b, o).map_err(MapError::MetroPro),
+        read: |b, o, k| metropro::read(b, o, k).map_err(MapError::MetroPro),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -94,12 +103,13 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 5] = [
+    pub const ALL: [MapFormat; 6] = [
         MapFormat::X3p,
         MapFormat::Sdf,
         MapFormat::Text,
         MapFormat::Gwy,
         MapFormat::Plu,
+        MapFormat::MetroPro,
     ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
@@ -120,6 +130,7 @@ impl MapFormat {
             MapFormat::Sdf => "sdf",
             MapFormat::Text => "text",
             MapFormat::Gwy => "gwy",
+            MapFormat::MetroPro => "metropro",
             MapFormat::Plu => "plu",
         }
     }
@@ -131,6 +142,7 @@ impl MapFormat {
             MapFormat::Sdf => "an SDF file (ISO 25178-71)",
             MapFormat::Text => "a plain-text matrix",
             MapFormat::Gwy => "a Gwyddion GWY file",
+            MapFormat::MetroPro => "a Zygo MetroPro DAT file",
             MapFormat::Plu => "a Sensofar PLU file",
         }
     }
@@ -144,6 +156,9 @@ impl MapFormat {
             }
             MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
             MapFormat::Gwy => "it does not start with GWYP, so not a Gwyddion GWY file",
+            MapFormat::MetroPro => {
+                "it does not start with a MetroPro magic (88 1B 03 6F..71), so not a Zygo MetroPro file"
+            }
             MapFormat::Plu => {
                 "it lacks the PLU header (a date, a topography type and matching sizes), so not a Sensofar PLU file"
             }
@@ -157,6 +172,7 @@ impl MapFormat {
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
             MapFormat::Gwy => &["gwy"],
+            MapFormat::MetroPro => &["dat"],
             MapFormat::Plu => &["plu", "apx"],
         }
     }
@@ -234,6 +250,9 @@ pub enum MapError {
     /// A Gwyddion GWY problem.
     #[error("GWY: {0}")]
     Gwy(GwyError),
+    /// A Zygo MetroPro problem.
+    #[error("MetroPro: {0}")]
+    MetroPro(MetroProError),
     /// A Sensofar PLU problem.
     #[error("PLU: {0}")]
     Plu(PluError),
@@ -589,7 +608,7 @@ fn write_with(
         (MapFormat::Text, ValueKind::Intensity) => {
             text::write_intensity_text_string(map).into_bytes()
         }
-        (MapFormat::Sdf | MapFormat::Gwy | MapFormat::Plu, _) => {
+        (MapFormat::Sdf | MapFormat::Gwy | MapFormat::MetroPro | MapFormat::Plu, _) => {
             return Err(WriteMapError::Unsupported {
                 path: path.to_path_buf(),
                 format,

@@ -226,7 +226,6 @@ const NOT_YET_READ: &[&str] = &[
     "al3d-1.al3d",
     "frt-1.frt",
     "frt-2.frt",
-    "metropro-1.dat",
     "opd-1.opd",
     "sur-2.sur",
     "sur-3.sur",
@@ -234,7 +233,7 @@ const NOT_YET_READ: &[&str] = &[
 
 #[test]
 fn every_file_in_the_folder_is_covered() {
-    let tested = ["gwyfile-test.gwy", "plu-1.plu"];
+    let tested = ["gwyfile-test.gwy", "plu-1.plu", "metropro-1.dat"];
     for entry in std::fs::read_dir(data("")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
         if name.ends_with(".md")
@@ -263,4 +262,44 @@ fn formats_not_yet_read_are_refused_not_misread() {
             "{name}: {err}"
         );
     }
+}
+
+#[test]
+fn zygo_metropro_dat() {
+    // SurfaceTopography 1.27.1: 640 x 480, lateral_res 1.0982520279867458e-6 m, no
+    // invalid point, mean 5.074040590166325e-5 m, rms 7.528822204734589e-8 m.
+    // surfalize 0.19.2 gives the same size and pitch but 8 times the heights (mean
+    // 4.059e-4 m): the header has phase_res = 1 (bytes 218..220 = 00 01), and the height
+    // is raw × S × W × O / R with R = 4096, 32768, 131072 for phase_res 0, 1, 2 (Zygo's
+    // MetroPro reference guide); surfalize's table starts at 1 (1 → 4096), so it divides
+    // by 4096 instead of 32768. SurfaceTopography (and numpy by hand with R = 32768:
+    // S = 0.5, W = 5.6999999742402e-7 m, O = 1) gives the numbers below.
+    check(
+        "metropro-1.dat",
+        &ReadOptions::default(),
+        MapFormat::MetroPro,
+        &Expect {
+            nx: 640,
+            ny: 480,
+            dx: 1.0982520279867458e-06,
+            dy: 1.0982520279867458e-06,
+            invalid: 0,
+            mean: 5.074040590166325e-05,
+            rms: 7.528822204734589e-08,
+        },
+    );
+    let (map, _) = read_map(data("metropro-1.dat"), &ReadOptions::default()).unwrap();
+    // Header text fields (xxd): objective " 20X  Mirau" at byte 246, date at byte 12.
+    assert_eq!(map.metadata()["metropro.objective"], "20X  Mirau");
+    assert_eq!(
+        map.metadata()["metropro.software_date"],
+        "Fri Jun 23 15:37:19 2006"
+    );
+}
+
+#[test]
+fn metropro_truncated_refused_with_offset() {
+    // Inside the 834-byte header, inside the intensity frame, inside the phase frame,
+    // one byte short.
+    truncations_refused("metropro-1.dat", &[100, 833, 5_000, 700_000, 1_844_033]);
 }
