@@ -172,7 +172,8 @@ impl MapFormat {
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
             MapFormat::Gwy => &["gwy"],
-            MapFormat::MetroPro => &["dat"],
+            // `.dat` is also common for text matrices: the content alone decides.
+            MapFormat::MetroPro => &[],
             MapFormat::Plu => &["plu", "apx"],
         }
     }
