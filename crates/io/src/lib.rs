@@ -38,6 +38,7 @@ pub mod gwy;
 pub mod map;
 pub mod measured;
 pub mod metropro;
+pub mod opd;
 pub mod plu;
 pub mod reader;
 pub mod sdf;

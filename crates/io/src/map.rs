@@ -21,6 +21,7 @@ use thiserror::Error;
 
 use crate::gwy::{self, GwyError};
 use crate::metropro::{self, MetroProError};
+use crate::opd::{self, OpdError};
 use crate::plu::{self, PluError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
@@ -44,6 +45,8 @@ pub enum MapFormat {
     Plu,
     /// Zygo MetroPro phase map (`.dat`).
     MetroPro,
+    /// Wyko / Bruker Vision OPD (`.opd`).
+    Opd,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -55,7 +58,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 6] = [
+const FORMATS: [Spec; 7] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -92,6 +95,12 @@ const FORMATS: [Spec; 6] = [
         channels: |b, o| metropro::channels(b, o).map_err(MapError::MetroPro),
         read: |b, o, k| metropro::read(b, o, k).map_err(MapError::MetroPro),
     },
+    Spec {
+        format: MapFormat::Opd,
+        detect: opd::detect,
+        channels: |b, o| opd::channels(b, o).map_err(MapError::Opd),
+        read: |b, o, k| opd::read(b, o, k).map_err(MapError::Opd),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -103,13 +112,14 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 6] = [
+    pub const ALL: [MapFormat; 7] = [
         MapFormat::X3p,
         MapFormat::Sdf,
         MapFormat::Text,
         MapFormat::Gwy,
         MapFormat::Plu,
         MapFormat::MetroPro,
+        MapFormat::Opd,
     ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
@@ -130,6 +140,7 @@ impl MapFormat {
             MapFormat::Sdf => "sdf",
             MapFormat::Text => "text",
             MapFormat::Gwy => "gwy",
+            MapFormat::Opd => "opd",
             MapFormat::MetroPro => "metropro",
             MapFormat::Plu => "plu",
         }
@@ -142,6 +153,7 @@ impl MapFormat {
             MapFormat::Sdf => "an SDF file (ISO 25178-71)",
             MapFormat::Text => "a plain-text matrix",
             MapFormat::Gwy => "a Gwyddion GWY file",
+            MapFormat::Opd => "a Wyko OPD file",
             MapFormat::MetroPro => "a Zygo MetroPro DAT file",
             MapFormat::Plu => "a Sensofar PLU file",
         }
@@ -156,6 +168,9 @@ impl MapFormat {
             }
             MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
             MapFormat::Gwy => "it does not start with GWYP, so not a Gwyddion GWY file",
+            MapFormat::Opd => {
+                "it does not have the OPD Directory block at byte 2, so not a Wyko OPD file"
+            }
             MapFormat::MetroPro => {
                 "it does not start with a MetroPro magic (88 1B 03 6F..71), so not a Zygo MetroPro file"
             }
@@ -172,6 +187,7 @@ impl MapFormat {
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
             MapFormat::Gwy => &["gwy"],
+            MapFormat::Opd => &["opd"],
             // `.dat` is also common for text matrices: the content alone decides.
             MapFormat::MetroPro => &[],
             MapFormat::Plu => &["plu", "apx"],
@@ -251,6 +267,9 @@ pub enum MapError {
     /// A Gwyddion GWY problem.
     #[error("GWY: {0}")]
     Gwy(GwyError),
+    /// A Wyko OPD problem.
+    #[error("OPD: {0}")]
+    Opd(OpdError),
     /// A Zygo MetroPro problem.
     #[error("MetroPro: {0}")]
     MetroPro(MetroProError),
@@ -609,7 +628,10 @@ fn write_with(
         (MapFormat::Text, ValueKind::Intensity) => {
             text::write_intensity_text_string(map).into_bytes()
         }
-        (MapFormat::Sdf | MapFormat::Gwy | MapFormat::MetroPro | MapFormat::Plu, _) => {
+        (
+            MapFormat::Sdf | MapFormat::Gwy | MapFormat::Opd | MapFormat::MetroPro | MapFormat::Plu,
+            _,
+        ) => {
             return Err(WriteMapError::Unsupported {
                 path: path.to_path_buf(),
                 format,

@@ -226,14 +226,18 @@ const NOT_YET_READ: &[&str] = &[
     "al3d-1.al3d",
     "frt-1.frt",
     "frt-2.frt",
-    "opd-1.opd",
     "sur-2.sur",
     "sur-3.sur",
 ];
 
 #[test]
 fn every_file_in_the_folder_is_covered() {
-    let tested = ["gwyfile-test.gwy", "plu-1.plu", "metropro-1.dat"];
+    let tested = [
+        "gwyfile-test.gwy",
+        "plu-1.plu",
+        "metropro-1.dat",
+        "opd-1.opd",
+    ];
     for entry in std::fs::read_dir(data("")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
         if name.ends_with(".md")
@@ -302,4 +306,58 @@ fn metropro_truncated_refused_with_offset() {
     // Inside the 834-byte header, inside the intensity frame, inside the phase frame,
     // one byte short.
     truncations_refused("metropro-1.dat", &[100, 833, 5_000, 700_000, 1_844_033]);
+}
+
+#[test]
+fn wyko_opd() {
+    // SurfaceTopography 1.27.1 (the only independent reader that opens it; surfalize
+    // 0.19.2 stops at block type 15): 640 x 480, Pixel_size 0.00019673303177114576 mm,
+    // Aspect 1, 116 invalid points (f32 values >= 1e38), mean -2.722895251054526e-7 m,
+    // rms 8.356451162720974e-9 m, from Raw x Wavelength (577.2949829101562 nm) / Mult
+    // (no Mult block: 1). The same numbers come from numpy over the raw f32 array at
+    // byte 24026 (directory walked by hand with `struct`).
+    check(
+        "opd-1.opd",
+        &ReadOptions::default(),
+        MapFormat::Opd,
+        &Expect {
+            nx: 640,
+            ny: 480,
+            dx: 1.9673303177114576e-07,
+            dy: 1.9673303177114576e-07,
+            invalid: 116,
+            mean: -2.722895251054526e-07,
+            rms: 8.356451162720974e-09,
+        },
+    );
+    let (map, _) = read_map(data("opd-1.opd"), &ReadOptions::default()).unwrap();
+    // Orientation: the file stores y fastest and reversed; SurfaceTopography's
+    // heights[0][0..3] (x = 0, y = 0, 1, 2) are raw[479], raw[478], raw[477] =
+    // -0.00026551, -0.00026971, -0.00026898 mm.
+    for (row, want_mm) in [(0, -0.00026551), (1, -0.00026971), (2, -0.00026898)] {
+        let got_mm = map.get(0, row).unwrap() * 1e-3;
+        assert!((got_mm - want_mm).abs() < 1e-8, "row {row}: {got_mm}");
+    }
+    assert_eq!(map.metadata()["opd.Date"], "7/7/2015");
+    let (channels, _) = list_channels(data("opd-1.opd"), &ReadOptions::default()).unwrap();
+    let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
+    // Array blocks of the directory (walked with `struct`): Raw, SecArr_0, Image.
+    assert_eq!(names, ["Raw", "SecArr_0", "Image"]);
+    // Image is not a height array: a height read is refused, an intensity read gives
+    // its u8 values.
+    let img = ReadOptions {
+        channel: Some(2),
+        ..ReadOptions::default()
+    };
+    let err = read_map(data("opd-1.opd"), &img).unwrap_err().to_string();
+    assert!(err.contains("not a height array"), "{err}");
+    let (i, _) = flakescatter_io::read_intensity(data("opd-1.opd"), &img).unwrap();
+    assert_eq!((i.nx(), i.ny(), i.valid_count()), (640, 480, 640 * 480));
+}
+
+#[test]
+fn opd_truncated_refused_with_offset() {
+    // Inside the directory entry (the magic name itself must be whole to be recognised),
+    // the directory, the Raw array, the last block.
+    truncations_refused("opd-1.opd", &[20, 5_000, 500_000, 4_020_869]);
 }
