@@ -44,6 +44,7 @@ pub mod reader;
 pub mod sdf;
 pub mod spectral;
 pub mod stack;
+pub mod sur;
 pub mod table;
 pub mod text;
 pub mod units;

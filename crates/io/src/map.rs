@@ -25,6 +25,7 @@ use crate::opd::{self, OpdError};
 use crate::plu::{self, PluError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
+use crate::sur::{self, SurError};
 use crate::text::{self, TextError};
 use crate::x3p::{self, ArchiveError, X3pError};
 
@@ -47,6 +48,8 @@ pub enum MapFormat {
     MetroPro,
     /// Wyko / Bruker Vision OPD (`.opd`).
     Opd,
+    /// Digital Surf SUR (MountainsMap), one channel per object.
+    Sur,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -58,7 +61,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 7] = [
+const FORMATS: [Spec; 8] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -101,6 +104,12 @@ const FORMATS: [Spec; 7] = [
         channels: |b, o| opd::channels(b, o).map_err(MapError::Opd),
         read: |b, o, k| opd::read(b, o, k).map_err(MapError::Opd),
     },
+    Spec {
+        format: MapFormat::Sur,
+        detect: sur::detect,
+        channels: |b, o| sur::channels(b, o).map_err(MapError::Sur),
+        read: |b, o, k| sur::read(b, o, k).map_err(MapError::Sur),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -112,7 +121,7 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 7] = [
+    pub const ALL: [MapFormat; 8] = [
         MapFormat::X3p,
         MapFormat::Sdf,
         MapFormat::Text,
@@ -120,6 +129,7 @@ impl MapFormat {
         MapFormat::Plu,
         MapFormat::MetroPro,
         MapFormat::Opd,
+        MapFormat::Sur,
     ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
@@ -140,6 +150,7 @@ impl MapFormat {
             MapFormat::Sdf => "sdf",
             MapFormat::Text => "text",
             MapFormat::Gwy => "gwy",
+            MapFormat::Sur => "sur",
             MapFormat::Opd => "opd",
             MapFormat::MetroPro => "metropro",
             MapFormat::Plu => "plu",
@@ -153,6 +164,7 @@ impl MapFormat {
             MapFormat::Sdf => "an SDF file (ISO 25178-71)",
             MapFormat::Text => "a plain-text matrix",
             MapFormat::Gwy => "a Gwyddion GWY file",
+            MapFormat::Sur => "a Digital Surf SUR file",
             MapFormat::Opd => "a Wyko OPD file",
             MapFormat::MetroPro => "a Zygo MetroPro DAT file",
             MapFormat::Plu => "a Sensofar PLU file",
@@ -168,6 +180,7 @@ impl MapFormat {
             }
             MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
             MapFormat::Gwy => "it does not start with GWYP, so not a Gwyddion GWY file",
+            MapFormat::Sur => "it does not start with DIGITAL SURF, so not a Digital Surf SUR file",
             MapFormat::Opd => {
                 "it does not have the OPD Directory block at byte 2, so not a Wyko OPD file"
             }
@@ -187,6 +200,7 @@ impl MapFormat {
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
             MapFormat::Gwy => &["gwy"],
+            MapFormat::Sur => &["sur"],
             MapFormat::Opd => &["opd"],
             // `.dat` is also common for text matrices: the content alone decides.
             MapFormat::MetroPro => &[],
@@ -267,6 +281,9 @@ pub enum MapError {
     /// A Gwyddion GWY problem.
     #[error("GWY: {0}")]
     Gwy(GwyError),
+    /// A Digital Surf SUR problem.
+    #[error("SUR: {0}")]
+    Sur(SurError),
     /// A Wyko OPD problem.
     #[error("OPD: {0}")]
     Opd(OpdError),
@@ -629,7 +646,12 @@ fn write_with(
             text::write_intensity_text_string(map).into_bytes()
         }
         (
-            MapFormat::Sdf | MapFormat::Gwy | MapFormat::Opd | MapFormat::MetroPro | MapFormat::Plu,
+            MapFormat::Sdf
+            | MapFormat::Gwy
+            | MapFormat::Plu
+            | MapFormat::MetroPro
+            | MapFormat::Opd
+            | MapFormat::Sur,
             _,
         ) => {
             return Err(WriteMapError::Unsupported {

@@ -222,13 +222,7 @@ fn plu_truncated_refused_with_offset() {
 
 /// Files in `fixtures/real/instruments` whose format has no reader yet; each one is
 /// checked to be refused with a clear message rather than misread (see `docs/formats.md`).
-const NOT_YET_READ: &[&str] = &[
-    "al3d-1.al3d",
-    "frt-1.frt",
-    "frt-2.frt",
-    "sur-2.sur",
-    "sur-3.sur",
-];
+const NOT_YET_READ: &[&str] = &["al3d-1.al3d", "frt-1.frt", "frt-2.frt"];
 
 #[test]
 fn every_file_in_the_folder_is_covered() {
@@ -237,6 +231,8 @@ fn every_file_in_the_folder_is_covered() {
         "plu-1.plu",
         "metropro-1.dat",
         "opd-1.opd",
+        "sur-2.sur",
+        "sur-3.sur",
     ];
     for entry in std::fs::read_dir(data("")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
@@ -360,4 +356,63 @@ fn opd_truncated_refused_with_offset() {
     // Inside the directory entry (the magic name itself must be whole to be recognised),
     // the directory, the Raw array, the last block.
     truncations_refused("opd-1.opd", &[20, 5_000, 500_000, 4_020_869]);
+}
+
+#[test]
+fn digital_surf_sur() {
+    // sur-2.sur: 563 x 484, 32-bit, spacing 0.0034840002 mm (f32) in x and y, z spacing
+    // 1e-7 mm, non-measured flag 1 and minimum 89120, so raw 89118 is invalid: 117
+    // points. SurfaceTopography 1.27.1 and surfalize 0.19.2 agree: mean
+    // 1.015737639515718e-5 m, rms 1.7517881243588177e-8 m (its z offset is 0).
+    check(
+        "sur-2.sur",
+        &ReadOptions::default(),
+        MapFormat::Sur,
+        &Expect {
+            nx: 563,
+            ny: 484,
+            dx: 3.4840002190321683e-06,
+            dy: 3.4840002190321683e-06,
+            invalid: 117,
+            mean: 1.015737639515718e-05,
+            rms: 1.7517881243588177e-08,
+        },
+    );
+    // sur-3.sur: 512 x 512, spacing 295546 nm, z spacing 1e-9 m, minimum 0 (raw -2
+    // invalid: 233009 points), z offset -0.00341433 (header byte 474). Both readers
+    // agree on everything but the mean: SurfaceTopography 5.9936367307114715e-3 m,
+    // surfalize 5.9936333163813985e-3 m, 3.4e-9 m lower = the offset -0.00341433 added
+    // to heights already in µm (surfalize adds it after converting to µm, as if it were
+    // µm, while the header's z unit is m). Digital Surf's offset is a display origin;
+    // Gwyddion and SurfaceTopography leave it out, and so do we (it is kept in
+    // `sur.offset_z`): SurfaceTopography's mean.
+    check(
+        "sur-3.sur",
+        &ReadOptions::default(),
+        MapFormat::Sur,
+        &Expect {
+            nx: 512,
+            ny: 512,
+            dx: 0.000295546,
+            dy: 0.000295546,
+            invalid: 233009,
+            mean: 0.0059936367307114715,
+            rms: 0.0011131994265859693,
+        },
+    );
+    let (map, _) = read_map(data("sur-3.sur"), &ReadOptions::default()).unwrap();
+    // Header bytes 306..318 (struct): 53 s, 8 min, 10 h, day 22, month 6, year 2023.
+    assert_eq!(map.metadata()["sur.date"], "2023-06-22 10:08:53");
+    let (channels, _) = list_channels(data("sur-2.sur"), &ReadOptions::default()).unwrap();
+    assert_eq!(channels.len(), 1);
+    assert_eq!(
+        (channels[0].name.as_str(), channels[0].unit.as_deref()),
+        ("Z", Some("mm"))
+    );
+}
+
+#[test]
+fn sur_truncated_refused_with_offset() {
+    // Inside the header, inside the data, one byte short.
+    truncations_refused("sur-2.sur", &[100, 511, 600_000, 1_090_479]);
 }
