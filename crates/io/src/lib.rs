@@ -30,6 +30,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod al3d;
 pub mod curves;
 pub mod detectors;
 pub mod files;

@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::al3d::{self, Al3dError};
 use crate::gwy::{self, GwyError};
 use crate::metropro::{self, MetroProError};
 use crate::opd::{self, OpdError};
@@ -50,6 +51,8 @@ pub enum MapFormat {
     Opd,
     /// Digital Surf SUR (MountainsMap), one channel per object.
     Sur,
+    /// Alicona AL3D depth image (focus variation).
+    Al3d,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -61,7 +64,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 8] = [
+const FORMATS: [Spec; 9] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -110,6 +113,12 @@ const FORMATS: [Spec; 8] = [
         channels: |b, o| sur::channels(b, o).map_err(MapError::Sur),
         read: |b, o, k| sur::read(b, o, k).map_err(MapError::Sur),
     },
+    Spec {
+        format: MapFormat::Al3d,
+        detect: al3d::detect,
+        channels: |b, o| al3d::channels(b, o).map_err(MapError::Al3d),
+        read: |b, o, k| al3d::read(b, o, k).map_err(MapError::Al3d),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -121,7 +130,7 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 8] = [
+    pub const ALL: [MapFormat; 9] = [
         MapFormat::X3p,
         MapFormat::Sdf,
         MapFormat::Text,
@@ -130,6 +139,7 @@ impl MapFormat {
         MapFormat::MetroPro,
         MapFormat::Opd,
         MapFormat::Sur,
+        MapFormat::Al3d,
     ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
@@ -150,6 +160,7 @@ impl MapFormat {
             MapFormat::Sdf => "sdf",
             MapFormat::Text => "text",
             MapFormat::Gwy => "gwy",
+            MapFormat::Al3d => "al3d",
             MapFormat::Sur => "sur",
             MapFormat::Opd => "opd",
             MapFormat::MetroPro => "metropro",
@@ -164,6 +175,7 @@ impl MapFormat {
             MapFormat::Sdf => "an SDF file (ISO 25178-71)",
             MapFormat::Text => "a plain-text matrix",
             MapFormat::Gwy => "a Gwyddion GWY file",
+            MapFormat::Al3d => "an Alicona AL3D file",
             MapFormat::Sur => "a Digital Surf SUR file",
             MapFormat::Opd => "a Wyko OPD file",
             MapFormat::MetroPro => "a Zygo MetroPro DAT file",
@@ -180,6 +192,7 @@ impl MapFormat {
             }
             MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
             MapFormat::Gwy => "it does not start with GWYP, so not a Gwyddion GWY file",
+            MapFormat::Al3d => "it does not start with AliconaImaging, so not an Alicona AL3D file",
             MapFormat::Sur => "it does not start with DIGITAL SURF, so not a Digital Surf SUR file",
             MapFormat::Opd => {
                 "it does not have the OPD Directory block at byte 2, so not a Wyko OPD file"
@@ -200,6 +213,7 @@ impl MapFormat {
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
             MapFormat::Gwy => &["gwy"],
+            MapFormat::Al3d => &["al3d"],
             MapFormat::Sur => &["sur"],
             MapFormat::Opd => &["opd"],
             // `.dat` is also common for text matrices: the content alone decides.
@@ -281,6 +295,9 @@ pub enum MapError {
     /// A Gwyddion GWY problem.
     #[error("GWY: {0}")]
     Gwy(GwyError),
+    /// An Alicona AL3D problem.
+    #[error("AL3D: {0}")]
+    Al3d(Al3dError),
     /// A Digital Surf SUR problem.
     #[error("SUR: {0}")]
     Sur(SurError),
@@ -651,7 +668,8 @@ fn write_with(
             | MapFormat::Plu
             | MapFormat::MetroPro
             | MapFormat::Opd
-            | MapFormat::Sur,
+            | MapFormat::Sur
+            | MapFormat::Al3d,
             _,
         ) => {
             return Err(WriteMapError::Unsupported {

@@ -222,7 +222,7 @@ fn plu_truncated_refused_with_offset() {
 
 /// Files in `fixtures/real/instruments` whose format has no reader yet; each one is
 /// checked to be refused with a clear message rather than misread (see `docs/formats.md`).
-const NOT_YET_READ: &[&str] = &["al3d-1.al3d", "frt-1.frt", "frt-2.frt"];
+const NOT_YET_READ: &[&str] = &["frt-1.frt", "frt-2.frt"];
 
 #[test]
 fn every_file_in_the_folder_is_covered() {
@@ -233,6 +233,7 @@ fn every_file_in_the_folder_is_covered() {
         "opd-1.opd",
         "sur-2.sur",
         "sur-3.sur",
+        "al3d-1.al3d",
     ];
     for entry in std::fs::read_dir(data("")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
@@ -415,4 +416,41 @@ fn digital_surf_sur() {
 fn sur_truncated_refused_with_offset() {
     // Inside the header, inside the data, one byte short.
     truncations_refused("sur-2.sur", &[100, 511, 600_000, 1_090_479]);
+}
+
+#[test]
+fn alicona_al3d() {
+    // SurfaceTopography 1.27.1 and surfalize 0.19.2 agree: 200 x 296, 4.38027e-7 m
+    // pixels, no invalid point (no depth >= InvalidPixelValue 3.000000028082e+15, and
+    // the repeatability plane 3 has codes <= 107, 107 x 2.35294e-9 + 0 < 6.06e-7, so
+    // surfalize's repeatability filter masks none either), mean 0.07634093332028873 m
+    // (the stage's absolute z), rms 7.688265843362921e-6 m.
+    check(
+        "al3d-1.al3d",
+        &ReadOptions::default(),
+        MapFormat::Al3d,
+        &Expect {
+            nx: 200,
+            ny: 296,
+            dx: 4.38027e-07,
+            dy: 4.38027e-07,
+            invalid: 0,
+            mean: 0.07634093332028873,
+            rms: 7.688265843362921e-06,
+        },
+    );
+    let (map, _) = read_map(data("al3d-1.al3d"), &ReadOptions::default()).unwrap();
+    // Tag 7 of the header (read with `struct`): CreatingApplication = MeasureSuite 5.3.6.
+    assert_eq!(
+        map.metadata()["al3d.CreatingApplication"],
+        "MeasureSuite 5.3.6"
+    );
+    assert_eq!(map.metadata()["al3d.repeatability_mask"], "applied");
+}
+
+#[test]
+fn al3d_truncated_refused_with_offset() {
+    // Inside a tag, before the depth image ends, inside the repeatability plane (plane 3
+    // of 200 x 296 bytes from 238061: up to 238061 + 4 x 59200 = 474861, the file end).
+    truncations_refused("al3d-1.al3d", &[30, 500, 100_000, 400_000, 474_860]);
 }
