@@ -116,7 +116,7 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
     let i32_at =
         |a: usize| i32::from_le_bytes([bytes[a], bytes[a + 1], bytes[a + 2], bytes[a + 3]]);
     let dir_len = i32_at(20);
-    if dir_len < ENTRY as i32 || dir_len as usize % ENTRY != 0 {
+    if dir_len < ENTRY as i32 || !(dir_len as usize).is_multiple_of(ENTRY) {
         return Err(OpdError::Bad {
             block: "Directory".into(),
             offset: 2,
