@@ -348,3 +348,50 @@ fn intensity_maps_need_the_same_pitch_but_no_unit() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn instrument_file_lists_channels_and_reads_the_one_chosen() {
+    // opd-1.opd (Wyko): SurfaceTopography 1.27.1 gives 640 x 480, pitch
+    // 1.9673303177114576e-7 m, 116 invalid points, mean -2.722895251054526e-7 m; the
+    // directory (walked with Python's struct) has three array blocks: Raw, SecArr_0, Image.
+    let file = data("instruments/opd-1.opd");
+    let o = run(&["info", &file, "--json"]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["format"], "opd");
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(640), Some(480)));
+    assert_eq!(v["invalid_points"], 116);
+    assert!(close(
+        v["dx_m"].as_f64().unwrap(),
+        1.9673303177114576e-07,
+        1e-12
+    ));
+    assert!(close(
+        v["mean_m"].as_f64().unwrap(),
+        -2.722895251054526e-07,
+        1e-9
+    ));
+    let names: Vec<&str> = v["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["Raw", "SecArr_0", "Image"]);
+    assert_eq!(v["channel"], 0);
+    assert_eq!(v["metadata"]["opd.Date"], "7/7/2015");
+    // A channel the file does not have: exit 2, the file and its channels named.
+    let o = run(&["info", &file, "--channel", "5"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("opd-1.opd") && e.contains("2 = Image"), "{e}");
+    // The Image array is not heights: refused as a height map, with the reason.
+    let o = run(&["info", &file, "--channel", "2"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a height array"));
+}
