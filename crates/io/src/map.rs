@@ -408,7 +408,7 @@ pub enum WriteMapError {
         source: ArchiveError,
     },
     /// The format cannot be written.
-    #[error("cannot write height map {}: writing {format} is not supported; use X3P or text", path.display())]
+    #[error("cannot write height map {}: writing {format} is not supported; use X3P, SDF or text", path.display())]
     Unsupported {
         /// The file.
         path: PathBuf,
@@ -615,9 +615,10 @@ pub fn list_channels(
     })
 }
 
-/// Writes an intensity image (unit-less values) to `path` as X3P (Z `Increment` 1) or
-/// plain text (no value unit), so that [`read_intensity`] returns exactly the values
-/// written. Writing [`MapFormat::Sdf`] is not supported and returns an error saying so.
+/// Writes an intensity image (unit-less values) to `path` as X3P (Z `Increment` 1), SDF
+/// (text, `Zscale` 1) or plain text (no value unit), so that [`read_intensity`] returns
+/// exactly the values written. The instrument formats cannot be written (an error says
+/// so).
 ///
 /// # Errors
 /// [`WriteMapError`] naming the file.
@@ -630,8 +631,10 @@ pub fn write_intensity(
 }
 
 /// Writes `map` to `path` as X3P (float64 heights in metres, `valid.bin` when some point
-/// is invalid) or plain text (µm, with pitch header lines). Writing [`MapFormat::Sdf`] is
-/// not supported and returns an error saying so.
+/// is invalid), SDF (text `aISO-1.0`, exact decimals, `BAD` for invalid points; see
+/// [`sdf::write_sdf_text`], and [`sdf::write_sdf_binary`] for the binary form) or plain
+/// text (µm, with pitch header lines). The instrument formats cannot be written (an
+/// error says so).
 ///
 /// # Errors
 /// [`WriteMapError`] naming the file.
@@ -662,9 +665,9 @@ fn write_with(
         (MapFormat::Text, ValueKind::Intensity) => {
             text::write_intensity_text_string(map).into_bytes()
         }
+        (MapFormat::Sdf, kind) => sdf::write_sdf_text(map, kind).into_bytes(),
         (
-            MapFormat::Sdf
-            | MapFormat::Gwy
+            MapFormat::Gwy
             | MapFormat::Plu
             | MapFormat::MetroPro
             | MapFormat::Opd
