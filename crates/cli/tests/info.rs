@@ -395,3 +395,50 @@ fn instrument_file_lists_channels_and_reads_the_one_chosen() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a height array"));
 }
+
+#[test]
+fn convert_instrument_file_to_sdf_and_x3p_keeps_the_numbers() {
+    // sur-2.sur (Digital Surf): SurfaceTopography and surfalize agree on 563 x 484,
+    // pitch 3.4840002190321683e-6 m, 117 invalid points, mean 1.015737639515718e-5 m.
+    // Converted to SDF and to X3P, `info` of each output must give the same numbers.
+    let dir = std::env::temp_dir().join(format!("flakescatter-convert-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = data("instruments/sur-2.sur");
+    for ext in ["sdf", "x3p", "txt"] {
+        let out = dir.join(format!("sur-2.{ext}")).display().to_string();
+        let o = run(&["convert", &input, &out]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let o = run(&["info", &out, "--json"]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(
+            (v["nx"].as_u64(), v["ny"].as_u64()),
+            (Some(563), Some(484)),
+            "{ext}"
+        );
+        assert_eq!(v["invalid_points"], 117, "{ext}");
+        assert!(
+            close(v["dx_m"].as_f64().unwrap(), 3.4840002190321683e-06, 1e-12),
+            "{ext}"
+        );
+        assert!(
+            close(v["mean_m"].as_f64().unwrap(), 1.015737639515718e-05, 1e-9),
+            "{ext}"
+        );
+    }
+    // An output extension that names no writable format: exit 2, before reading.
+    let o = run(&["convert", &input, &dir.join("x.gwy").display().to_string()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".sdf"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
