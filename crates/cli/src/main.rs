@@ -42,9 +42,11 @@ enum Command {
     /// The paper's Figs. 4, 7, 9, 10 in kind (CSV, SVG, PNG, index.md) from the fixtures and seeded synthetic layers.
     Reproduce(cmd::reproduce::Args),
     /// Topographic model: ray tracing over confocal height maps, accumulated.
-    Topo(cmd::topo::Args),
+    Topo(Box<cmd::topo::Args>),
     /// What a height-map file holds: size, pitch, valid points, height statistics, metadata.
     Info(cmd::info::Args),
+    /// Convert a height map (any readable format) to X3P, SDF or text, by OUT's extension.
+    Convert(cmd::convert::Args),
     /// Find individual flakes in a confocal height map: flake table with normals and areas.
     Segment(cmd::segment::Args),
     /// Synthetic flake layer with known truth: height map, intensity map, flake table, confocal z-stack.
@@ -68,8 +70,9 @@ fn main() -> ExitCode {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Fit(a) => cmd::fit::run(a),
         Command::Reproduce(a) => cmd::reproduce::run(a),
-        Command::Topo(a) => cmd::topo::run(a),
+        Command::Topo(a) => cmd::topo::run(*a),
         Command::Info(a) => cmd::info::run(a),
+        Command::Convert(a) => cmd::convert::run(a),
         Command::Segment(a) => cmd::segment::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Stack(a) => cmd::stack::run(a),

@@ -348,3 +348,97 @@ fn intensity_maps_need_the_same_pitch_but_no_unit() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn instrument_file_lists_channels_and_reads_the_one_chosen() {
+    // opd-1.opd (Wyko): SurfaceTopography 1.27.1 gives 640 x 480, pitch
+    // 1.9673303177114576e-7 m, 116 invalid points, mean -2.722895251054526e-7 m; the
+    // directory (walked with Python's struct) has three array blocks: Raw, SecArr_0, Image.
+    let file = data("instruments/opd-1.opd");
+    let o = run(&["info", &file, "--json"]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["format"], "opd");
+    assert_eq!((v["nx"].as_u64(), v["ny"].as_u64()), (Some(640), Some(480)));
+    assert_eq!(v["invalid_points"], 116);
+    assert!(close(
+        v["dx_m"].as_f64().unwrap(),
+        1.9673303177114576e-07,
+        1e-12
+    ));
+    assert!(close(
+        v["mean_m"].as_f64().unwrap(),
+        -2.722895251054526e-07,
+        1e-9
+    ));
+    let names: Vec<&str> = v["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["Raw", "SecArr_0", "Image"]);
+    assert_eq!(v["channel"], 0);
+    assert_eq!(v["metadata"]["opd.Date"], "7/7/2015");
+    // A channel the file does not have: exit 2, the file and its channels named.
+    let o = run(&["info", &file, "--channel", "5"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("opd-1.opd") && e.contains("2 = Image"), "{e}");
+    // The Image array is not heights: refused as a height map, with the reason.
+    let o = run(&["info", &file, "--channel", "2"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a height array"));
+}
+
+#[test]
+fn convert_instrument_file_to_sdf_and_x3p_keeps_the_numbers() {
+    // sur-2.sur (Digital Surf): SurfaceTopography and surfalize agree on 563 x 484,
+    // pitch 3.4840002190321683e-6 m, 117 invalid points, mean 1.015737639515718e-5 m.
+    // Converted to SDF and to X3P, `info` of each output must give the same numbers.
+    let dir = std::env::temp_dir().join(format!("flakescatter-convert-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = data("instruments/sur-2.sur");
+    for ext in ["sdf", "x3p", "txt"] {
+        let out = dir.join(format!("sur-2.{ext}")).display().to_string();
+        let o = run(&["convert", &input, &out]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let o = run(&["info", &out, "--json"]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(
+            (v["nx"].as_u64(), v["ny"].as_u64()),
+            (Some(563), Some(484)),
+            "{ext}"
+        );
+        assert_eq!(v["invalid_points"], 117, "{ext}");
+        assert!(
+            close(v["dx_m"].as_f64().unwrap(), 3.4840002190321683e-06, 1e-12),
+            "{ext}"
+        );
+        assert!(
+            close(v["mean_m"].as_f64().unwrap(), 1.015737639515718e-05, 1e-9),
+            "{ext}"
+        );
+    }
+    // An output extension that names no writable format: exit 2, before reading.
+    let o = run(&["convert", &input, &dir.join("x.gwy").display().to_string()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(".sdf"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 
 use flakescatter_confocal::{PeakOptions, PeakReport};
 use flakescatter_io::stack::{StackInfo, StackOptions};
-use flakescatter_io::{ReadMapError, ReadOptions, read_intensity, read_map};
+use flakescatter_io::{
+    Channel, ReadMapError, ReadOptions, list_channels, read_intensity, read_map,
+};
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
@@ -99,12 +101,16 @@ pub struct LoadedMap {
     /// The height map, µm, invalid where the file has no value or the intensity is
     /// below the cutoff.
     pub map: HeightMap,
-    /// Format name: `x3p`, `sdf`, `text` or `stack (<convention>)`.
+    /// Format name (`x3p`, `sdf`, `text`, `gwy`, `plu`, ..., as `MapFormat::name`) or
+    /// `stack (<convention>)`.
     pub format: String,
     /// Valid points before the cutoff.
     pub valid_before_cutoff: usize,
     /// For a stack, what it was and how it was localised.
     pub stack: Option<StackSummary>,
+    /// The channels of the map file (name, unit, size, pitch), in the order
+    /// `ReadOptions::channel` counts them; empty for a stack.
+    pub channels: Vec<Channel>,
 }
 
 /// Why a map could not be read.
@@ -203,20 +209,27 @@ pub fn load_map(
                     report: maps.report,
                     peak: maps.peak,
                 }),
+                channels: Vec::new(),
             })
         }
         SourceKind::Map => {
             let (mut map, format) =
                 read_map(path, &options.read).map_err(|e| LoadError::Height(Box::new(e)))?;
+            let (channels, _) =
+                list_channels(path, &options.read).map_err(|e| LoadError::Height(Box::new(e)))?;
             let valid_before_cutoff = map.valid_count();
             match (&source.intensity, options.cutoff) {
                 (Some(ipath), Some(cutoff)) => {
-                    let (mask, _) = read_intensity(ipath, &options.read).map_err(|source| {
-                        LoadError::Intensity {
+                    // The channel choice is the height map's; the partner file's first.
+                    let partner = ReadOptions {
+                        channel: None,
+                        ..options.read
+                    };
+                    let (mask, _) =
+                        read_intensity(ipath, &partner).map_err(|source| LoadError::Intensity {
                             map: path.clone(),
                             source: Box::new(source),
-                        }
-                    })?;
+                        })?;
                     map.apply_intensity_cutoff(&mask, cutoff)
                         .map_err(|source| LoadError::Cutoff {
                             map: path.clone(),
@@ -244,6 +257,7 @@ pub fn load_map(
                 format: format.name().to_owned(),
                 valid_before_cutoff,
                 stack: None,
+                channels,
             })
         }
     }

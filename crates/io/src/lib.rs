@@ -30,16 +30,22 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod al3d;
 pub mod curves;
 pub mod detectors;
 pub mod files;
 pub mod flakes;
+pub mod gwy;
 pub mod map;
 pub mod measured;
+pub mod metropro;
+pub mod opd;
+pub mod plu;
 pub mod reader;
 pub mod sdf;
 pub mod spectral;
 pub mod stack;
+pub mod sur;
 pub mod table;
 pub mod text;
 pub mod units;

@@ -19,8 +19,14 @@ use std::path::{Path, PathBuf};
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::al3d::{self, Al3dError};
+use crate::gwy::{self, GwyError};
+use crate::metropro::{self, MetroProError};
+use crate::opd::{self, OpdError};
+use crate::plu::{self, PluError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
+use crate::sur::{self, SurError};
 use crate::text::{self, TextError};
 use crate::x3p::{self, ArchiveError, X3pError};
 
@@ -35,6 +41,18 @@ pub enum MapFormat {
     /// Plain-text matrix (whitespace, comma or semicolon separated), Gwyddion `#`
     /// headers understood.
     Text,
+    /// Gwyddion native file (`GWYP` magic), one channel per data field.
+    Gwy,
+    /// Sensofar PLu topography (no magic; recognised from its header).
+    Plu,
+    /// Zygo MetroPro phase map (`.dat`).
+    MetroPro,
+    /// Wyko / Bruker Vision OPD (`.opd`).
+    Opd,
+    /// Digital Surf SUR (MountainsMap), one channel per object.
+    Sur,
+    /// Alicona AL3D depth image (focus variation).
+    Al3d,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -46,7 +64,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 3] = [
+const FORMATS: [Spec; 9] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -65,6 +83,42 @@ const FORMATS: [Spec; 3] = [
         channels: |b, o| text::channels(b, o).map_err(MapError::Text),
         read: |b, o, k| text::read(b, o, k).map_err(MapError::Text),
     },
+    Spec {
+        format: MapFormat::Gwy,
+        detect: gwy::detect,
+        channels: |b, o| gwy::channels(b, o).map_err(MapError::Gwy),
+        read: |b, o, k| gwy::read(b, o, k).map_err(MapError::Gwy),
+    },
+    Spec {
+        format: MapFormat::Plu,
+        detect: plu::detect,
+        channels: |b, o| plu::channels(b, o).map_err(MapError::Plu),
+        read: |b, o, k| plu::read(b, o, k).map_err(MapError::Plu),
+    },
+    Spec {
+        format: MapFormat::MetroPro,
+        detect: metropro::detect,
+        channels: |b, o| metropro::channels(b, o).map_err(MapError::MetroPro),
+        read: |b, o, k| metropro::read(b, o, k).map_err(MapError::MetroPro),
+    },
+    Spec {
+        format: MapFormat::Opd,
+        detect: opd::detect,
+        channels: |b, o| opd::channels(b, o).map_err(MapError::Opd),
+        read: |b, o, k| opd::read(b, o, k).map_err(MapError::Opd),
+    },
+    Spec {
+        format: MapFormat::Sur,
+        detect: sur::detect,
+        channels: |b, o| sur::channels(b, o).map_err(MapError::Sur),
+        read: |b, o, k| sur::read(b, o, k).map_err(MapError::Sur),
+    },
+    Spec {
+        format: MapFormat::Al3d,
+        detect: al3d::detect,
+        channels: |b, o| al3d::channels(b, o).map_err(MapError::Al3d),
+        read: |b, o, k| al3d::read(b, o, k).map_err(MapError::Al3d),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -76,7 +130,17 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 3] = [MapFormat::X3p, MapFormat::Sdf, MapFormat::Text];
+    pub const ALL: [MapFormat; 9] = [
+        MapFormat::X3p,
+        MapFormat::Sdf,
+        MapFormat::Text,
+        MapFormat::Gwy,
+        MapFormat::Plu,
+        MapFormat::MetroPro,
+        MapFormat::Opd,
+        MapFormat::Sur,
+        MapFormat::Al3d,
+    ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
     /// highest, `None` if none scores above 0 (empty or unknown binary content).
@@ -95,6 +159,12 @@ impl MapFormat {
             MapFormat::X3p => "x3p",
             MapFormat::Sdf => "sdf",
             MapFormat::Text => "text",
+            MapFormat::Gwy => "gwy",
+            MapFormat::Al3d => "al3d",
+            MapFormat::Sur => "sur",
+            MapFormat::Opd => "opd",
+            MapFormat::MetroPro => "metropro",
+            MapFormat::Plu => "plu",
         }
     }
 
@@ -104,6 +174,12 @@ impl MapFormat {
             MapFormat::X3p => "an X3P file (ISO 25178-72)",
             MapFormat::Sdf => "an SDF file (ISO 25178-71)",
             MapFormat::Text => "a plain-text matrix",
+            MapFormat::Gwy => "a Gwyddion GWY file",
+            MapFormat::Al3d => "an Alicona AL3D file",
+            MapFormat::Sur => "a Digital Surf SUR file",
+            MapFormat::Opd => "a Wyko OPD file",
+            MapFormat::MetroPro => "a Zygo MetroPro DAT file",
+            MapFormat::Plu => "a Sensofar PLU file",
         }
     }
 
@@ -115,6 +191,18 @@ impl MapFormat {
                 "it does not start with aISO- or bISO-, so not an ISO 25178-71 SDF file"
             }
             MapFormat::Text => "it holds bytes that do not occur in text, so not a text matrix",
+            MapFormat::Gwy => "it does not start with GWYP, so not a Gwyddion GWY file",
+            MapFormat::Al3d => "it does not start with AliconaImaging, so not an Alicona AL3D file",
+            MapFormat::Sur => "it does not start with DIGITAL SURF, so not a Digital Surf SUR file",
+            MapFormat::Opd => {
+                "it does not have the OPD Directory block at byte 2, so not a Wyko OPD file"
+            }
+            MapFormat::MetroPro => {
+                "it does not start with a MetroPro magic (88 1B 03 6F..71), so not a Zygo MetroPro file"
+            }
+            MapFormat::Plu => {
+                "it lacks the PLU header (a date, a topography type and matching sizes), so not a Sensofar PLU file"
+            }
         }
     }
 
@@ -124,6 +212,13 @@ impl MapFormat {
             MapFormat::X3p => &["x3p"],
             MapFormat::Sdf => &["sdf"],
             MapFormat::Text => &["txt", "csv", "asc", "tsv"],
+            MapFormat::Gwy => &["gwy"],
+            MapFormat::Al3d => &["al3d"],
+            MapFormat::Sur => &["sur"],
+            MapFormat::Opd => &["opd"],
+            // `.dat` is also common for text matrices: the content alone decides.
+            MapFormat::MetroPro => &[],
+            MapFormat::Plu => &["plu", "apx"],
         }
     }
 
@@ -197,6 +292,24 @@ pub enum MapError {
     /// A plain-text matrix problem.
     #[error("text matrix: {0}")]
     Text(TextError),
+    /// A Gwyddion GWY problem.
+    #[error("GWY: {0}")]
+    Gwy(GwyError),
+    /// An Alicona AL3D problem.
+    #[error("AL3D: {0}")]
+    Al3d(Al3dError),
+    /// A Digital Surf SUR problem.
+    #[error("SUR: {0}")]
+    Sur(SurError),
+    /// A Wyko OPD problem.
+    #[error("OPD: {0}")]
+    Opd(OpdError),
+    /// A Zygo MetroPro problem.
+    #[error("MetroPro: {0}")]
+    MetroPro(MetroProError),
+    /// A Sensofar PLU problem.
+    #[error("PLU: {0}")]
+    Plu(PluError),
     /// The pitch override is not usable.
     #[error("pixel pitch option: {0}")]
     Pitch(HeightMapError),
@@ -210,7 +323,9 @@ pub enum MapError {
         expected: Option<MapFormat>,
     },
     /// The content is no format this crate reads.
-    #[error("not a height-map format this crate reads (X3P, SDF, plain text): {content}")]
+    #[error(
+        "not a height-map format this crate reads (see MapFormat::ALL: X3P, SDF, plain text and the instrument formats): {content}"
+    )]
     Unrecognised {
         /// What the content is.
         content: String,
@@ -293,7 +408,7 @@ pub enum WriteMapError {
         source: ArchiveError,
     },
     /// The format cannot be written.
-    #[error("cannot write height map {}: writing {format} is not supported; use X3P or text", path.display())]
+    #[error("cannot write height map {}: writing {format} is not supported; use X3P, SDF or text", path.display())]
     Unsupported {
         /// The file.
         path: PathBuf,
@@ -360,7 +475,9 @@ pub fn read_bytes(
     // A flag is honoured or refused: the text-only options are refused for the
     // calibrated formats (intensity reads share the height map's flags and ignore them).
     if kind == ValueKind::Height && format != MapFormat::Text {
-        if options.z_unit.is_some() {
+        // GWY data fields may store no unit; the GWY reader then needs (and otherwise
+        // refuses) `z_unit` itself.
+        if options.z_unit.is_some() && format != MapFormat::Gwy {
             return Err(MapError::NotApplicable {
                 option: "z_unit (`--z-unit` on the command line)",
                 format,
@@ -498,9 +615,10 @@ pub fn list_channels(
     })
 }
 
-/// Writes an intensity image (unit-less values) to `path` as X3P (Z `Increment` 1) or
-/// plain text (no value unit), so that [`read_intensity`] returns exactly the values
-/// written. Writing [`MapFormat::Sdf`] is not supported and returns an error saying so.
+/// Writes an intensity image (unit-less values) to `path` as X3P (Z `Increment` 1), SDF
+/// (text, `Zscale` 1) or plain text (no value unit), so that [`read_intensity`] returns
+/// exactly the values written. The instrument formats cannot be written (an error says
+/// so).
 ///
 /// # Errors
 /// [`WriteMapError`] naming the file.
@@ -513,8 +631,10 @@ pub fn write_intensity(
 }
 
 /// Writes `map` to `path` as X3P (float64 heights in metres, `valid.bin` when some point
-/// is invalid) or plain text (µm, with pitch header lines). Writing [`MapFormat::Sdf`] is
-/// not supported and returns an error saying so.
+/// is invalid), SDF (text `aISO-1.0`, exact decimals, `BAD` for invalid points; see
+/// [`sdf::write_sdf_text`], and [`sdf::write_sdf_binary`] for the binary form) or plain
+/// text (µm, with pitch header lines). The instrument formats cannot be written (an
+/// error says so).
 ///
 /// # Errors
 /// [`WriteMapError`] naming the file.
@@ -545,7 +665,16 @@ fn write_with(
         (MapFormat::Text, ValueKind::Intensity) => {
             text::write_intensity_text_string(map).into_bytes()
         }
-        (MapFormat::Sdf, _) => {
+        (MapFormat::Sdf, kind) => sdf::write_sdf_text(map, kind).into_bytes(),
+        (
+            MapFormat::Gwy
+            | MapFormat::Plu
+            | MapFormat::MetroPro
+            | MapFormat::Opd
+            | MapFormat::Sur
+            | MapFormat::Al3d,
+            _,
+        ) => {
             return Err(WriteMapError::Unsupported {
                 path: path.to_path_buf(),
                 format,

@@ -450,3 +450,127 @@ fn read_binary(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, Sdf
     map.set_metadata("sdf.DataType", dtype.to_string());
     Ok(map)
 }
+
+/// Why a map cannot be written as SDF.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SdfWriteError {
+    /// The binary header stores the counts as u16.
+    #[error(
+        "{nx} x {ny} points do not fit the binary SDF header (NumPoints and NumProfiles \
+         are 16-bit, at most 65535); write the text form (aISO-1.0) instead"
+    )]
+    TooLarge {
+        /// Columns.
+        nx: usize,
+        /// Rows.
+        ny: usize,
+    },
+}
+
+/// The `key = value` header lines both writers share, from the map's `sdf.*` metadata
+/// where it has them (a file read from SDF keeps its ManufacID and dates).
+fn field(map: &HeightMap, key: &str, default: &str, width: usize) -> String {
+    let v = map
+        .metadata()
+        .get(&format!("sdf.{key}"))
+        .map_or(default, String::as_str);
+    v.chars()
+        .filter(|c| c.is_ascii_graphic())
+        .take(width)
+        .collect()
+}
+
+/// Writes `map` as a text SDF (`aISO-1.0`, ISO 25178-71): pitches and heights as the
+/// shortest decimals that read back to the same `f64` (µm, with `Xscale`, `Yscale`
+/// written as `<µm>e-6` metres and `Zscale = 1e-6` for heights, 1 for intensities), so
+/// that [`read`] returns exactly the map written; invalid points are written `BAD`.
+#[must_use]
+pub fn write_sdf_text(map: &HeightMap, kind: ValueKind) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::with_capacity(64 * 8 + map.len() * 12);
+    s.push_str("aISO-1.0\n");
+    let _ = writeln!(
+        s,
+        "ManufacID   = {}",
+        field(map, "ManufacID", "flakescat", 10)
+    );
+    let _ = writeln!(
+        s,
+        "CreateDate  = {}",
+        field(map, "CreateDate", "010119700000", 12)
+    );
+    let _ = writeln!(
+        s,
+        "ModDate     = {}",
+        field(map, "ModDate", "010119700000", 12)
+    );
+    let _ = writeln!(s, "NumPoints   = {}", map.nx());
+    let _ = writeln!(s, "NumProfiles = {}", map.ny());
+    let _ = writeln!(s, "Xscale      = {}e-6", map.dx());
+    let _ = writeln!(s, "Yscale      = {}e-6", map.dy());
+    let zscale = match kind {
+        ValueKind::Height => "1e-6",
+        ValueKind::Intensity => "1",
+    };
+    let _ = writeln!(s, "Zscale      = {zscale}");
+    s.push_str("Zresolution = -1\nCompression = 0\nDataType    = 7\nCheckType   = 0\n*\n");
+    for row in 0..map.ny() {
+        for col in 0..map.nx() {
+            if col > 0 {
+                s.push(' ');
+            }
+            match map.get(col, row) {
+                Some(z) => {
+                    let _ = write!(s, "{z}");
+                }
+                None => s.push_str("BAD"),
+            }
+        }
+        s.push('\n');
+    }
+    s.push_str("*\n");
+    s
+}
+
+/// Writes `map` as a binary SDF (`bISO-1.0`, ISO 25178-71): the 81-byte little-endian
+/// header, then float64 values (`DataType` 7), heights in µm with `Zscale = 1e-6` m
+/// (intensities with 1), invalid points as NaN. The scales are binary f64 metres, so the
+/// pitch read back is `(dx × 1e-6) × 1e6`, within one unit in the last place of the
+/// pitch written; heights are exact (1e-6 × 1e6 is exactly 1 in f64). Use
+/// [`write_sdf_text`] for an exact pitch.
+///
+/// # Errors
+/// [`SdfWriteError::TooLarge`] above 65535 points per axis.
+pub fn write_sdf_binary(map: &HeightMap, kind: ValueKind) -> Result<Vec<u8>, SdfWriteError> {
+    let (nx, ny) = (map.nx(), map.ny());
+    let (Ok(px), Ok(py)) = (u16::try_from(nx), u16::try_from(ny)) else {
+        return Err(SdfWriteError::TooLarge { nx, ny });
+    };
+    let mut b = Vec::with_capacity(BIN_HEADER + 8 * map.len());
+    b.extend_from_slice(b"bISO-1.0");
+    let fixed = |s: String, n: usize| {
+        let mut v = s.into_bytes();
+        v.resize(n, 0);
+        v
+    };
+    b.extend(fixed(field(map, "ManufacID", "flakescat", 10), 10));
+    b.extend(fixed(field(map, "CreateDate", "010119700000", 12), 12));
+    b.extend(fixed(field(map, "ModDate", "010119700000", 12), 12));
+    b.extend_from_slice(&px.to_le_bytes());
+    b.extend_from_slice(&py.to_le_bytes());
+    let zscale = match kind {
+        ValueKind::Height => 1e-6,
+        ValueKind::Intensity => 1.0,
+    };
+    for v in [map.dx() * 1e-6, map.dy() * 1e-6, zscale, -1.0] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b.extend_from_slice(&[0, 7, 0]);
+    debug_assert_eq!(b.len(), BIN_HEADER);
+    for row in 0..ny {
+        for col in 0..nx {
+            b.extend_from_slice(&map.get(col, row).unwrap_or(f64::NAN).to_le_bytes());
+        }
+    }
+    Ok(b)
+}

@@ -295,7 +295,12 @@ fn every_file_in_the_folder_is_covered() {
     ];
     let dir = data("");
     for entry in std::fs::read_dir(&dir).unwrap() {
-        let name = entry.unwrap().file_name().into_string().unwrap();
+        let entry = entry.unwrap();
+        // `instruments/` has its own coverage check in `instruments.rs`.
+        if entry.file_type().unwrap().is_dir() {
+            continue;
+        }
+        let name = entry.file_name().into_string().unwrap();
         if name.ends_with(".md") || name.starts_with("LICENSE") || name == ".gitattributes" {
             continue;
         }

@@ -8,17 +8,17 @@ use std::path::PathBuf;
 
 use std::fmt::Write as _;
 
-use flakescatter::inputs::{LoadOptions, MapSource, StackSummary};
+use flakescatter::inputs::{LoadOptions, LoadedMap, MapSource};
 use flakescatter::io::{ReadOptions, ZUnit};
-use flakescatter::stats::heightmap::HeightMap;
 use serde_json::{Map, Value, json};
 
 use crate::flags::MapArgs;
 use crate::maps::{StackInputArgs, check_cutoff, load_all};
 use crate::output::{print, print_json};
 
-/// Describe a height-map file (X3P, SDF or plain text, recognised from its content):
-/// size, pixel pitch, valid and invalid points, height statistics, metadata.
+/// Describe a height-map file (X3P, SDF, plain text or an instrument format, recognised
+/// from its content; see docs/formats.md):
+/// size, pixel pitch, valid and invalid points, height statistics, channels, metadata.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The height-map file, or a z-stack (.tif, .tiff).
@@ -26,7 +26,8 @@ pub struct Args {
     pub map: PathBuf,
     /// Print a JSON summary on stdout: `nx`, `ny`, `dx_m`, `dy_m`, `valid_points`,
     /// `invalid_points`, `min_m`, `max_m`, `mean_m`, `rms_m` (about the mean, valid points
-    /// only), `format`, `metadata`, `file`, `version`.
+    /// only), `format`, `metadata`, `channels` (name, unit, nx, ny, dx_m, dy_m of each
+    /// channel of the file) and `channel` (the index read), `file`, `version`.
     #[arg(long)]
     pub json: bool,
     /// Intensity image of the same size (X3P, SDF or text, values as stored); points
@@ -55,14 +56,13 @@ fn m(um: f64) -> f64 {
     um * 1e-6
 }
 
-fn summary_json(
-    args: &Args,
-    options: &ReadOptions,
-    map: &HeightMap,
-    format: &str,
-    valid_before_cutoff: usize,
-    stack: Option<&StackSummary>,
-) -> Value {
+fn summary_json(args: &Args, options: &ReadOptions, loaded: &LoadedMap) -> Value {
+    let (map, format, valid_before_cutoff, stack) = (
+        &loaded.map,
+        loaded.format.as_str(),
+        loaded.valid_before_cutoff,
+        loaded.stack.as_ref(),
+    );
     let s = map.summary();
     let stat = |f: fn(&flakescatter::stats::heightmap::HeightSummary) -> f64| {
         s.as_ref().map_or(Value::Null, |s| json!(m(f(s))))
@@ -115,6 +115,15 @@ fn summary_json(
         "mean_m": stat(|s| s.mean),
         "rms_m": stat(|s| s.rms),
         "metadata": metadata,
+        "channel": options.channel.unwrap_or(0),
+        "channels": loaded.channels.iter().map(|c| json!({
+            "name": c.name,
+            "unit": c.unit,
+            "nx": c.nx,
+            "ny": c.ny,
+            "dx_m": c.pitch_um.map(|p| m(p.0)),
+            "dy_m": c.pitch_um.map(|p| m(p.1)),
+        })).collect::<Vec<_>>(),
     })
 }
 
@@ -138,14 +147,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         loaded.valid_before_cutoff,
     );
     if args.json {
-        return print_json(&summary_json(
-            &args,
-            &options,
-            map,
-            format,
-            valid_before_cutoff,
-            loaded.stack.as_ref(),
-        ));
+        return print_json(&summary_json(&args, &options, &loaded));
     }
     let n = map.len();
     let valid = map.valid_count();
@@ -191,6 +193,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let _ = writeln!(s, "height rms      {} µm (about the mean)", h.rms);
         }
         None => s.push_str("heights         no valid point\n"),
+    }
+    if !loaded.channels.is_empty() {
+        let chosen = options.channel.unwrap_or(0);
+        s.push_str("channels\n");
+        for (i, c) in loaded.channels.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "  {} {i}  {:<20} {:<6} {} x {}",
+                if i == chosen { "*" } else { " " },
+                c.name,
+                c.unit.as_deref().unwrap_or("-"),
+                c.nx,
+                c.ny
+            );
+        }
     }
     if !map.metadata().is_empty() {
         s.push_str("metadata\n");

@@ -2,6 +2,7 @@
 pub mod analyze;
 pub mod colour;
 pub mod compare;
+pub mod convert;
 pub mod fit;
 pub mod info;
 pub mod model;

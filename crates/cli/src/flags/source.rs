@@ -151,6 +151,11 @@ pub struct MapArgs {
     /// Plain-text matrices write decimals with a point; commas separate values.
     #[arg(long)]
     pub decimal_point: bool,
+    /// Which channel of the map file to read: its 0-based index as `info` lists the
+    /// channels (GWY data fields, PLU layers, OPD arrays, SUR objects). Default: the
+    /// first. An index the file does not have is refused with the list of its channels.
+    #[arg(long, value_name = "INDEX")]
+    pub channel: Option<usize>,
 }
 
 impl MapArgs {
@@ -186,7 +191,7 @@ impl MapArgs {
             } else {
                 DecimalMark::Auto
             },
-            ..ReadOptions::default()
+            channel: self.channel,
         })
     }
 }

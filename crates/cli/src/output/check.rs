@@ -56,6 +56,10 @@ impl Plan {
                     "{} -: a map cannot go to stdout; give a file name ending in .x3p or .txt",
                     out.flag
                 ),
+                Kind::ConvertedMap => bail!(
+                    "{} -: a map cannot go to stdout; give a file name ending in .x3p, .sdf or .txt",
+                    out.flag
+                ),
                 Kind::Stack => bail!(
                     "{} -: a stack cannot go to stdout; give a file name ending in .tif",
                     out.flag
@@ -154,6 +158,13 @@ fn check_target(flag: &str, path: &Path, kind: Kind, dir: bool) -> anyhow::Resul
             if !matches!(ext.as_deref(), Some("x3p" | "txt")) {
                 bail!(
                     "{flag} {shown}: a map file must end in .x3p (ISO 25178-72) or .txt (plain text)"
+                );
+            }
+        }
+        Kind::ConvertedMap => {
+            if !matches!(ext.as_deref(), Some("x3p" | "sdf" | "txt")) {
+                bail!(
+                    "{flag} {shown}: the output format is taken from the extension: .x3p (ISO 25178-72), .sdf (ISO 25178-71, text) or .txt (plain text)"
                 );
             }
         }

@@ -39,6 +39,8 @@ pub enum Kind {
     Plot,
     /// A height or intensity map: `.x3p` or `.txt`.
     Map,
+    /// A height map written by `convert`: `.x3p`, `.sdf` or `.txt`.
+    ConvertedMap,
     /// A confocal z-stack: `.tif` or `.tiff` (multi-page TIFF).
     Stack,
 }

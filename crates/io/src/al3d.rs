@@ -1,0 +1,300 @@
+//! Alicona AL3D (`.al3d`) reader: depth images of Alicona / Bruker Alicona
+//! focus-variation instruments.
+//!
+//! Layout (Alicona's "AL3D File Format Specification" as SurfaceTopography `AL3D.py` and
+//! surfalize `al3d.py` read it, checked on `al3d-1.al3d`): the 17-byte magic
+//! `AliconaImaging\0\r\n`, then 52-byte tags — key (20 bytes), value (30 bytes), both
+//! NUL-terminated Latin-1 text, and `\r\n` — first `Version`, then `TagCount` (the number
+//! of tags that follow). The depth image starts at `DepthImageOffset`: `Rows` lines of
+//! `Cols` little-endian f32 depths in metres, each line padded to a multiple of 8 bytes
+//! (the last line's padding may be missing).
+//!
+//! Conventions: pitch `PixelSizeXMeter`, `PixelSizeYMeter`; a depth that is not below
+//! `InvalidPixelValue` (default 3e15, and any NaN) is an invalid point; so is a point
+//! whose repeatability is above the filter, when the file has a repeatability plane
+//! (`DepthImageResPtr`, `DepthResFilterVal`, and planes at `TextureImageOffset`, one
+//! byte per point, `Cols` padded to 8): code × `DepthResShiftVal` + `DepthResMinVal` >
+//! `DepthResFilterVal`. One channel, `depth`. Metadata `al3d.*` (every tag with text).
+//!
+//! Not read: the texture (colour) planes and the icon.
+
+use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
+use thiserror::Error;
+
+use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
+
+/// What is wrong with an AL3D file.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Al3dError {
+    /// The file ends before a block does.
+    #[error(
+        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
+    )]
+    Truncated {
+        /// What was being read.
+        what: String,
+        /// Byte offset where it starts.
+        offset: usize,
+        /// Bytes it needs.
+        needed: u64,
+        /// File length.
+        end: usize,
+    },
+    /// A tag is missing or has an unusable value.
+    #[error("tag {tag}: {what}")]
+    Tag {
+        /// The tag's key.
+        tag: String,
+        /// What is wrong.
+        what: String,
+    },
+    /// The header's numbers do not make a valid height map.
+    #[error("{0}")]
+    Map(HeightMapError),
+}
+
+const MAGIC: &[u8; 17] = b"AliconaImaging\0\r\n";
+const TAG: usize = 52;
+
+/// Scores `bytes` as AL3D: certain for the magic `AliconaImaging\0\r\n`.
+pub fn detect(bytes: &[u8]) -> Confidence {
+    if bytes.starts_with(MAGIC) {
+        100
+    } else if bytes.starts_with(b"AliconaImaging") {
+        80
+    } else {
+        0
+    }
+}
+
+fn latin1(b: &[u8]) -> String {
+    let end = b.iter().position(|&c| c == 0).unwrap_or(b.len());
+    b[..end].iter().map(|&c| char::from(c)).collect()
+}
+
+fn tags(bytes: &[u8]) -> Result<Vec<(String, String)>, Al3dError> {
+    let end = bytes.len();
+    let tag_at = |i: usize| -> Result<(String, String), Al3dError> {
+        let at = MAGIC.len() + i * TAG;
+        if end < at + TAG {
+            return Err(Al3dError::Truncated {
+                what: format!("tag {i}"),
+                offset: at,
+                needed: TAG as u64,
+                end,
+            });
+        }
+        let t = &bytes[at..at + TAG];
+        if &t[50..] != b"\r\n" {
+            return Err(Al3dError::Tag {
+                tag: latin1(&t[..20]),
+                what: format!("tag {i} at byte {at} does not end in CR LF"),
+            });
+        }
+        Ok((latin1(&t[..20]), latin1(&t[20..50])))
+    };
+    if !bytes.starts_with(MAGIC) {
+        return Err(Al3dError::Truncated {
+            what: "the magic AliconaImaging\\0\\r\\n".into(),
+            offset: 0,
+            needed: MAGIC.len() as u64,
+            end,
+        });
+    }
+    let version = tag_at(0)?;
+    let count = tag_at(1)?;
+    if version.0 != "Version" || count.0 != "TagCount" {
+        return Err(Al3dError::Tag {
+            tag: format!("{} / {}", version.0, count.0),
+            what: "the first two tags must be Version and TagCount".into(),
+        });
+    }
+    let n: usize = count.1.trim().parse().map_err(|_| Al3dError::Tag {
+        tag: "TagCount".into(),
+        what: format!("{:?} is not a count", count.1),
+    })?;
+    // Each tag is 52 bytes of the file: check before reading them.
+    let need = (n as u64 + 2) * TAG as u64;
+    if ((end - MAGIC.len()) as u64) < need {
+        return Err(Al3dError::Truncated {
+            what: format!("{n} tags"),
+            offset: MAGIC.len(),
+            needed: need,
+            end,
+        });
+    }
+    let mut out = vec![version, count];
+    for i in 0..n {
+        out.push(tag_at(i + 2)?);
+    }
+    Ok(out)
+}
+
+fn get<'a>(t: &'a [(String, String)], key: &str) -> Option<&'a str> {
+    t.iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.trim())
+        .filter(|v| !v.is_empty())
+}
+
+fn number<T: std::str::FromStr>(t: &[(String, String)], key: &str) -> Result<T, Al3dError> {
+    let v = get(t, key).ok_or_else(|| Al3dError::Tag {
+        tag: key.into(),
+        what: "is missing".into(),
+    })?;
+    v.parse().map_err(|_| Al3dError::Tag {
+        tag: key.into(),
+        what: format!("{v:?} is not a number"),
+    })
+}
+
+struct Header {
+    nx: usize,
+    ny: usize,
+    dx: f64,
+    dy: f64,
+    offset: usize,
+    stride: usize,
+}
+
+fn header(bytes: &[u8], t: &[(String, String)]) -> Result<Header, Al3dError> {
+    let nx: usize = number(t, "Cols")?;
+    let ny: usize = number(t, "Rows")?;
+    if nx == 0 || ny == 0 || nx > u32::MAX as usize || ny > u32::MAX as usize {
+        return Err(Al3dError::Tag {
+            tag: "Cols / Rows".into(),
+            what: format!("{nx} x {ny}: expected sizes > 0"),
+        });
+    }
+    let pitch = |key: &str| -> Result<f64, Al3dError> {
+        let v: f64 = number(t, key)?;
+        if v.is_finite() && v > 0.0 {
+            Ok(v * 1e6)
+        } else {
+            Err(Al3dError::Tag {
+                tag: key.into(),
+                what: format!("{v}: expected a pitch > 0 in metres"),
+            })
+        }
+    };
+    let (dx, dy) = (pitch("PixelSizeXMeter")?, pitch("PixelSizeYMeter")?);
+    let offset: usize = number(t, "DepthImageOffset")?;
+    let stride = (nx * 4).div_ceil(8) * 8;
+    let need = (stride as u64) * (ny as u64 - 1) + nx as u64 * 4;
+    if (bytes.len() as u64) < offset as u64 + need {
+        return Err(Al3dError::Truncated {
+            what: format!("the depth image ({nx} x {ny} f32, lines of {stride} bytes)"),
+            offset: offset.min(bytes.len()),
+            needed: need,
+            end: bytes.len(),
+        });
+    }
+    Ok(Header {
+        nx,
+        ny,
+        dx,
+        dy,
+        offset,
+        stride,
+    })
+}
+
+/// The one channel of an AL3D file, `depth` (m).
+///
+/// # Errors
+/// [`Al3dError`] naming the tag or byte offset at fault.
+pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, Al3dError> {
+    let t = tags(bytes)?;
+    let h = header(bytes, &t)?;
+    Ok(vec![Channel {
+        name: "depth".into(),
+        unit: Some("m".into()),
+        nx: h.nx,
+        ny: h.ny,
+        pitch_um: Some((h.dx, h.dy)),
+    }])
+}
+
+/// Reads the depth image of an AL3D file as heights in µm (see the module notes).
+/// Intensity reads are refused (the texture is not read yet).
+///
+/// # Errors
+/// [`Al3dError`] naming the tag or byte offset at fault.
+pub fn read(bytes: &[u8], _options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, Al3dError> {
+    let t = tags(bytes)?;
+    if kind == ValueKind::Intensity {
+        return Err(Al3dError::Tag {
+            tag: "TextureImageOffset".into(),
+            what: "AL3D textures are not read as intensity maps yet".into(),
+        });
+    }
+    let h = header(bytes, &t)?;
+    let limit = match get(&t, "InvalidPixelValue").map(str::parse::<f64>) {
+        Some(Ok(v)) if v.is_finite() => v,
+        _ => f64::from(3.0e15_f32),
+    };
+    // Repeatability plane, when the file has one (all of its tags present).
+    let plane: Option<(usize, f64, f64, f64)> = match (
+        get(&t, "DepthImageResPtr"),
+        get(&t, "DepthResFilterVal"),
+        get(&t, "TextureImageOffset"),
+    ) {
+        (Some(p), Some(_), Some(o)) => {
+            let p: usize = p.parse().map_err(|_| Al3dError::Tag {
+                tag: "DepthImageResPtr".into(),
+                what: format!("{p:?} is not a plane number"),
+            })?;
+            let o: usize = o.parse().unwrap_or(0);
+            let shift: f64 =
+                get(&t, "DepthResShiftVal").map_or(Ok(0.0), |_| number(&t, "DepthResShiftVal"))?;
+            let min: f64 =
+                get(&t, "DepthResMinVal").map_or(Ok(0.0), |_| number(&t, "DepthResMinVal"))?;
+            if o == 0 {
+                None
+            } else {
+                let line = h.nx.div_ceil(8) * 8;
+                let start = (o as u64) + (p as u64) * (line as u64) * (h.ny as u64);
+                let need = (line as u64) * (h.ny as u64 - 1) + h.nx as u64;
+                if (bytes.len() as u64) < start + need {
+                    return Err(Al3dError::Truncated {
+                        what: format!("repeatability plane {p}"),
+                        offset: (start as usize).min(bytes.len()),
+                        needed: need,
+                        end: bytes.len(),
+                    });
+                }
+                Some((start as usize, shift, min, number(&t, "DepthResFilterVal")?))
+            }
+        }
+        _ => None,
+    };
+    let line = h.nx.div_ceil(8) * 8;
+    let mut z = Vec::with_capacity(h.nx * h.ny);
+    let mut valid = Vec::with_capacity(h.nx * h.ny);
+    for row in 0..h.ny {
+        for col in 0..h.nx {
+            let a = h.offset + row * h.stride + col * 4;
+            let v = f64::from(f32::from_le_bytes([
+                bytes[a],
+                bytes[a + 1],
+                bytes[a + 2],
+                bytes[a + 3],
+            ]));
+            let repeatable = plane.is_none_or(|(start, shift, min, filter)| {
+                f64::from(bytes[start + row * line + col]) * shift + min <= filter
+            });
+            valid.push(v < limit && repeatable);
+            z.push(v * 1e6);
+        }
+    }
+    let mut map = HeightMap::with_mask(h.nx, h.ny, h.dx, h.dy, z, valid).map_err(Al3dError::Map)?;
+    for (k, v) in &t {
+        if !k.is_empty() && v.chars().all(|c| c.is_ascii_graphic() || c == ' ') {
+            map.set_metadata(format!("al3d.{k}"), v.trim());
+        }
+    }
+    if plane.is_some() {
+        map.set_metadata("al3d.repeatability_mask", "applied");
+    }
+    Ok(map)
+}

@@ -1,0 +1,299 @@
+//! Zygo MetroPro (`.dat`) reader: phase maps of Zygo's interferometers.
+//!
+//! Layout (big-endian; Zygo's MetroPro reference guide OMP-0347, "data file format"):
+//! a magic (`88 1B 03 6F`, `…70` or `…71` for header formats 1, 2, 3), `header_format`
+//! (u16, byte 4), `header_size` (u32, byte 6: 834 for formats 1 and 2, 4096 for 3), then
+//! the header fields this reader uses:
+//!
+//! | byte | field |
+//! | --- | --- |
+//! | 12 | software date (30 bytes of text) |
+//! | 52, 54, 56 / 60 | intensity frame width, height, buckets (u16) / its size in bytes (u32) |
+//! | 68, 70 / 72 | phase frame width, height (u16) / its size in bytes (u32) |
+//! | 76 | time stamp (i32, seconds since 1970) |
+//! | 80 | comment (82 bytes) |
+//! | 164, 168, 172, 176, 180, 184 | `intf_scale_factor` S, `wavelength_in` W (m), numerical aperture, `obliquity_factor` O, magnification, `lateral_res` (m per pixel) (f32) |
+//! | 218 | `phase_res` (i16): 0, 1, 2 → R = 4096, 32768, 131072 |
+//! | 246 / 258 | objective name (12) / part name (40) |
+//!
+//! After the header: the intensity frames (u16, `ac_n_bytes` bytes), then the phase
+//! frame (i32, `cn_width × cn_height`, row-major, x fastest).
+//!
+//! Conventions: a height is `raw × S × W × O / R` metres (converted to µm); raw values
+//! ≥ 2147483640 are invalid points (MetroPro's "no data"). The pitch is `lateral_res`
+//! in x and y; a file with `lateral_res = 0` is uncalibrated and needs `pixel_um`.
+//! One channel, `phase`. Metadata keys `metropro.*`.
+//!
+//! Not read: the intensity frames (listed nowhere yet), the coordinate origins, the
+//! header-format-3 extension beyond byte 834.
+
+use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
+use thiserror::Error;
+
+use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
+
+/// What is wrong with a MetroPro file.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum MetroProError {
+    /// The file ends before a block does.
+    #[error(
+        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
+    )]
+    Truncated {
+        /// What was being read.
+        what: String,
+        /// Byte offset where it starts.
+        offset: usize,
+        /// Bytes it needs.
+        needed: u64,
+        /// File length.
+        end: usize,
+    },
+    /// A header field has an unusable value.
+    #[error("header field {field} (byte {offset}) = {value}: expected {expected}")]
+    BadField {
+        /// The field.
+        field: &'static str,
+        /// Its byte offset.
+        offset: usize,
+        /// The value found.
+        value: String,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// The header's numbers do not make a valid height map.
+    #[error("{0}")]
+    Map(HeightMapError),
+}
+
+const MAGIC: [u8; 3] = [0x88, 0x1b, 0x03];
+const BASE_HEADER: usize = 834;
+const NO_DATA: i32 = 2_147_483_640;
+
+fn be16(b: &[u8], a: usize) -> u16 {
+    u16::from_be_bytes([b[a], b[a + 1]])
+}
+
+fn be32(b: &[u8], a: usize) -> u32 {
+    u32::from_be_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
+}
+
+fn bef32(b: &[u8], a: usize) -> f32 {
+    f32::from_be_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
+}
+
+fn text(b: &[u8]) -> String {
+    let end = b.iter().position(|&c| c == 0).unwrap_or(b.len());
+    String::from_utf8_lossy(&b[..end]).trim().to_string()
+}
+
+/// Scores `bytes` as MetroPro: certain for one of the three magics with a matching
+/// header format number.
+pub fn detect(bytes: &[u8]) -> Confidence {
+    if bytes.len() < 6 || bytes[..3] != MAGIC || !(0x6f..=0x71).contains(&bytes[3]) {
+        return 0;
+    }
+    if u16::from(bytes[3] - 0x6e) == be16(bytes, 4) {
+        100
+    } else {
+        70
+    }
+}
+
+struct Header {
+    size: usize,
+    ac_bytes: u64,
+    nx: usize,
+    ny: usize,
+    scale_m: f64,
+    lateral_m: f64,
+}
+
+fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
+    let end = bytes.len();
+    if end < BASE_HEADER {
+        return Err(MetroProError::Truncated {
+            what: "the header".into(),
+            offset: 0,
+            needed: BASE_HEADER as u64,
+            end,
+        });
+    }
+    let format = be16(bytes, 4);
+    let size = be32(bytes, 6);
+    let expected_size = if format == 3 { 4096 } else { 834 };
+    if !(1..=3).contains(&format) {
+        return Err(MetroProError::BadField {
+            field: "header_format",
+            offset: 4,
+            value: format.to_string(),
+            expected: "1, 2 or 3",
+        });
+    }
+    if size != expected_size {
+        return Err(MetroProError::BadField {
+            field: "header_size",
+            offset: 6,
+            value: size.to_string(),
+            expected: "834 (header formats 1, 2) or 4096 (format 3)",
+        });
+    }
+    let size = size as usize;
+    if end < size {
+        return Err(MetroProError::Truncated {
+            what: "the header".into(),
+            offset: 0,
+            needed: size as u64,
+            end,
+        });
+    }
+    let ac_n = u64::from(be16(bytes, 52)) * u64::from(be16(bytes, 54)) * u64::from(be16(bytes, 56));
+    let ac_bytes = u64::from(be32(bytes, 60));
+    if ac_bytes != 2 * ac_n {
+        return Err(MetroProError::BadField {
+            field: "ac_n_bytes",
+            offset: 60,
+            value: ac_bytes.to_string(),
+            expected: "2 × intensity width × height × buckets",
+        });
+    }
+    let (nx, ny) = (be16(bytes, 68), be16(bytes, 70));
+    let cn_bytes = u64::from(be32(bytes, 72));
+    if nx == 0 || ny == 0 {
+        return Err(MetroProError::BadField {
+            field: "cn_width x cn_height",
+            offset: 68,
+            value: format!("{nx} x {ny}"),
+            expected: "a phase frame of at least 1 x 1 points",
+        });
+    }
+    let n = u64::from(nx) * u64::from(ny);
+    if cn_bytes != 4 * n {
+        return Err(MetroProError::BadField {
+            field: "cn_n_bytes",
+            offset: 72,
+            value: cn_bytes.to_string(),
+            expected: "4 × phase width × height",
+        });
+    }
+    let need = size as u64 + ac_bytes + cn_bytes;
+    if (end as u64) < need {
+        return Err(MetroProError::Truncated {
+            what: format!("the phase frame ({nx} x {ny} i32 after {ac_bytes} bytes of intensity)"),
+            offset: size + ac_bytes as usize,
+            needed: cn_bytes,
+            end,
+        });
+    }
+    let r = match be16(bytes, 218) as i16 {
+        0 => 4096.0,
+        1 => 32768.0,
+        2 => 131072.0,
+        other => {
+            return Err(MetroProError::BadField {
+                field: "phase_res",
+                offset: 218,
+                value: other.to_string(),
+                expected: "0, 1 or 2 (R = 4096, 32768, 131072)",
+            });
+        }
+    };
+    let (s, w, o) = (
+        f64::from(bef32(bytes, 164)),
+        f64::from(bef32(bytes, 168)),
+        f64::from(bef32(bytes, 176)),
+    );
+    let scale_m = s * w * o / r;
+    if !scale_m.is_finite() || scale_m <= 0.0 {
+        return Err(MetroProError::BadField {
+            field: "intf_scale_factor × wavelength_in × obliquity_factor",
+            offset: 164,
+            value: format!("{s} × {w} × {o}"),
+            expected: "finite factors whose product is > 0",
+        });
+    }
+    Ok(Header {
+        size,
+        ac_bytes,
+        nx: usize::from(nx),
+        ny: usize::from(ny),
+        scale_m,
+        lateral_m: f64::from(bef32(bytes, 184)),
+    })
+}
+
+fn pitch_um(h: &Header) -> Option<(f64, f64)> {
+    let p = h.lateral_m * 1e6;
+    (p.is_finite() && p > 0.0).then_some((p, p))
+}
+
+/// The one channel of a MetroPro file, `phase` (heights in m).
+///
+/// # Errors
+/// [`MetroProError`] naming the header field or byte offset at fault.
+pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, MetroProError> {
+    let h = header(bytes)?;
+    Ok(vec![Channel {
+        name: "phase".into(),
+        unit: Some("m".into()),
+        nx: h.nx,
+        ny: h.ny,
+        pitch_um: pitch_um(&h),
+    }])
+}
+
+/// Reads the phase frame of a MetroPro file as heights in µm (see the module notes).
+/// Intensity reads are refused (the intensity frames are not read yet).
+///
+/// # Errors
+/// [`MetroProError`] naming the header field or byte offset at fault.
+pub fn read(
+    bytes: &[u8],
+    options: &ReadOptions,
+    kind: ValueKind,
+) -> Result<HeightMap, MetroProError> {
+    let h = header(bytes)?;
+    if kind == ValueKind::Intensity {
+        return Err(MetroProError::BadField {
+            field: "ac_n_bytes",
+            offset: 60,
+            value: h.ac_bytes.to_string(),
+            expected: "nothing: MetroPro intensity frames are not read as intensity maps yet",
+        });
+    }
+    let (dx, dy) = match (pitch_um(&h), options.pixel_um) {
+        (_, Some(p)) | (Some(p), None) => p,
+        (None, None) => {
+            return Err(MetroProError::BadField {
+                field: "lateral_res",
+                offset: 184,
+                value: h.lateral_m.to_string(),
+                expected: "a pitch > 0 in metres (or give the pixel pitch, --pixel-um)",
+            });
+        }
+    };
+    let start = h.size + h.ac_bytes as usize;
+    let scale_um = h.scale_m * 1e6;
+    let z: Vec<f64> = bytes[start..start + 4 * h.nx * h.ny]
+        .chunks_exact(4)
+        .map(|c| {
+            let raw = i32::from_be_bytes([c[0], c[1], c[2], c[3]]);
+            if raw >= NO_DATA {
+                f64::NAN
+            } else {
+                f64::from(raw) * scale_um
+            }
+        })
+        .collect();
+    let mut map = HeightMap::new(h.nx, h.ny, dx, dy, z).map_err(MetroProError::Map)?;
+    map.set_metadata("metropro.software_date", text(&bytes[12..42]));
+    map.set_metadata("metropro.time_stamp", (be32(bytes, 76) as i32).to_string());
+    map.set_metadata("metropro.comment", text(&bytes[80..162]));
+    map.set_metadata("metropro.wavelength_m", bef32(bytes, 168).to_string());
+    map.set_metadata("metropro.numerical_aperture", bef32(bytes, 172).to_string());
+    map.set_metadata("metropro.magnification", bef32(bytes, 180).to_string());
+    map.set_metadata("metropro.objective", text(&bytes[246..258]));
+    map.set_metadata("metropro.part_name", text(&bytes[258..298]));
+    map.set_metadata("metropro.phase_res", (be16(bytes, 218) as i16).to_string());
+    Ok(map)
+}

@@ -1,0 +1,280 @@
+//! Sensofar PLu (`.plu`) reader: topographies of Sensofar's confocal, interferometric and
+//! focus-variation profilers (PLu, PLu neox, S neox, DCM).
+//!
+//! Layout (little-endian; as Sensofar's format is described by the independent readers
+//! Gwyddion `sensofar.c` and SurfaceTopography `PLU.py`, and checked byte by byte on
+//! `fixtures/real/instruments/plu-1.plu`):
+//!
+//! | offset | size | field |
+//! | --- | --- | --- |
+//! | 0 | 128 | acquisition date, text, NUL-padded |
+//! | 128 | 4 | time (u32) |
+//! | 132 | 256 | comment, text, NUL-padded |
+//! | 388 | 4 × 3 | `yres`, `xres`, `N_tall` (u32) |
+//! | 400 | 4 × 7 | `dy_multip`, µm per pixel x, µm per pixel y, offset x, offset y, µm per pixel z, offset z (f32) |
+//! | 428 | 4 × 5 | measurement type (1 profile, 3 topography), algorithm, method, objective, area type (u32) |
+//! | 448 | 40 | scan settings (layout depends on the area type, size does not) |
+//! | 488 | 8 + 4 | restore, number of layers, version, hardware, number of images (u8 each), 3 reserved, u32 |
+//! | 500 | per layer | `y`, `x` (u32), `x × y` heights (f32, µm, row-major, x fastest), min, max (f32), `3 × x × y × images` bytes of RGB image |
+//!
+//! Conventions: heights and pitch are in µm as stored; the value 1000001 marks a point
+//! that was not measured (an invalid point). Each layer is one channel `layerN`.
+//! Metadata: `plu.date`, `plu.comment`, `plu.objective` / `plu.hardware` /
+//! `plu.algorithm` / `plu.method` (Sensofar's numeric codes; the objective's name is
+//! not decoded), `plu.version`.
+//!
+//! Not read: the RGB / grey images after each layer, profile files (type 1).
+//!
+//! Detection: the format has no magic, so the score (60) requires a text date followed
+//! only by NULs in the first 128 bytes, a measurement type of 1 or 3, at least one
+//! layer, and the first layer's size equal to the calibration's `xres × yres`; a file
+//! shorter than the header that starts with such a date scores 30 (a truncated PLU file).
+
+use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
+use thiserror::Error;
+
+use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
+
+/// What is wrong with a PLU file.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum PluError {
+    /// The file ends before a block does.
+    #[error(
+        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
+    )]
+    Truncated {
+        /// What was being read.
+        what: String,
+        /// Byte offset where it starts.
+        offset: usize,
+        /// Bytes it needs.
+        needed: u64,
+        /// File length.
+        end: usize,
+    },
+    /// A header field has an unusable value.
+    #[error("header field {field} (byte {offset}) = {value}: expected {expected}")]
+    BadField {
+        /// The field.
+        field: &'static str,
+        /// Its byte offset.
+        offset: usize,
+        /// The value found.
+        value: String,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// The header's numbers do not make a valid height map.
+    #[error("{0}")]
+    Map(HeightMapError),
+}
+
+const HEADER: usize = 500;
+const NOT_MEASURED: f32 = 1_000_001.0;
+
+fn u32_at(b: &[u8], a: usize) -> u32 {
+    u32::from_le_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
+}
+
+fn f32_at(b: &[u8], a: usize) -> f32 {
+    f32::from_le_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
+}
+
+fn text(b: &[u8]) -> String {
+    let end = b.iter().position(|&c| c == 0).unwrap_or(b.len());
+    String::from_utf8_lossy(&b[..end]).trim().to_string()
+}
+
+/// Scores `bytes` as PLU (there is no magic; see the module notes).
+pub fn detect(bytes: &[u8]) -> Confidence {
+    if bytes.len() < 128 {
+        return 0;
+    }
+    let date = &bytes[..128];
+    let end = date.iter().position(|&c| c == 0).unwrap_or(128);
+    let printable = end > 0 && date[..end].iter().all(|c| (0x20..0x7f).contains(c));
+    let padded = date[end..].iter().all(|&c| c == 0);
+    if !(printable && padded && end < 128) {
+        return 0;
+    }
+    if bytes.len() < HEADER + 8 {
+        // A date and NULs, then the file ends: most likely a truncated PLU file, which
+        // the reader then reports with the offset.
+        return 30;
+    }
+    let kind = u32_at(bytes, 428);
+    let same_size =
+        u32_at(bytes, 388) == u32_at(bytes, 500) && u32_at(bytes, 392) == u32_at(bytes, 504);
+    if matches!(kind, 1 | 3) && bytes[489] >= 1 && same_size {
+        60
+    } else {
+        0
+    }
+}
+
+/// One layer: its size and where its heights start.
+struct Layer {
+    nx: usize,
+    ny: usize,
+    data: usize,
+}
+
+struct Header {
+    dx: f64,
+    dy: f64,
+    layers: Vec<Layer>,
+}
+
+fn header(bytes: &[u8]) -> Result<Header, PluError> {
+    let end = bytes.len();
+    if end < HEADER {
+        return Err(PluError::Truncated {
+            what: "the header".into(),
+            offset: 0,
+            needed: HEADER as u64,
+            end,
+        });
+    }
+    let kind = u32_at(bytes, 428);
+    if kind != 3 {
+        return Err(PluError::BadField {
+            field: "measurement type",
+            offset: 428,
+            value: kind.to_string(),
+            expected: "3 (a topography; 1 = profile is not read)",
+        });
+    }
+    let pitch = |field: &'static str, offset: usize| {
+        let v = f64::from(f32_at(bytes, offset));
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(PluError::BadField {
+                field,
+                offset,
+                value: v.to_string(),
+                expected: "a pitch > 0 in µm",
+            })
+        }
+    };
+    let dx = pitch("micrometres per pixel x", 404)?;
+    let dy = pitch("micrometres per pixel y", 408)?;
+    let n_layers = bytes[489];
+    let images = u64::from(bytes[492]);
+    if n_layers == 0 {
+        return Err(PluError::BadField {
+            field: "number of layers",
+            offset: 489,
+            value: "0".into(),
+            expected: "at least 1",
+        });
+    }
+    let mut at = HEADER;
+    let mut layers = Vec::new();
+    for i in 0..n_layers {
+        if end - at < 8 {
+            return Err(PluError::Truncated {
+                what: format!("the size of layer {i}"),
+                offset: at,
+                needed: 8,
+                end,
+            });
+        }
+        let (ny, nx) = (u32_at(bytes, at), u32_at(bytes, at + 4));
+        if nx == 0 || ny == 0 {
+            return Err(PluError::BadField {
+                field: "layer size",
+                offset: at,
+                value: format!("{nx} x {ny}"),
+                expected: "at least 1 x 1 points",
+            });
+        }
+        let n = u64::from(nx) * u64::from(ny);
+        // Heights, min and max, RGB images: all must be in the file before anything
+        // is allocated (u32 × u32 × 3 × 255 fits in u64).
+        let need = n * 4 + 8 + 3 * n * images;
+        let left = (end - at - 8) as u64;
+        if need > left {
+            return Err(PluError::Truncated {
+                what: format!("layer {i} ({nx} x {ny} heights, min/max, {images} RGB image(s))"),
+                offset: at + 8,
+                needed: need,
+                end,
+            });
+        }
+        layers.push(Layer {
+            nx: nx as usize,
+            ny: ny as usize,
+            data: at + 8,
+        });
+        at += 8 + need as usize;
+    }
+    Ok(Header { dx, dy, layers })
+}
+
+/// The channels of a PLU file: one height layer each (`layer0`, ...), in µm.
+///
+/// # Errors
+/// [`PluError`] naming the field or byte offset at fault.
+pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, PluError> {
+    let h = header(bytes)?;
+    Ok(h.layers
+        .iter()
+        .enumerate()
+        .map(|(i, l)| Channel {
+            name: format!("layer{i}"),
+            unit: Some("µm".into()),
+            nx: l.nx,
+            ny: l.ny,
+            pitch_um: Some((h.dx, h.dy)),
+        })
+        .collect())
+}
+
+/// Reads one layer (`options.channel`, default the first) of a PLU file: heights in µm
+/// (as stored), 1000001 as an invalid point. Intensity reads are refused.
+///
+/// # Errors
+/// [`PluError`] naming the field or byte offset at fault.
+pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, PluError> {
+    let h = header(bytes)?;
+    if kind == ValueKind::Intensity {
+        return Err(PluError::BadField {
+            field: "number of images",
+            offset: 492,
+            value: bytes[492].to_string(),
+            expected: "nothing: PLU images are not read as intensity maps yet (its layers are heights)",
+        });
+    }
+    let index = options.channel.unwrap_or(0);
+    let Some(layer) = h.layers.get(index) else {
+        return Err(PluError::BadField {
+            field: "number of layers",
+            offset: 489,
+            value: h.layers.len().to_string(),
+            expected: "more layers than the channel asked for",
+        });
+    };
+    let n = layer.nx * layer.ny;
+    let z: Vec<f64> = bytes[layer.data..layer.data + 4 * n]
+        .chunks_exact(4)
+        .map(|c| {
+            let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            if v == NOT_MEASURED {
+                f64::NAN
+            } else {
+                f64::from(v)
+            }
+        })
+        .collect();
+    let mut map = HeightMap::new(layer.nx, layer.ny, h.dx, h.dy, z).map_err(PluError::Map)?;
+    map.set_metadata("plu.date", text(&bytes[..128]));
+    map.set_metadata("plu.comment", text(&bytes[132..388]));
+    map.set_metadata("plu.algorithm", u32_at(bytes, 432).to_string());
+    map.set_metadata("plu.method", u32_at(bytes, 436).to_string());
+    map.set_metadata("plu.objective", u32_at(bytes, 440).to_string());
+    map.set_metadata("plu.version", bytes[490].to_string());
+    map.set_metadata("plu.hardware", bytes[491].to_string());
+    map.set_metadata("plu.channel", format!("layer{index}"));
+    Ok(map)
+}

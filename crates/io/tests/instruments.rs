@@ -1,0 +1,456 @@
+//! Native instrument files in `fixtures/real/instruments`: each reader against numbers
+//! established outside this project (see `fixtures/real/instruments/README.md`, which
+//! says how they were made, by which independent reader, and where those readers
+//! disagree). The statistics compared are of the valid points only: mean and RMS
+//! (population, about the mean), heights in metres as the independent readers report.
+
+use std::path::PathBuf;
+
+use flakescatter_io::{
+    MapError, MapFormat, ReadMapError, ReadOptions, ZUnit, list_channels, read_map,
+};
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../fixtures/real/instruments"
+    ))
+    .join(name)
+}
+
+/// Expected numbers, all lengths in metres.
+struct Expect {
+    nx: usize,
+    ny: usize,
+    dx: f64,
+    dy: f64,
+    invalid: usize,
+    mean: f64,
+    rms: f64,
+}
+
+fn close(what: &str, got: f64, want: f64, rel: f64) {
+    assert!(
+        (got - want).abs() <= rel * want.abs(),
+        "{what}: got {got:e}, expected {want:e} (relative tolerance {rel:e})"
+    );
+}
+
+/// Reads `name` with `options` and compares it with `e` (µm in the map, m in `e`).
+fn check(name: &str, options: &ReadOptions, format: MapFormat, e: &Expect) {
+    let (map, found) = read_map(data(name), options).unwrap_or_else(|err| panic!("{name}: {err}"));
+    assert_eq!(found, format, "{name}");
+    assert_eq!((map.nx(), map.ny()), (e.nx, e.ny), "{name} size");
+    close("dx", map.dx() * 1e-6, e.dx, 1e-12);
+    close("dy", map.dy() * 1e-6, e.dy, 1e-12);
+    assert_eq!(
+        map.len() - map.valid_count(),
+        e.invalid,
+        "{name} invalid points"
+    );
+    let v: Vec<f64> = map
+        .heights()
+        .iter()
+        .zip(map.valid())
+        .filter(|(_, ok)| **ok)
+        .map(|(z, _)| z * 1e-6)
+        .collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let rms = (v.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / n).sqrt();
+    // numpy sums pairwise, we sum in order: agreement to ~1e-10 relative, far below
+    // any unit or scale-factor error (which would be a factor of 10 or more).
+    close("mean", mean, e.mean, 1e-9);
+    close("rms", rms, e.rms, 1e-8);
+}
+
+#[test]
+fn gwyddion_gwy() {
+    // tuxu/gwyfile's test.gwy: one data field "Test", 128 x 128, xreal = yreal = 128,
+    // and neither a lateral nor a z unit (empty unitstr). SurfaceTopography 1.27.1 finds
+    // no channel in it, surfalize 0.19.2 refuses it ("does not contain height data");
+    // the numbers are from the `gwyfile` Python package (the same author's reference
+    // reader): mean 0.0005152968462939743, std 0.00018771126171581148, no NaN.
+    // Without units the file is uncalibrated, so the reader refuses it unless the user
+    // says what the numbers are: here metres and 1 µm pixels (128 / 128 = 1 unit).
+    let name = "gwyfile-test.gwy";
+    let err = read_map(data(name), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("gwyfile-test.gwy") && err.contains("--pixel-um"),
+        "{err}"
+    );
+    let with_pitch = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        ..ReadOptions::default()
+    };
+    let err = read_map(data(name), &with_pitch).unwrap_err().to_string();
+    assert!(
+        err.contains("no z unit") && err.contains("--z-unit"),
+        "{err}"
+    );
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::M),
+        ..ReadOptions::default()
+    };
+    check(
+        name,
+        &options,
+        MapFormat::Gwy,
+        &Expect {
+            nx: 128,
+            ny: 128,
+            dx: 1e-6,
+            dy: 1e-6,
+            invalid: 0,
+            mean: 0.0005152968462939743,
+            rms: 0.00018771126171581148,
+        },
+    );
+    let (channels, format) = list_channels(data(name), &ReadOptions::default()).unwrap();
+    assert_eq!(format, MapFormat::Gwy);
+    assert_eq!(channels.len(), 1);
+    assert_eq!(
+        (channels[0].name.as_str(), channels[0].nx, channels[0].ny),
+        ("Test", 128, 128)
+    );
+    assert_eq!(
+        (channels[0].unit.clone(), channels[0].pitch_um),
+        (None, None)
+    );
+}
+
+/// Every prefix of a real file is refused (never a panic), and the error names a byte
+/// offset inside the file.
+fn truncations_refused(name: &str, cuts: &[usize]) {
+    let bytes = std::fs::read(data(name)).unwrap();
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: None,
+        ..ReadOptions::default()
+    };
+    for &cut in cuts {
+        let cut = cut.min(bytes.len() - 1);
+        let err = flakescatter_io::read_bytes(
+            &bytes[..cut],
+            None,
+            &options,
+            flakescatter_io::ValueKind::Height,
+        )
+        .map(|_| ())
+        .unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.contains("truncated") && text.contains(&format!("ends at byte {cut}")),
+            "{name} cut at {cut}: {text}"
+        );
+    }
+}
+
+#[test]
+fn gwy_truncated_refused_with_offset() {
+    // Inside the container header, a component name, the data array, the last byte.
+    truncations_refused(
+        "gwyfile-test.gwy",
+        &[20, 150, 300, 70_000, 131_000, usize::MAX],
+    );
+}
+
+#[test]
+fn extension_contradicting_content_is_refused() {
+    // A GWY file named .sdf: the magic decides, and the message says both.
+    let dir = std::env::temp_dir().join(format!("flakescatter-instruments-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("really-gwy.sdf");
+    std::fs::copy(data("gwyfile-test.gwy"), &p).unwrap();
+    let err = read_map(&p, &ReadOptions::default()).unwrap_err();
+    let ReadMapError::Format {
+        error: MapError::NotThisFormat { .. },
+        ..
+    } = &err
+    else {
+        panic!("{err}")
+    };
+    assert!(err.to_string().contains("Gwyddion"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn sensofar_plu() {
+    // SurfaceTopography 1.27.1: 768 x 576, 1.6600000858306884 µm pitch (the f32 1.66),
+    // no invalid point, mean -1.0623766881448251e-4 m, rms 2.834390987634884e-6 m.
+    // surfalize 0.19.2 agrees on size and pitch but gives mean -1.0623721090495685e-4,
+    // rms 2.843358186074485e-6: it starts the heights at byte 500, where the layer's own
+    // size (u32 576, u32 768) is stored, so its first two "heights" are those integers
+    // read as f32 (8.1e-43, 1.1e-42) and every later point is shifted by two. The bytes
+    // at 500..508 are 0x240, 0x300 = 576, 768 (checked with xxd), so the heights start
+    // at 508: SurfaceTopography's numbers.
+    check(
+        "plu-1.plu",
+        &ReadOptions::default(),
+        MapFormat::Plu,
+        &Expect {
+            nx: 768,
+            ny: 576,
+            dx: 1.6600000858306884e-06,
+            dy: 1.6600000858306884e-06,
+            invalid: 0,
+            mean: -0.00010623766881448251,
+            rms: 2.834390987634884e-06,
+        },
+    );
+    let (map, _) = read_map(data("plu-1.plu"), &ReadOptions::default()).unwrap();
+    // The header's first 128 bytes, as text: "Fri Mar 10 16:35:59 2023".
+    assert_eq!(map.metadata()["plu.date"], "Fri Mar 10 16:35:59 2023");
+    // The heights at byte 508.. as f32 (numpy): -111.2265625, -111.21484375 µm.
+    assert_eq!(map.get(0, 0), Some(-111.2265625));
+    assert_eq!(map.get(1, 0), Some(-111.21484375));
+    let (channels, _) = list_channels(data("plu-1.plu"), &ReadOptions::default()).unwrap();
+    assert_eq!(channels.len(), 1);
+    assert_eq!((channels[0].nx, channels[0].ny), (768, 576));
+}
+
+#[test]
+fn plu_truncated_refused_with_offset() {
+    // Inside the header, inside the heights, inside the RGB image, one byte short.
+    // (The file holds 134133 bytes after the image that the format does not define;
+    // those are not needed, so the cuts stay below 3096092 = 508 + 4n + 8 + 3n.)
+    truncations_refused("plu-1.plu", &[499, 600, 1_000_000, 2_000_000, 3_096_091]);
+}
+
+/// Files in `fixtures/real/instruments` whose format has no reader yet; each one is
+/// checked to be refused with a clear message rather than misread (see `docs/formats.md`).
+const NOT_YET_READ: &[&str] = &["frt-1.frt", "frt-2.frt"];
+
+#[test]
+fn every_file_in_the_folder_is_covered() {
+    let tested = [
+        "gwyfile-test.gwy",
+        "plu-1.plu",
+        "metropro-1.dat",
+        "opd-1.opd",
+        "sur-2.sur",
+        "sur-3.sur",
+        "al3d-1.al3d",
+    ];
+    for entry in std::fs::read_dir(data("")).unwrap() {
+        let name = entry.unwrap().file_name().into_string().unwrap();
+        if name.ends_with(".md")
+            || name.ends_with(".py")
+            || name.ends_with(".txt")
+            || name.starts_with("LICENSE")
+            || name == ".gitattributes"
+        {
+            continue;
+        }
+        assert!(
+            tested.contains(&name.as_str()) || NOT_YET_READ.contains(&name.as_str()),
+            "untested file {name}"
+        );
+    }
+}
+
+#[test]
+fn formats_not_yet_read_are_refused_not_misread() {
+    for name in NOT_YET_READ {
+        let err = read_map(data(name), &ReadOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(name) && err.contains("not a height-map format this crate reads"),
+            "{name}: {err}"
+        );
+    }
+}
+
+#[test]
+fn zygo_metropro_dat() {
+    // SurfaceTopography 1.27.1: 640 x 480, lateral_res 1.0982520279867458e-6 m, no
+    // invalid point, mean 5.074040590166325e-5 m, rms 7.528822204734589e-8 m.
+    // surfalize 0.19.2 gives the same size and pitch but 8 times the heights (mean
+    // 4.059e-4 m): the header has phase_res = 1 (bytes 218..220 = 00 01), and the height
+    // is raw × S × W × O / R with R = 4096, 32768, 131072 for phase_res 0, 1, 2 (Zygo's
+    // MetroPro reference guide); surfalize's table starts at 1 (1 → 4096), so it divides
+    // by 4096 instead of 32768. SurfaceTopography (and numpy by hand with R = 32768:
+    // S = 0.5, W = 5.6999999742402e-7 m, O = 1) gives the numbers below.
+    check(
+        "metropro-1.dat",
+        &ReadOptions::default(),
+        MapFormat::MetroPro,
+        &Expect {
+            nx: 640,
+            ny: 480,
+            dx: 1.0982520279867458e-06,
+            dy: 1.0982520279867458e-06,
+            invalid: 0,
+            mean: 5.074040590166325e-05,
+            rms: 7.528822204734589e-08,
+        },
+    );
+    let (map, _) = read_map(data("metropro-1.dat"), &ReadOptions::default()).unwrap();
+    // Header text fields (xxd): objective " 20X  Mirau" at byte 246, date at byte 12.
+    assert_eq!(map.metadata()["metropro.objective"], "20X  Mirau");
+    assert_eq!(
+        map.metadata()["metropro.software_date"],
+        "Fri Jun 23 15:37:19 2006"
+    );
+}
+
+#[test]
+fn metropro_truncated_refused_with_offset() {
+    // Inside the 834-byte header, inside the intensity frame, inside the phase frame,
+    // one byte short.
+    truncations_refused("metropro-1.dat", &[100, 833, 5_000, 700_000, 1_844_033]);
+}
+
+#[test]
+fn wyko_opd() {
+    // SurfaceTopography 1.27.1 (the only independent reader that opens it; surfalize
+    // 0.19.2 stops at block type 15): 640 x 480, Pixel_size 0.00019673303177114576 mm,
+    // Aspect 1, 116 invalid points (f32 values >= 1e38), mean -2.722895251054526e-7 m,
+    // rms 8.356451162720974e-9 m, from Raw x Wavelength (577.2949829101562 nm) / Mult
+    // (no Mult block: 1). The same numbers come from numpy over the raw f32 array at
+    // byte 24026 (directory walked by hand with `struct`).
+    check(
+        "opd-1.opd",
+        &ReadOptions::default(),
+        MapFormat::Opd,
+        &Expect {
+            nx: 640,
+            ny: 480,
+            dx: 1.9673303177114576e-07,
+            dy: 1.9673303177114576e-07,
+            invalid: 116,
+            mean: -2.722895251054526e-07,
+            rms: 8.356451162720974e-09,
+        },
+    );
+    let (map, _) = read_map(data("opd-1.opd"), &ReadOptions::default()).unwrap();
+    // Orientation: the file stores y fastest and reversed; SurfaceTopography's
+    // heights[0][0..3] (x = 0, y = 0, 1, 2) are raw[479], raw[478], raw[477] =
+    // -0.00026551, -0.00026971, -0.00026898 mm.
+    for (row, want_mm) in [(0, -0.00026551), (1, -0.00026971), (2, -0.00026898)] {
+        let got_mm = map.get(0, row).unwrap() * 1e-3;
+        assert!((got_mm - want_mm).abs() < 1e-8, "row {row}: {got_mm}");
+    }
+    assert_eq!(map.metadata()["opd.Date"], "7/7/2015");
+    let (channels, _) = list_channels(data("opd-1.opd"), &ReadOptions::default()).unwrap();
+    let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
+    // Array blocks of the directory (walked with `struct`): Raw, SecArr_0, Image.
+    assert_eq!(names, ["Raw", "SecArr_0", "Image"]);
+    // Image is not a height array: a height read is refused, an intensity read gives
+    // its u8 values.
+    let img = ReadOptions {
+        channel: Some(2),
+        ..ReadOptions::default()
+    };
+    let err = read_map(data("opd-1.opd"), &img).unwrap_err().to_string();
+    assert!(err.contains("not a height array"), "{err}");
+    let (i, _) = flakescatter_io::read_intensity(data("opd-1.opd"), &img).unwrap();
+    assert_eq!((i.nx(), i.ny(), i.valid_count()), (640, 480, 640 * 480));
+}
+
+#[test]
+fn opd_truncated_refused_with_offset() {
+    // Inside the directory entry (the magic name itself must be whole to be recognised),
+    // the directory, the Raw array, the last block.
+    truncations_refused("opd-1.opd", &[20, 5_000, 500_000, 4_020_869]);
+}
+
+#[test]
+fn digital_surf_sur() {
+    // sur-2.sur: 563 x 484, 32-bit, spacing 0.0034840002 mm (f32) in x and y, z spacing
+    // 1e-7 mm, non-measured flag 1 and minimum 89120, so raw 89118 is invalid: 117
+    // points. SurfaceTopography 1.27.1 and surfalize 0.19.2 agree: mean
+    // 1.015737639515718e-5 m, rms 1.7517881243588177e-8 m (its z offset is 0).
+    check(
+        "sur-2.sur",
+        &ReadOptions::default(),
+        MapFormat::Sur,
+        &Expect {
+            nx: 563,
+            ny: 484,
+            dx: 3.4840002190321683e-06,
+            dy: 3.4840002190321683e-06,
+            invalid: 117,
+            mean: 1.015737639515718e-05,
+            rms: 1.7517881243588177e-08,
+        },
+    );
+    // sur-3.sur: 512 x 512, spacing 295546 nm, z spacing 1e-9 m, minimum 0 (raw -2
+    // invalid: 233009 points), z offset -0.00341433 (header byte 474). Both readers
+    // agree on everything but the mean: SurfaceTopography 5.9936367307114715e-3 m,
+    // surfalize 5.9936333163813985e-3 m, 3.4e-9 m lower = the offset -0.00341433 added
+    // to heights already in µm (surfalize adds it after converting to µm, as if it were
+    // µm, while the header's z unit is m). Digital Surf's offset is a display origin;
+    // Gwyddion and SurfaceTopography leave it out, and so do we (it is kept in
+    // `sur.offset_z`): SurfaceTopography's mean.
+    check(
+        "sur-3.sur",
+        &ReadOptions::default(),
+        MapFormat::Sur,
+        &Expect {
+            nx: 512,
+            ny: 512,
+            dx: 0.000295546,
+            dy: 0.000295546,
+            invalid: 233009,
+            mean: 0.0059936367307114715,
+            rms: 0.0011131994265859693,
+        },
+    );
+    let (map, _) = read_map(data("sur-3.sur"), &ReadOptions::default()).unwrap();
+    // Header bytes 306..318 (struct): 53 s, 8 min, 10 h, day 22, month 6, year 2023.
+    assert_eq!(map.metadata()["sur.date"], "2023-06-22 10:08:53");
+    let (channels, _) = list_channels(data("sur-2.sur"), &ReadOptions::default()).unwrap();
+    assert_eq!(channels.len(), 1);
+    assert_eq!(
+        (channels[0].name.as_str(), channels[0].unit.as_deref()),
+        ("Z", Some("mm"))
+    );
+}
+
+#[test]
+fn sur_truncated_refused_with_offset() {
+    // Inside the header, inside the data, one byte short.
+    truncations_refused("sur-2.sur", &[100, 511, 600_000, 1_090_479]);
+}
+
+#[test]
+fn alicona_al3d() {
+    // SurfaceTopography 1.27.1 and surfalize 0.19.2 agree: 200 x 296, 4.38027e-7 m
+    // pixels, no invalid point (no depth >= InvalidPixelValue 3.000000028082e+15, and
+    // the repeatability plane 3 has codes <= 107, 107 x 2.35294e-9 + 0 < 6.06e-7, so
+    // surfalize's repeatability filter masks none either), mean 0.07634093332028873 m
+    // (the stage's absolute z), rms 7.688265843362921e-6 m.
+    check(
+        "al3d-1.al3d",
+        &ReadOptions::default(),
+        MapFormat::Al3d,
+        &Expect {
+            nx: 200,
+            ny: 296,
+            dx: 4.38027e-07,
+            dy: 4.38027e-07,
+            invalid: 0,
+            mean: 0.07634093332028873,
+            rms: 7.688265843362921e-06,
+        },
+    );
+    let (map, _) = read_map(data("al3d-1.al3d"), &ReadOptions::default()).unwrap();
+    // Tag 7 of the header (read with `struct`): CreatingApplication = MeasureSuite 5.3.6.
+    assert_eq!(
+        map.metadata()["al3d.CreatingApplication"],
+        "MeasureSuite 5.3.6"
+    );
+    assert_eq!(map.metadata()["al3d.repeatability_mask"], "applied");
+}
+
+#[test]
+fn al3d_truncated_refused_with_offset() {
+    // Inside a tag, before the depth image ends, inside the repeatability plane (plane 3
+    // of 200 x 296 bytes from 238061: up to 238061 + 4 x 59200 = 474861, the file end).
+    truncations_refused("al3d-1.al3d", &[30, 500, 100_000, 400_000, 474_860]);
+}
