@@ -330,7 +330,7 @@ fn the_real_table_is_consistent() {
         Some(Target::MaxSeconds(2.0))
     );
     assert_eq!(
-        target("volume/trace_1e5_flakes/cell_one_diameter"),
+        target("volume/trace_1e5_flakes_cell_one_diameter"),
         Some(Target::MinPerSecond(1e7))
     );
     assert_eq!(

@@ -389,7 +389,7 @@ pub const ROWS: &[RowSpec] = &[
     RowSpec {
         operation: "Volume model, paper's coating, 64 000 rays at 45° × 281 cones (columns one diameter wide)",
         size: "10⁵ flakes",
-        id: "volume/trace_1e5_flakes/cell_one_diameter",
+        id: "volume/trace_1e5_flakes_cell_one_diameter",
         floor: None,
         work: 0.0,
         unit: Unit::Segments,
@@ -433,7 +433,7 @@ pub const ROWS: &[RowSpec] = &[
     RowSpec {
         operation: "Spectrum → CIELAB (ASTM E308 weights built and applied, D65, 10°)",
         size: "1 nm, 360–830 nm",
-        id: "spectrum_to_lab/build_and_apply/1nm_360_830",
+        id: "spectrum_to_lab/build_and_apply_1nm_360_830",
         floor: None,
         work: 1.0,
         unit: Unit::Evaluations,
