@@ -75,6 +75,8 @@ def real(name):
 
 maps = {"x3p": [], "sdf": [], "text": []}
 for name in sorted(os.listdir(REAL)):
+    if os.path.isdir(os.path.join(REAL, name)):
+        continue
     b = real(name)
     if len(b) > 16 << 10 or name.startswith("LICENSE") or name.endswith(".md") or name.startswith("."):
         continue
@@ -142,6 +144,16 @@ extra = {
 for target, seeds in extra.items():
     for s in seeds:
         write(target, s)
+# Instrument files (fixtures/real/instruments): their first 8 KiB behind the dispatcher's
+# two option bytes, so detection and the header readers of each format are reached (a
+# head is a truncated file: refused with the byte offset, and mutated towards headers).
+INSTRUMENTS = os.path.join(REAL, "instruments")
+for name in sorted(os.listdir(INSTRUMENTS)):
+    if name.split(".")[-1] in ("gwy", "plu", "dat", "opd", "sur", "al3d", "frt"):
+        with open(os.path.join(INSTRUMENTS, name), "rb") as f:
+            head = f.read(8190)
+        write("map", bytes([0, 0]) + head)
+        write("map", bytes([0x03, 0]) + head)
 # Stacks: the io tests' three stack fixtures (tifffile ImageJ and OME-TIFF, a byte-built
 # LSM file), each behind every voxel-size/page-order option byte.
 STACKS = os.path.join(ROOT, "crates", "io", "tests", "data", "stack")
