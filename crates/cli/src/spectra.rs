@@ -30,6 +30,19 @@ pub fn hue_deg(lab: &Lab) -> f64 {
     lab.hue().to_degrees()
 }
 
+/// Adds each wavelength's curve warnings ([`crate::tables::curve_warnings`]) to
+/// `warnings`, prefixed by the wavelength, each message once.
+pub fn push_curve_warnings(warnings: &mut Vec<String>, s: &SpectralCurves, std_err_rows: bool) {
+    for (w, c) in s.wavelengths_nm.iter().zip(&s.curves) {
+        for msg in crate::tables::curve_warnings(c, std_err_rows) {
+            let msg = format!("{w} nm: {msg}");
+            if !warnings.contains(&msg) {
+                warnings.push(msg);
+            }
+        }
+    }
+}
+
 /// Writes the curves of every wavelength: `wavelength_nm` and the curve columns of
 /// cli.md (`rays, std_err` too when `topo_columns`).
 pub fn write_spectral_curves(

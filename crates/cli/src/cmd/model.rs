@@ -202,26 +202,7 @@ fn spectral_curves(
     plot: bool,
     settings: &flakescatter::Settings,
 ) -> anyhow::Result<()> {
-    let Some(wavelengths) = args.spectral.wavelengths_nm(None)? else {
-        bail!(
-            "{} describes the coating versus wavelength: give --wavelengths LIST (nm), e.g. 380:780:10, or --multi-angle",
-            args.spectral.first_flag().unwrap_or("a spectral flag")
-        );
-    };
-    if plot {
-        bail!("--plot draws the curves of one wavelength; it does not apply to --wavelengths");
-    }
-    args.spectral.validate()?;
-    let instrument = args.instrument.instrument()?;
-    let rows = instrument.theta_i().len() as f64
-        * instrument.detectors().len() as f64
-        * wavelengths.len() as f64;
-    if rows > crate::flags::MAX_ROWS as f64 {
-        bail!(
-            "--wavelengths with --theta-i and --theta-s: {rows:e} rows is more than the limit of {}",
-            crate::flags::MAX_ROWS
-        );
-    }
+    let (wavelengths, instrument) = args.spectral.curve_run(&args.instrument, plot)?;
     plan.check()?;
     let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
     let (orientation, orientation_echo) = args.source.orientation()?;
@@ -233,14 +214,7 @@ fn spectral_curves(
         &OrientationSource::Distribution(orientation),
     )?;
     let mut warnings = Vec::new();
-    for (w, c) in s.wavelengths_nm.iter().zip(&s.curves) {
-        for msg in crate::tables::curve_warnings(c, false) {
-            let msg = format!("{w} nm: {msg}");
-            if !warnings.contains(&msg) {
-                warnings.push(msg);
-            }
-        }
-    }
+    crate::spectra::push_curve_warnings(&mut warnings, &s, false);
     for w in &warnings {
         warn(w);
     }

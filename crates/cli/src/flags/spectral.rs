@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 
+use flakescatter::Instrument;
 use flakescatter::io::spectral::{read_absorption, read_coat_index, read_complex_index};
 use flakescatter::optics::absorption::FlakeDepth;
 use flakescatter::optics::dispersion::{Cauchy, CoatIndex, SpectralTable};
@@ -15,7 +16,7 @@ use flakescatter::optics::material::ComplexIndexTable;
 use flakescatter::spectral::{BinderAbsorption, FlakeSpectrum, MAX_WAVELENGTHS, SpectralCoating};
 use serde_json::{Value, json};
 
-use super::OpticsArgs;
+use super::{InstrumentArgs, OpticsArgs};
 use crate::output::Plan;
 use crate::parse::{angles, check_range};
 
@@ -168,6 +169,39 @@ impl SpectralArgs {
     /// The text of the wavelength list used (for echoes).
     pub fn wavelengths_text<'a>(&'a self, default: &'a str) -> &'a str {
         self.wavelengths.as_deref().unwrap_or(default)
+    }
+
+    /// The checks of a curve run at every wavelength (`model` or `topo` with
+    /// `--wavelengths`, no `--multi-angle`), in the order the user meets them: the
+    /// wavelengths are required, `--plot` is refused, the spectral flags are valid, the
+    /// instrument flags are, and the rows stay within [`super::MAX_ROWS`]. Returns the
+    /// wavelengths (nm) and the instrument.
+    pub fn curve_run(
+        &self,
+        instrument: &InstrumentArgs,
+        plot: bool,
+    ) -> anyhow::Result<(Vec<f64>, Instrument)> {
+        let Some(wavelengths) = self.wavelengths_nm(None)? else {
+            bail!(
+                "{} describes the coating versus wavelength: give --wavelengths LIST (nm), e.g. 380:780:10, or --multi-angle",
+                self.first_flag().unwrap_or("a spectral flag")
+            );
+        };
+        if plot {
+            bail!("--plot draws the curves of one wavelength; it does not apply to --wavelengths");
+        }
+        self.validate()?;
+        let instrument = instrument.instrument()?;
+        let rows = instrument.theta_i().len() as f64
+            * instrument.detectors().len() as f64
+            * wavelengths.len() as f64;
+        if rows > super::MAX_ROWS as f64 {
+            bail!(
+                "--wavelengths with --theta-i and --theta-s: {rows:e} rows is more than the limit of {}",
+                super::MAX_ROWS
+            );
+        }
+        Ok((wavelengths, instrument))
     }
 
     /// Checks the flags that need no file.

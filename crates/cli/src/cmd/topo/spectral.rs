@@ -13,7 +13,6 @@ use super::summary::{Totals, summary};
 use super::{Args, load_maps, progress_bar};
 use crate::flags::DEFAULT_WAVELENGTHS;
 use crate::output::{Dest, Kind, Plan, print_json, warn};
-use crate::tables::curve_warnings;
 
 /// `--wavelengths` without `--multi-angle`: the curves at every wavelength.
 pub(super) fn spectral_curves(
@@ -24,26 +23,7 @@ pub(super) fn spectral_curves(
     plot: bool,
     settings: &flakescatter::Settings,
 ) -> anyhow::Result<()> {
-    let Some(wavelengths) = args.spectral.wavelengths_nm(None)? else {
-        bail!(
-            "{} describes the coating versus wavelength: give --wavelengths LIST (nm), e.g. 380:780:10, or --multi-angle",
-            args.spectral.first_flag().unwrap_or("a spectral flag")
-        );
-    };
-    if plot {
-        bail!("--plot draws the curves of one wavelength; it does not apply to --wavelengths");
-    }
-    args.spectral.validate()?;
-    let instrument = args.instrument.instrument()?;
-    let rows = instrument.theta_i().len() as f64
-        * instrument.detectors().len() as f64
-        * wavelengths.len() as f64;
-    if rows > crate::flags::MAX_ROWS as f64 {
-        bail!(
-            "--wavelengths with --theta-i and --theta-s: {rows:e} rows is more than the limit of {}",
-            crate::flags::MAX_ROWS
-        );
-    }
+    let (wavelengths, instrument) = args.spectral.curve_run(&args.instrument, plot)?;
     plan.check()?;
     let (coating, coating_echo) = args.spectral.coating(&args.instrument.optics)?;
     let maps = load_maps(args, sources)?;
@@ -87,14 +67,7 @@ pub(super) fn spectral_curves(
         .warnings
         .iter()
         .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
-    for (w, c) in s.wavelengths_nm.iter().zip(&s.curves) {
-        for msg in curve_warnings(c, !all_missing) {
-            let msg = format!("{w} nm: {msg}");
-            if !warnings.contains(&msg) {
-                warnings.push(msg);
-            }
-        }
-    }
+    crate::spectra::push_curve_warnings(&mut warnings, &s, !all_missing);
     for w in &warnings {
         warn(w);
     }
