@@ -1,8 +1,6 @@
 //! Numbers as the CLI's files write them: the shortest text that reads back to the same
-//! value, in exponent form (`{:e}`), built from `ryu`'s digits without allocating per
+//! value, in exponent form (`{:e}`), built from `zmij's digits (the shortest-digit formatter serde_json uses) without allocating per
 //! value (the curve tables of a large grid write about a million of them).
-
-use std::fmt::Write as _;
 
 /// Shortest round-trip text of a value, in exponent form; empty when not finite.
 pub fn num(x: f64) -> String {
@@ -14,63 +12,117 @@ pub fn num(x: f64) -> String {
 /// Appends [`num`]'s text of `x` to `out`: the shortest digits that read back to `x`, one
 /// before the point, then `e` and the decimal exponent (`4.929e2`, `1e0`, `-2.5e-7`), as
 /// `format!("{x:e}")` writes them; `0` for zero and nothing for a non-finite value. The
-/// digits come from `ryu`, several times faster than the standard library's formatter;
-/// the two agree except where two shortest strings are equally near `x` (ryu, like
+/// digits come from `zmij`, several times faster than the standard library's formatter;
+/// the two agree except where two shortest strings are equally near `x` (zmij, like
 /// Python's `repr`, takes the even last digit; the standard library rounds up).
 pub fn push_num(out: &mut String, x: f64) {
+    let mut buf = [0u8; 32];
+    let n = num_bytes(&mut buf, x);
+    // Only ASCII digits, `-`, `.` and `e` are written.
+    out.push_str(std::str::from_utf8(&buf[..n]).unwrap_or_default());
+}
+
+/// Appends [`num`]'s text of `x` to a byte buffer (the CSV writer's row buffer).
+pub fn push_num_bytes(out: &mut Vec<u8>, x: f64) {
+    let mut buf = [0u8; 32];
+    let n = num_bytes(&mut buf, x);
+    out.extend_from_slice(&buf[..n]);
+}
+
+/// Writes [`num`]'s text of `x` into `buf` and returns its length: one pass over
+/// `zmij`'s bytes (`ddd.ddd`, `0.000ddd` or `d.ddde±N`, `+` dropped), no allocation, no formatter.
+fn num_bytes(buf: &mut [u8; 32], x: f64) -> usize {
     if !x.is_finite() {
-        return;
+        return 0;
     }
     if x == 0.0 {
-        out.push('0');
-        return;
+        buf[0] = b'0';
+        return 1;
     }
-    let mut buf = ryu::Buffer::new();
-    let text = buf.format_finite(x);
-    let (negative, text) = match text.strip_prefix('-') {
-        Some(t) => (true, t),
-        None => (false, text),
+    let mut digits_buf = zmij::Buffer::new();
+    let text = digits_buf.format_finite(x).as_bytes();
+    // zmij writes `d.ddde-N` or `de-N` for small magnitudes: already our form (large
+    // ones come as `de+N`, and lose the `+` below).
+    if text.contains(&b'e') && !text.contains(&b'+') {
+        buf[..text.len()].copy_from_slice(text);
+        return text.len();
+    }
+    let (negative, text) = match text.split_first() {
+        Some((b'-', t)) => (true, t),
+        _ => (false, text),
     };
-    // ryu writes `ddd.ddd`, `0.000ddd` or `d.ddde±N`; collect the significant digits and
-    // the decimal exponent of the first one.
-    let (mantissa, exp10) = match text.split_once('e') {
-        Some((m, e)) => (m, e.parse::<i32>().unwrap_or(0)),
-        None => (text, 0),
-    };
-    let (int_part, frac_part) = mantissa.split_once('.').unwrap_or((mantissa, ""));
-    let mut digits = [0u8; 40];
+    // The significant digits (at most 17) and the decimal exponent of the first one:
+    // `point` counts the mantissa's digits before its decimal point, `exp10` is zmij's
+    // own exponent, if it wrote one.
+    let mut digits = [0u8; 20];
     let mut n = 0;
+    let mut point: Option<i32> = None;
     let mut first: Option<i32> = None;
-    // Position of each digit relative to the decimal point: int digits 0.., counting down.
-    for (k, c) in int_part.bytes().chain(frac_part.bytes()).enumerate() {
-        if first.is_none() && c == b'0' {
-            continue;
+    let mut seen = 0i32;
+    let mut exp10 = 0i32;
+    let mut k = 0;
+    while k < text.len() {
+        let c = text[k];
+        match c {
+            b'.' => point = Some(seen),
+            b'e' => {
+                let (sign, rest) = match text.get(k + 1) {
+                    Some(b'-') => (-1, &text[k + 2..]),
+                    Some(b'+') => (1, &text[k + 2..]),
+                    _ => (1, &text[k + 1..]),
+                };
+                exp10 = sign * rest.iter().fold(0i32, |e, &d| e * 10 + i32::from(d - b'0'));
+                break;
+            }
+            _ => {
+                if first.is_none() && c != b'0' {
+                    first = Some(seen);
+                }
+                if first.is_some() && n < digits.len() {
+                    digits[n] = c;
+                    n += 1;
+                }
+                seen += 1;
+            }
         }
-        let pos = int_part.len() as i32 - 1 - k as i32;
-        if first.is_none() {
-            first = Some(pos);
-        }
-        if n < digits.len() {
-            digits[n] = c;
-            n += 1;
-        }
+        k += 1;
     }
     while n > 1 && digits[n - 1] == b'0' {
         n -= 1;
     }
-    let exponent = first.unwrap_or(0) + exp10;
+    // The first significant digit's position relative to the decimal point.
+    let exponent = point.unwrap_or(seen) - 1 - first.unwrap_or(0) + exp10;
+    let mut len = 0;
     if negative {
-        out.push('-');
+        buf[len] = b'-';
+        len += 1;
     }
-    out.push(char::from(digits[0]));
+    buf[len] = digits[0];
+    len += 1;
     if n > 1 {
-        out.push('.');
-        for &d in &digits[1..n] {
-            out.push(char::from(d));
+        buf[len] = b'.';
+        len += 1;
+        buf[len..len + n - 1].copy_from_slice(&digits[1..n]);
+        len += n - 1;
+    }
+    buf[len] = b'e';
+    len += 1;
+    if exponent < 0 {
+        buf[len] = b'-';
+        len += 1;
+    }
+    // |exponent| ≤ 324: at most three digits.
+    let e = exponent.unsigned_abs();
+    let mut started = false;
+    for div in [100, 10, 1] {
+        let d = (e / div) % 10;
+        if d != 0 || started || div == 1 {
+            buf[len] = b'0' + d as u8;
+            len += 1;
+            started = true;
         }
     }
-    out.push('e');
-    let _ = write!(out, "{exponent}");
+    len
 }
 
 #[cfg(test)]

@@ -5,7 +5,6 @@
 //! undefined value (no specular reference, no standard error) is an empty cell in CSV
 //! and `null` in JSON.
 
-use std::fmt::Write as _;
 use std::io::Write;
 
 use flakescatter::compare::IncidenceComparison;
@@ -15,7 +14,8 @@ use serde_json::{Value, json};
 
 use crate::parse::{deg, deg_num, shortest};
 
-pub use crate::number::{num, push_num};
+pub use crate::number::num;
+use crate::number::push_num_bytes;
 
 /// Detector coordinates for output: `(θs, φ = 0)` in plane (the side is the sign of
 /// θs), `(θr, φr)` out of plane; radians.
@@ -53,7 +53,6 @@ pub fn write_curves_with(
     extra_header: &[String],
     extra: impl Fn(usize) -> Vec<String>,
 ) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_writer(out);
     let mut header = vec![
         "theta_i_deg",
         "theta_s_deg",
@@ -67,90 +66,160 @@ pub fn write_curves_with(
         header.extend(["rays", "std_err"]);
     }
     header.extend(extra_header.iter().map(String::as_str));
-    w.write_record(&header).map_err(csv_error)?;
+    // Rows are built in one byte buffer and handed to `out` in blocks: the numbers never
+    // need CSV quoting (digits, `-`, `.`, `e`), the header and the extra cells go
+    // through `push_field`, which quotes as the csv crate does elsewhere in the CLI.
+    let mut buf: Vec<u8> = Vec::with_capacity(1 << 17);
+    for (i, name) in header.iter().enumerate() {
+        if i > 0 {
+            buf.push(b',');
+        }
+        push_field(&mut buf, name);
+    }
+    buf.push(b'\n');
     // Angles are written as given (`deg`, which tries precisions until one reads back):
     // computed once per incidence and per detector, not per row.
     let aperture = deg(curves.instrument.aperture());
-    let detectors: Vec<(String, String)> = (0..curves.instrument.detectors().len())
+    let detectors: Vec<String> = (0..curves.instrument.detectors().len())
         .map(|j| {
             let (ts, ps) = detector_rad(&curves.instrument, j);
-            (deg(ts), deg(ps))
+            format!("{},{},{aperture},", deg(ts), deg(ps))
         })
         .collect();
     let mut incidence = (f64::NAN, String::new());
-    let mut cell = String::with_capacity(32);
     for (k, row) in curves.rows.iter().enumerate() {
         if row.theta_i.to_bits() != incidence.0.to_bits() {
-            incidence = (row.theta_i, deg(row.theta_i));
+            incidence = (row.theta_i, deg(row.theta_i) + ",");
         }
-        let (ts, ps) = &detectors[row.detector];
-        for text in [incidence.1.as_str(), ts, ps, &aperture] {
-            w.write_field(text).map_err(csv_error)?;
+        buf.extend_from_slice(incidence.1.as_bytes());
+        buf.extend_from_slice(detectors[row.detector].as_bytes());
+        push_num_bytes(&mut buf, row.brdf);
+        buf.push(b',');
+        if let Some(v) = row.reflectance {
+            push_num_bytes(&mut buf, v);
         }
-        let values = [Some(row.brdf), row.reflectance, Some(row.relative)];
-        for v in values {
-            cell.clear();
-            if let Some(v) = v {
-                push_num(&mut cell, v);
-            }
-            w.write_field(&cell).map_err(csv_error)?;
-        }
+        buf.push(b',');
+        push_num_bytes(&mut buf, row.relative);
         if topo_columns {
-            cell.clear();
+            buf.push(b',');
             if let Some(r) = row.rays {
-                let _ = write!(cell, "{r}");
+                let _ = write!(buf, "{r}");
             }
-            w.write_field(&cell).map_err(csv_error)?;
-            cell.clear();
+            buf.push(b',');
             if let Some(e) = row.std_err {
-                push_num(&mut cell, e);
+                push_num_bytes(&mut buf, e);
             }
-            w.write_field(&cell).map_err(csv_error)?;
         }
         for text in extra(k) {
-            w.write_field(&text).map_err(csv_error)?;
+            buf.push(b',');
+            push_field(&mut buf, &text);
         }
-        w.write_record(None::<&[u8]>).map_err(csv_error)?;
+        buf.push(b'\n');
+        if buf.len() >= 1 << 16 {
+            out.write_all(&buf)?;
+            buf.clear();
+        }
     }
-    w.flush()?;
+    out.write_all(&buf)?;
+    out.flush()?;
     Ok(())
+}
+
+/// Appends one CSV field, quoted (RFC 4180, inner quotes doubled) when it holds a
+/// comma, a quote or a line break.
+fn push_field(buf: &mut Vec<u8>, text: &str) {
+    if text
+        .bytes()
+        .any(|c| matches!(c, b',' | b'"' | b'\n' | b'\r'))
+    {
+        buf.push(b'"');
+        for c in text.bytes() {
+            if c == b'"' {
+                buf.push(b'"');
+            }
+            buf.push(c);
+        }
+        buf.push(b'"');
+    } else {
+        buf.extend_from_slice(text.as_bytes());
+    }
 }
 
 /// Rows as JSON objects with unit-suffixed keys (undefined values are `null`).
 pub fn rows_json(curves: &Curves) -> Value {
-    let aperture = deg_num(curves.instrument.aperture());
-    let finite = |x: f64| x.is_finite().then_some(x);
-    // Angles as given, once per detector and per incidence (as in `write_curves_with`).
-    let detectors: Vec<(f64, f64)> = (0..curves.instrument.detectors().len())
-        .map(|j| {
-            let (ts, ps) = detector_rad(&curves.instrument, j);
-            (deg_num(ts), deg_num(ps))
-        })
-        .collect();
-    let mut incidence = (f64::NAN, 0.0);
-    Value::Array(
-        curves
-            .rows
-            .iter()
-            .map(|row| {
-                if row.theta_i.to_bits() != incidence.0.to_bits() {
-                    incidence = (row.theta_i, deg_num(row.theta_i));
-                }
-                let (ts, ps) = detectors[row.detector];
-                json!({
-                    "theta_i_deg": incidence.1,
-                    "theta_s_deg": ts,
-                    "phi_s_deg": ps,
-                    "aperture_deg": aperture,
-                    "brdf_per_sr": finite(row.brdf),
-                    "reflectance": row.reflectance.and_then(finite),
-                    "relative": finite(row.relative),
-                    "rays": row.rays,
-                    "std_err": row.std_err.and_then(finite),
-                })
+    // Serialising plain numbers and `null`s into a `Value` cannot fail.
+    serde_json::to_value(RowsJson(curves)).unwrap_or(Value::Null)
+}
+
+/// The rows of [`rows_json`] as a serde sequence, written straight to a serializer
+/// (the `--json` output of a large grid) without building a `Value` per row. Keys come
+/// in the sorted order that a `serde_json` map has, so both give the same text.
+pub struct RowsJson<'a>(pub &'a Curves);
+
+impl serde::Serialize for RowsJson<'_> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let curves = self.0;
+        let aperture = deg_num(curves.instrument.aperture());
+        let finite = |x: f64| x.is_finite().then_some(x);
+        // Angles as given, once per detector and per incidence (as in `write_curves_with`).
+        let detectors: Vec<(f64, f64)> = (0..curves.instrument.detectors().len())
+            .map(|j| {
+                let (ts, ps) = detector_rad(&curves.instrument, j);
+                (deg_num(ts), deg_num(ps))
             })
-            .collect(),
-    )
+            .collect();
+        let mut incidence = (f64::NAN, 0.0);
+        let mut seq = serializer.serialize_seq(Some(curves.rows.len()))?;
+        for row in &curves.rows {
+            if row.theta_i.to_bits() != incidence.0.to_bits() {
+                incidence = (row.theta_i, deg_num(row.theta_i));
+            }
+            let (ts, ps) = detectors[row.detector];
+            seq.serialize_element(&RowJson {
+                aperture,
+                brdf: finite(row.brdf),
+                phi_s: ps,
+                rays: row.rays,
+                reflectance: row.reflectance.and_then(finite),
+                relative: finite(row.relative),
+                std_err: row.std_err.and_then(finite),
+                theta_i: incidence.1,
+                theta_s: ts,
+            })?;
+        }
+        seq.end()
+    }
+}
+
+/// One row of [`RowsJson`].
+struct RowJson {
+    aperture: f64,
+    brdf: Option<f64>,
+    phi_s: f64,
+    rays: Option<u64>,
+    reflectance: Option<f64>,
+    relative: Option<f64>,
+    std_err: Option<f64>,
+    theta_i: f64,
+    theta_s: f64,
+}
+
+impl serde::Serialize for RowJson {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = serializer.serialize_map(Some(9))?;
+        m.serialize_entry("aperture_deg", &self.aperture)?;
+        m.serialize_entry("brdf_per_sr", &self.brdf)?;
+        m.serialize_entry("phi_s_deg", &self.phi_s)?;
+        m.serialize_entry("rays", &self.rays)?;
+        m.serialize_entry("reflectance", &self.reflectance)?;
+        m.serialize_entry("relative", &self.relative)?;
+        m.serialize_entry("std_err", &self.std_err)?;
+        m.serialize_entry("theta_i_deg", &self.theta_i)?;
+        m.serialize_entry("theta_s_deg", &self.theta_s)?;
+        m.end()
+    }
 }
 
 /// Units of the curve columns, for JSON metadata.
@@ -297,4 +366,60 @@ pub fn write_compared(out: &mut dyn Write, results: &[IncidenceComparison]) -> a
     }
     w.flush()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{RowJson, push_field};
+
+    /// `push_field` against the csv crate (an independent writer) on fields that need
+    /// quoting and fields that do not.
+    #[test]
+    fn fields_are_quoted_as_the_csv_crate_quotes_them() {
+        let fields = [
+            "m11",
+            "",
+            "a,b",
+            "say \"hi\"",
+            "two\nlines",
+            "cr\rhere",
+            "1.5e-3",
+        ];
+        let mut ours = Vec::new();
+        for (i, f) in fields.iter().enumerate() {
+            if i > 0 {
+                ours.push(b',');
+            }
+            push_field(&mut ours, f);
+        }
+        ours.push(b'\n');
+        let mut theirs = csv::Writer::from_writer(Vec::new());
+        theirs.write_record(fields).unwrap();
+        assert_eq!(
+            String::from_utf8(ours).unwrap(),
+            String::from_utf8(theirs.into_inner().unwrap()).unwrap()
+        );
+    }
+
+    /// A streamed row writes its keys in the order of a `serde_json` map (sorted), so
+    /// that the streamed `--json` output is the text a `Value` tree gives: the row, read
+    /// back into a `Value` (which sorts its keys) and written again, is the same text.
+    #[test]
+    fn streamed_rows_have_the_key_order_of_a_json_map() {
+        let row = RowJson {
+            aperture: 1.5,
+            brdf: Some(2.5e-3),
+            phi_s: 0.0,
+            rays: Some(12),
+            reflectance: None,
+            relative: Some(1.0),
+            std_err: None,
+            theta_i: 45.0,
+            theta_s: -44.9,
+        };
+        let text = serde_json::to_string_pretty(&row).unwrap();
+        let value: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(serde_json::to_string_pretty(&value).unwrap(), text);
+        assert_eq!(value.as_object().unwrap().len(), 9);
+    }
 }

@@ -13,8 +13,8 @@ use crate::flags::{
     ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, OrientationArgs,
     PolarizationArgs, SpectralArgs,
 };
-use crate::output::{Dest, Kind, Plan, print_json, warn};
-use crate::tables::{rows_json, units_json, write_curves, write_curves_with};
+use crate::output::{Dest, Kind, Plan, print_json, print_json_with, warn};
+use crate::tables::{RowsJson, rows_json, units_json, write_curves, write_curves_with};
 
 /// How detector cones are integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -180,11 +180,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             });
         }
         if table.is_none() {
-            let mut rows = rows_json(&curves);
             if let Some(mu) = &mueller {
+                let mut rows = rows_json(&curves);
                 crate::mueller::add_to_rows(&mut rows, mu, elements);
+                summary["rows"] = rows;
+            } else {
+                // Streamed in its place among the keys (a large grid's rows).
+                summary["rows"] = serde_json::Value::Null;
+                plan.finish()?;
+                return print_json_with(&summary, "rows", &RowsJson(&curves));
             }
-            summary["rows"] = rows;
         } else {
             summary["row_count"] = json!(curves.rows.len());
         }

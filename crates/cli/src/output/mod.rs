@@ -23,7 +23,7 @@ mod write;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-pub use stdout::{note, print, print_json, stdout_closed, stdout_failed, warn};
+pub use stdout::{note, print, print_json, print_json_with, stdout_closed, stdout_failed, warn};
 use stdout::{stdout, stdout_error};
 pub use write::temp_dir_beside;
 use write::{is_special, temp_in, write_file};

@@ -75,6 +75,54 @@ pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
     print(&(serde_json::to_string_pretty(value)? + "\n"))
 }
 
+/// [`print_json`] of an object whose entry `key` is `rows` instead of what `value`
+/// holds there (a placeholder that fixes its place among the sorted keys), streamed to
+/// stdout: the rows of a large grid are never held as text or as a `Value` tree.
+pub fn print_json_with(
+    value: &serde_json::Value,
+    key: &str,
+    rows: &impl serde::Serialize,
+) -> anyhow::Result<()> {
+    let Some(map) = value.as_object() else {
+        return print_json(value);
+    };
+    let mut stdout = stdout();
+    // serde_json writes in small pieces: a buffer in front keeps each one a copy.
+    let mut out = io::BufWriter::with_capacity(1 << 16, &mut stdout);
+    let written = serde_json::to_writer_pretty(&mut out, &Substituted { map, key, rows })
+        .map_err(|e| {
+            io::Error::new(
+                e.io_error_kind().unwrap_or(io::ErrorKind::Other),
+                e.to_string(),
+            )
+        })
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush());
+    written.map_err(|e| stdout_error(&e))
+}
+
+/// A JSON object with one entry's value replaced, in the object's own key order.
+struct Substituted<'a, T> {
+    map: &'a serde_json::Map<String, serde_json::Value>,
+    key: &'a str,
+    rows: &'a T,
+}
+
+impl<T: serde::Serialize> serde::Serialize for Substituted<'_, T> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = serializer.serialize_map(Some(self.map.len()))?;
+        for (k, v) in self.map {
+            if k == self.key {
+                m.serialize_entry(k, self.rows)?;
+            } else {
+                m.serialize_entry(k, v)?;
+            }
+        }
+        m.end()
+    }
+}
+
 /// A line on stderr (warnings, notes, progress); a stderr that cannot be written is
 /// ignored rather than ending the command.
 pub fn note(line: &str) {
@@ -84,4 +132,27 @@ pub fn note(line: &str) {
 /// `warning: ...` on stderr.
 pub fn warn(msg: &str) {
     note(&format!("warning: {msg}"));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Substituted;
+    use serde_json::json;
+
+    /// The substituted object is the text of the same object with the entry replaced
+    /// in a `Value` (serde_json's own writer of the whole tree).
+    #[test]
+    fn a_substituted_entry_keeps_its_place_and_the_text() {
+        let mut value = json!({"b": 1, "rows": null, "a": [1.5, null], "z": {"k": "v"}});
+        let rows = vec![json!({"x": 1.0}), json!({"x": 2.5e-7})];
+        let map = value.as_object().unwrap().clone();
+        let streamed = serde_json::to_string_pretty(&Substituted {
+            map: &map,
+            key: "rows",
+            rows: &rows,
+        })
+        .unwrap();
+        value["rows"] = serde_json::Value::Array(rows);
+        assert_eq!(streamed, serde_json::to_string_pretty(&value).unwrap());
+    }
 }
