@@ -35,6 +35,7 @@ pub mod curves;
 pub mod detectors;
 pub mod files;
 pub mod flakes;
+pub mod frt;
 pub mod gwy;
 pub mod map;
 pub mod measured;

@@ -20,6 +20,7 @@ use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
 use crate::al3d::{self, Al3dError};
+use crate::frt::{self, FrtError};
 use crate::gwy::{self, GwyError};
 use crate::metropro::{self, MetroProError};
 use crate::opd::{self, OpdError};
@@ -53,6 +54,8 @@ pub enum MapFormat {
     Sur,
     /// Alicona AL3D depth image (focus variation).
     Al3d,
+    /// FRT MicroProf (`.frt`), one channel per image (topography, intensity, ...).
+    Frt,
 }
 
 /// One format: how to recognise it, list its channels and read it.
@@ -64,7 +67,7 @@ struct Spec {
 }
 
 /// Every format, in the order ties of confidence are broken when no extension decides.
-const FORMATS: [Spec; 9] = [
+const FORMATS: [Spec; 10] = [
     Spec {
         format: MapFormat::X3p,
         detect: x3p::detect,
@@ -119,6 +122,12 @@ const FORMATS: [Spec; 9] = [
         channels: |b, o| al3d::channels(b, o).map_err(MapError::Al3d),
         read: |b, o, k| al3d::read(b, o, k).map_err(MapError::Al3d),
     },
+    Spec {
+        format: MapFormat::Frt,
+        detect: frt::detect,
+        channels: |b, o| frt::channels(b, o).map_err(MapError::Frt),
+        read: |b, o, k| frt::read(b, o, k).map_err(MapError::Frt),
+    },
 ];
 
 fn spec(format: MapFormat) -> &'static Spec {
@@ -130,7 +139,7 @@ fn spec(format: MapFormat) -> &'static Spec {
 
 impl MapFormat {
     /// Every format, in detection order.
-    pub const ALL: [MapFormat; 9] = [
+    pub const ALL: [MapFormat; 10] = [
         MapFormat::X3p,
         MapFormat::Sdf,
         MapFormat::Text,
@@ -140,6 +149,7 @@ impl MapFormat {
         MapFormat::Opd,
         MapFormat::Sur,
         MapFormat::Al3d,
+        MapFormat::Frt,
     ];
 
     /// Recognises the format from the content alone: the format whose `detect` scores
@@ -165,6 +175,7 @@ impl MapFormat {
             MapFormat::Opd => "opd",
             MapFormat::MetroPro => "metropro",
             MapFormat::Plu => "plu",
+            MapFormat::Frt => "frt",
         }
     }
 
@@ -180,6 +191,7 @@ impl MapFormat {
             MapFormat::Opd => "a Wyko OPD file",
             MapFormat::MetroPro => "a Zygo MetroPro DAT file",
             MapFormat::Plu => "a Sensofar PLU file",
+            MapFormat::Frt => "an FRT MicroProf file",
         }
     }
 
@@ -203,6 +215,7 @@ impl MapFormat {
             MapFormat::Plu => {
                 "it lacks the PLU header (a date, a topography type and matching sizes), so not a Sensofar PLU file"
             }
+            MapFormat::Frt => "it does not start with FRTM_GLIDERV, so not an FRT MicroProf file",
         }
     }
 
@@ -219,6 +232,7 @@ impl MapFormat {
             // `.dat` is also common for text matrices: the content alone decides.
             MapFormat::MetroPro => &[],
             MapFormat::Plu => &["plu", "apx"],
+            MapFormat::Frt => &["frt"],
         }
     }
 
@@ -310,6 +324,9 @@ pub enum MapError {
     /// A Sensofar PLU problem.
     #[error("PLU: {0}")]
     Plu(PluError),
+    /// An FRT MicroProf problem.
+    #[error("FRT: {0}")]
+    Frt(FrtError),
     /// The pitch override is not usable.
     #[error("pixel pitch option: {0}")]
     Pitch(HeightMapError),
@@ -672,7 +689,8 @@ fn write_with(
             | MapFormat::MetroPro
             | MapFormat::Opd
             | MapFormat::Sur
-            | MapFormat::Al3d,
+            | MapFormat::Al3d
+            | MapFormat::Frt,
             _,
         ) => {
             return Err(WriteMapError::Unsupported {

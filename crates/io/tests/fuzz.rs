@@ -279,6 +279,8 @@ static INSTRUMENT_SEEDS: LazyLock<Vec<(Vec<u8>, &'static str)>> = LazyLock::new(
         ("opd-1.opd", "opd"),
         ("sur-2.sur", "sur"),
         ("al3d-1.al3d", "al3d"),
+        ("frt-1.frt", "frt"),
+        ("frt-2.frt", "frt"),
     ]
     .into_iter()
     .map(|(name, ext)| (load(&format!("instruments/{name}")), ext))

@@ -7,7 +7,8 @@
 use std::path::PathBuf;
 
 use flakescatter_io::{
-    MapError, MapFormat, ReadMapError, ReadOptions, ZUnit, list_channels, read_map,
+    MapError, MapFormat, ReadMapError, ReadOptions, ZUnit, list_channels, list_channels_bytes,
+    read_map,
 };
 
 fn data(name: &str) -> PathBuf {
@@ -220,10 +221,6 @@ fn plu_truncated_refused_with_offset() {
     truncations_refused("plu-1.plu", &[499, 600, 1_000_000, 2_000_000, 3_096_091]);
 }
 
-/// Files in `fixtures/real/instruments` whose format has no reader yet; each one is
-/// checked to be refused with a clear message rather than misread (see `docs/formats.md`).
-const NOT_YET_READ: &[&str] = &["frt-1.frt", "frt-2.frt"];
-
 #[test]
 fn every_file_in_the_folder_is_covered() {
     let tested = [
@@ -234,6 +231,8 @@ fn every_file_in_the_folder_is_covered() {
         "sur-2.sur",
         "sur-3.sur",
         "al3d-1.al3d",
+        "frt-1.frt",
+        "frt-2.frt",
     ];
     for entry in std::fs::read_dir(data("")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
@@ -245,23 +244,7 @@ fn every_file_in_the_folder_is_covered() {
         {
             continue;
         }
-        assert!(
-            tested.contains(&name.as_str()) || NOT_YET_READ.contains(&name.as_str()),
-            "untested file {name}"
-        );
-    }
-}
-
-#[test]
-fn formats_not_yet_read_are_refused_not_misread() {
-    for name in NOT_YET_READ {
-        let err = read_map(data(name), &ReadOptions::default())
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains(name) && err.contains("not a height-map format this crate reads"),
-            "{name}: {err}"
-        );
+        assert!(tested.contains(&name.as_str()), "untested file {name}");
     }
 }
 
@@ -453,4 +436,334 @@ fn al3d_truncated_refused_with_offset() {
     // Inside a tag, before the depth image ends, inside the repeatability plane (plane 3
     // of 200 x 296 bytes from 238061: up to 238061 + 4 x 59200 = 474861, the file end).
     truncations_refused("al3d-1.al3d", &[30, 500, 100_000, 400_000, 474_860]);
+}
+
+#[test]
+fn frt_microprof_frt2() {
+    // SurfaceTopography 1.27.1 (the only independent reader that opens FRT; surfalize
+    // 0.19.2 has no FRT reader), from `expected.txt`: heights of shape (ny, nx) =
+    // (300, 150) (expected.py transposes SurfaceTopography's (nx, ny) array), dx = dy =
+    // 2e-4 m, 12314 invalid points, mean 7.262714207028706e-5 m and RMS (numpy `std`:
+    // population, about the mean) 8.826763181113768e-6 m of the valid heights.
+    // Here every invalid point is the raw value 1 and no raw value lies outside the
+    // valid range 5..65529 of block 0x0070 (checked with Python `array` over the 16-bit
+    // data), so both readers' rules mask the same points.
+    check(
+        "frt-2.frt",
+        &ReadOptions::default(),
+        MapFormat::Frt,
+        &Expect {
+            nx: 150,
+            ny: 300,
+            dx: 0.00019999999999999998,
+            dy: 0.00019999999999999998,
+            invalid: 12314,
+            mean: 7.262714207028706e-05,
+            rms: 8.826763181113768e-06,
+        },
+    );
+    let (map, _) = read_map(data("frt-2.frt"), &ReadOptions::default()).unwrap();
+    // Block 0x0067 (Python `struct`): range x 0.03 m, y 0.06 m over 150 x 300 points,
+    // so an x/y swap would show in the pitch as well as in the size.
+    assert_eq!((map.dx(), map.dy()), (0.03e6 / 150.0, 0.06e6 / 300.0));
+    // The first two raw values of the image (xxd: `821d 821d 781d`) are 7554, and the z
+    // scale of block 0x006c is the f64 9.765923032319103e-9 m (struct), so the first
+    // height is 7554 x 9.765923032319103e-9 m = 73.77178...µm.
+    let want = 7554.0 * 9.765923032319103e-9 * 1e6;
+    assert!(
+        (map.get(0, 0).unwrap() - want).abs() < 1e-12 * want,
+        "{:?}",
+        map.get(0, 0)
+    );
+    let m = map.metadata();
+    // Block 0x0077 is the text "TexSimEx_Pin_New"; block 0x0072 holds 1687796545 and
+    // 1687797050 (struct), which `date -u -d @N` gives as below; 0x008e the serial.
+    assert_eq!(m["frt.parameter_set"], "TexSimEx_Pin_New");
+    assert_eq!(m["frt.measurement_started"], "2023-06-26 16:22:25 UTC");
+    assert_eq!(m["frt.measurement_ended"], "2023-06-26 16:30:50 UTC");
+    assert_eq!(m["frt.sensor_serial"], "SN_1036");
+    assert_eq!(m["frt.channel"], "Topography");
+    assert_eq!(m["format"], "frt");
+}
+
+#[test]
+fn frt_microprof_frt1_interrupted_last_row_is_invalid() {
+    // SurfaceTopography 1.27.1 gives frt-1.frt as (ny, nx) = (500, 500), dx = dy =
+    // 2.4e-5 m, 76456 invalid points, mean 7.87308203748581e-5 m, RMS
+    // 4.915785774480653e-6 m: it masks only the raw value 1. But the file's last row
+    // (row 499, 500 points) is raw 0 in both images (Python `array`), the measurement
+    // end time in block 0x0072 is 0xFFFFFFFF (never written: the scan was interrupted),
+    // and block 0x0070 says the valid raw values are 5..65529. FRT's own valid range
+    // decides: raw 0 is not a measurement, and read as one it would put 500 points at
+    // z = 0 under a surface at ~79 µm and double the RMS. So we mask 500 more points.
+    //
+    // Our expected numbers follow from SurfaceTopography's alone, by removing 500 heights
+    // that are exactly 0 (raw 0 x z scale): with n1 = 250000 - 76456 valid points, the
+    // sum n1 m1 and the sum of squares n1 (r1² + m1²) do not change, so with n2 = n1 -
+    // 500, m2 = n1 m1 / n2 and r2² = n1 (r1² + m1²) / n2 - m2². (A pure-Python pass over
+    // the raw data, outside this project, gives 76956 invalid, mean
+    // 7.895830824029983e-5, RMS 2.5045390627769134e-6: the same to 2e-14.)
+    let (m1, r1) = (7.87308203748581e-05_f64, 4.915785774480653e-06_f64);
+    let n1 = (250_000 - 76_456) as f64;
+    let n2 = n1 - 500.0;
+    let m2 = n1 * m1 / n2;
+    let r2 = (n1 * (r1 * r1 + m1 * m1) / n2 - m2 * m2).sqrt();
+    check(
+        "frt-1.frt",
+        &ReadOptions::default(),
+        MapFormat::Frt,
+        &Expect {
+            nx: 500,
+            ny: 500,
+            dx: 2.4e-05,
+            dy: 2.4e-05,
+            invalid: 76_456 + 500,
+            mean: m2,
+            rms: r2,
+        },
+    );
+    close("python mean", m2, 7.895830824029983e-05, 1e-12);
+    close("python rms", r2, 2.5045390627769134e-06, 1e-12);
+    let (map, _) = read_map(data("frt-1.frt"), &ReadOptions::default()).unwrap();
+    assert!((0..500).all(|col| map.get(col, 499).is_none()));
+    let m = map.metadata();
+    assert_eq!(m["frt.valid_range"], "5..65529 (block 0x0070), and not 1");
+    // Start 1678463840 (`date -u -d @1678463840`); the end was never written.
+    assert_eq!(m["frt.measurement_started"], "2023-03-10 15:57:20 UTC");
+    assert!(!m.contains_key("frt.measurement_ended"));
+    // The intensity image of the same file, as stored: the value 1 is the undefined
+    // marker there too (the same 76456 points), and the last row's 0 is kept as the
+    // intensity it is (the valid range is the height sensor's).
+    let (i, _) =
+        flakescatter_io::read_intensity(data("frt-1.frt"), &ReadOptions::default()).unwrap();
+    assert_eq!(i.metadata()["frt.channel"], "Intensity");
+    assert_eq!(i.len() - i.valid_count(), 76_456);
+    assert_eq!(i.get(0, 499), Some(0.0));
+}
+
+#[test]
+fn frt_channels_are_topography_and_intensity() {
+    // Block 0x007d of both files holds two images (walked with `struct`): type 4
+    // (topography) and type 2 (intensity), 16 bits each; its first image is byte for
+    // byte the single image of block 0x000b.
+    for (name, nx, ny, d) in [
+        ("frt-1.frt", 500, 500, 24.0),
+        ("frt-2.frt", 150, 300, 200.0),
+    ] {
+        let (ch, format) = list_channels(data(name), &ReadOptions::default()).unwrap();
+        assert_eq!(format, MapFormat::Frt);
+        let names: Vec<&str> = ch.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["Topography", "Intensity"], "{name}");
+        for c in &ch {
+            assert_eq!((c.nx, c.ny), (nx, ny), "{name}");
+            let (px, py) = c.pitch_um.unwrap();
+            assert!((px - d).abs() < 1e-9 && (py - d).abs() < 1e-9, "{name}");
+        }
+        assert_eq!(ch[0].unit.as_deref(), Some("m"));
+        assert_eq!(ch[1].unit, None);
+        let intensity = ReadOptions {
+            channel: Some(1),
+            ..ReadOptions::default()
+        };
+        let err = read_map(data(name), &intensity).unwrap_err().to_string();
+        assert!(
+            err.contains("not a height image") && err.contains("Intensity"),
+            "{err}"
+        );
+    }
+    // frt-2's intensities (Python `array`): 1..907, the 12314 ones undefined.
+    let (i, _) =
+        flakescatter_io::read_intensity(data("frt-2.frt"), &ReadOptions::default()).unwrap();
+    let max = i.heights().iter().copied().fold(f64::MIN, f64::max);
+    assert_eq!((i.len() - i.valid_count(), max), (12_314, 907.0));
+}
+
+#[test]
+fn frt_truncated_refused_with_offset() {
+    // frt-1: inside the 18-byte header, inside block 0x0067 (bytes 56..100), inside the
+    // 0x000b image (124..500124), inside the 0x007d images (502530..1502570), inside the
+    // last block (0x00a5, payload 1504360..1504364).
+    truncations_refused("frt-1.frt", &[17, 60, 300_000, 1_000_000, 1_504_363]);
+}
+
+/// An FRT file from blocks `(id, payload)`: version 1.00 (u32 sizes) or 1.01 (u64).
+fn frt_file(version: &str, blocks: &[(u16, Vec<u8>)]) -> Vec<u8> {
+    let mut b = b"FRTM_GLIDERV".to_vec();
+    b.extend(version.as_bytes());
+    b.extend((blocks.len() as u16).to_le_bytes());
+    for (id, payload) in blocks {
+        b.extend(id.to_le_bytes());
+        if version == "1.00" {
+            b.extend((payload.len() as u32).to_le_bytes());
+        } else {
+            b.extend((payload.len() as u64).to_le_bytes());
+        }
+        b.extend(payload);
+    }
+    b
+}
+
+fn le(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+fn f64s(values: &[f64]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+/// Scan range block 0x0067: ranges and offsets (m), y/x ratio, scan direction.
+fn range(x: f64, y: f64) -> Vec<u8> {
+    let mut v = f64s(&[x, y, 0.0, 0.0, y / x]);
+    v.extend(le(&[1]));
+    v
+}
+
+/// Z scale block 0x006c: range code 5, scale in m.
+fn zscale(s: f64) -> Vec<u8> {
+    let mut v = le(&[5]);
+    v.extend(f64s(&[s]));
+    v
+}
+
+fn u16s(values: &[u16]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+#[test]
+fn frt_hand_built_files() {
+    use flakescatter_io::{ValueKind, read_bytes};
+    let read = |bytes: &[u8], options: &ReadOptions, kind| {
+        read_bytes(bytes, Some("frt"), options, kind).map(|(m, _)| m)
+    };
+    let opts = ReadOptions::default();
+    // Version 1.01 (64-bit block sizes), a single 0x000b image of 3 x 2 points, 16 bits:
+    // pitch 3 µm / 3 = 1 µm, 4 µm / 2 = 2 µm; heights raw x 1e-8 m; valid 5..65529, so 1
+    // (undefined), 3 (below) and 65530 (above) are invalid.
+    let single = frt_file(
+        "1.01",
+        &[
+            (0x0066, le(&[3, 2, 16])),
+            (0x0067, range(3e-6, 4e-6)),
+            (0x006c, zscale(1e-8)),
+            (0x0070, le(&[5, 65529])),
+            (0x0042, vec![7; 5]), // an unknown block, skipped by its size
+            (0x000b, u16s(&[100, 1, 3, 65530, 7, 65529])),
+        ],
+    );
+    let m = read(&single, &opts, ValueKind::Height).unwrap();
+    assert_eq!((m.nx(), m.ny(), m.dx(), m.dy()), (3, 2, 1.0, 2.0));
+    let want = [Some(1.0), None, None, None, Some(0.07), Some(655.29)];
+    for (k, w) in want.iter().enumerate() {
+        let got = m.get(k % 3, k / 3);
+        assert_eq!(got.is_some(), w.is_some(), "point {k}: {got:?}");
+        if let (Some(g), Some(w)) = (got, w) {
+            assert!((g - w).abs() < 1e-12 * w, "point {k}: {g} vs {w}");
+        }
+    }
+    assert_eq!(m.metadata()["frt.version"], "1.01");
+
+    // Version 1.00, block 0x007d with a 32-bit topography of the bottom sensor and a
+    // 16-bit intensity: the valid range is not applied to 32-bit data (-5 stays), 1 is
+    // undefined in both; the intensities are returned as stored.
+    let mut images = u16s(&[0, 0, 4, 0]);
+    images.extend(le(&[0x1000_0004, 2, 1, 32]));
+    images.extend(le(&[(-5i32) as u32, 1]));
+    images.extend(le(&[2, 2, 1, 16]));
+    images.extend(u16s(&[3, 1]));
+    let multi = |images: Vec<u8>| {
+        frt_file(
+            "1.00",
+            &[
+                (0x0067, range(2e-6, 1e-6)),
+                (0x006c, zscale(1e-8)),
+                (0x0070, le(&[5, 65529])),
+                (0x007d, images),
+            ],
+        )
+    };
+    let f = multi(images.clone());
+    let (ch, _) = list_channels_bytes(&f, Some("frt"), &opts).unwrap();
+    let names: Vec<&str> = ch.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["Topography (bottom sensor)", "Intensity"]);
+    let h = read(&f, &opts, ValueKind::Height).unwrap();
+    assert_eq!((h.get(0, 0), h.get(1, 0)), (Some(-0.05), None));
+    let i = read(&f, &opts, ValueKind::Intensity).unwrap();
+    assert_eq!((i.get(0, 0), i.get(1, 0)), (Some(3.0), None));
+    // Two images of the same type and sensor get their index appended.
+    let mut twice = images.clone();
+    twice.extend(le(&[2, 1, 1, 16]));
+    twice.extend(u16s(&[9]));
+    let (ch, _) = list_channels_bytes(&multi(twice), Some("frt"), &opts).unwrap();
+    let names: Vec<&str> = ch.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "Topography (bottom sensor)",
+            "Intensity [1]",
+            "Intensity [2]"
+        ]
+    );
+
+    // Lying or unusable blocks: an error naming the block and byte, never a panic.
+    let err = |bytes: &[u8], options: &ReadOptions| {
+        read(bytes, options, ValueKind::Height)
+            .unwrap_err()
+            .to_string()
+    };
+    let mut long = images.clone();
+    long.truncate(long.len() - 1); // the intensity image now lacks a byte
+    let e = err(&multi(long), &opts);
+    // Header 18 + blocks of 50, 18 and 14 bytes: block 0x007d at 100, its payload at
+    // 106, the ids, the first image (16 + 8 bytes) from 114, the second's header at 138.
+    assert!(
+        e.contains("block 0x007d (byte 138)") && e.contains("needs 4 bytes from byte 154"),
+        "{e}"
+    );
+    let mut eight = images.clone();
+    eight[20..24].copy_from_slice(&8u32.to_le_bytes());
+    let e = err(&multi(eight), &opts);
+    assert!(e.contains("8 bits per point: expected 16 or 32"), "{e}");
+    let mut tail = images.clone();
+    tail.extend([0; 5]);
+    let e = err(&multi(tail), &opts);
+    assert!(e.contains("5 bytes left"), "{e}");
+    let e = err(
+        &frt_file(
+            "1.00",
+            &[(0x0067, range(1e-6, 1e-6)), (0x0067, range(1e-6, 1e-6))],
+        ),
+        &opts,
+    );
+    assert!(
+        e.contains("block 0x0067 (byte 68): appears a second time (first at byte 18)"),
+        "{e}"
+    );
+    let mut v102 = single.clone();
+    v102[12..16].copy_from_slice(b"1.02");
+    assert!(err(&v102, &opts).contains("version (byte 12) = \"1.02\""));
+    let mut size = single.clone();
+    size[20..28].copy_from_slice(&u64::MAX.to_le_bytes()); // block 0x0066's size
+    let e = err(&size, &opts);
+    assert!(e.contains("truncated") && e.contains("block 0x0066"), "{e}");
+    let wrong = frt_file(
+        "1.00",
+        &[
+            (0x0066, le(&[3, 2, 16])),
+            (0x0067, range(3e-6, 4e-6)),
+            (0x006c, zscale(1e-8)),
+            (0x000b, u16s(&[1, 2, 3, 4, 5])),
+        ],
+    );
+    assert!(err(&wrong, &opts).contains("holds 10 bytes, but block 0x0066 says 3 x 2"));
+    // Without a scan range the pitch must be given; without a z scale, no heights.
+    let bare = frt_file("1.00", &[(0x006c, zscale(1e-8)), (0x007d, images.clone())]);
+    assert!(err(&bare, &opts).contains("block 0x0067 (the scan range) is missing"));
+    let pitch = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        ..ReadOptions::default()
+    };
+    assert!(read(&bare, &pitch, ValueKind::Height).is_ok());
+    let no_z = frt_file("1.00", &[(0x0067, range(2e-6, 1e-6)), (0x007d, images)]);
+    assert!(err(&no_z, &opts).contains("block 0x006c (the z scale) is missing"));
+    assert!(read(&no_z, &opts, ValueKind::Intensity).is_ok());
 }
