@@ -688,6 +688,30 @@ mod tests {
     }
 
     #[test]
+    fn channels_are_indices_or_names() {
+        use flakescatter_io::ChannelSelector;
+        let text = OK.replace(
+            "intensity_suffix = \".intensity\"\n",
+            "channel = 0\nintensity_channel = \"Image0\"\n",
+        );
+        let m = Manifest::from_toml(&text, "s.toml").unwrap();
+        assert_eq!(
+            m.maps.channels().unwrap(),
+            (
+                Some(ChannelSelector::Index(0)),
+                Some(ChannelSelector::Name("Image0".into()))
+            )
+        );
+        // A string of digits is an index, as on the command line.
+        let m = Manifest::from_toml(&OK.replace("cutoff", "channel = \"2\"\ncutoff"), "s.toml")
+            .unwrap();
+        assert_eq!(
+            m.maps.channels().unwrap().0,
+            Some(ChannelSelector::Index(2))
+        );
+    }
+
+    #[test]
     fn errors_name_the_key_and_the_file() {
         let cases = [
             (
@@ -710,6 +734,22 @@ mod tests {
             ),
             (OK.replace("cutoff = 0.49\n", ""), "maps.cutoff"),
             (format!("name = \"a b\"\n{OK}"), "key `name`"),
+            (
+                OK.replace("cutoff = 0.49", "cutoff = 0.49\nintensity_channel = 1"),
+                "maps.intensity_channel",
+            ),
+            (
+                OK.replace("cutoff = 0.49", "cutoff = 0.49\nchannel = \"\""),
+                "maps.channel",
+            ),
+            (
+                OK.replace(
+                    "intensity_suffix = \".intensity\"",
+                    "intensity_channel = \"image0\"",
+                )
+                .replace("cutoff = 0.49\n", ""),
+                "maps.cutoff",
+            ),
         ];
         for (text, needle) in cases {
             let e = Manifest::from_toml(&text, "dir/s.toml")
