@@ -1,6 +1,7 @@
-//! The maps of a sample as files: a height map with its intensity partner, or a
-//! confocal z-stack (which carries its own intensity), read through [`crate::io`] and
-//! [`crate::stack`] and masked by the intensity cutoff.
+//! The maps of a sample as files: a height map with its intensity partner (a second
+//! file, or an intensity channel of the same file), or a confocal z-stack (which
+//! carries its own intensity), read through [`crate::io`] and [`crate::stack`] and
+//! masked by the intensity cutoff.
 //!
 //! Conventions: heights and pitches in µm as the readers return them; a stack's height
 //! map is µm above its lowest slice and its intensity the brightest sample (full scale
@@ -11,7 +12,7 @@ use std::path::{Path, PathBuf};
 use flakescatter_confocal::{PeakOptions, PeakReport};
 use flakescatter_io::stack::{StackInfo, StackOptions};
 use flakescatter_io::{
-    Channel, ReadMapError, ReadOptions, list_channels, read_intensity, read_map,
+    Channel, ChannelSelector, ReadMapError, ReadOptions, read_intensity, read_selected,
 };
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
@@ -54,6 +55,13 @@ pub struct MapSource {
     pub intensity: Option<PathBuf>,
     /// Height map or stack (from the file name, [`SourceKind::of`]).
     pub kind: SourceKind,
+    /// Which channel of the height map file holds the heights (index or name, resolved
+    /// against the file's channels when it is read); `None`: `ReadOptions::channel`,
+    /// else the first. Height maps only.
+    pub channel: Option<ChannelSelector>,
+    /// An intensity channel of the height map file itself, used as its intensity map
+    /// (instead of a partner file: giving both is an error). Height maps only.
+    pub intensity_channel: Option<ChannelSelector>,
 }
 
 impl MapSource {
@@ -66,7 +74,21 @@ impl MapSource {
             height,
             intensity,
             kind,
+            channel: None,
+            intensity_channel: None,
         }
+    }
+
+    /// The same source with its height channel and intensity channel chosen.
+    #[must_use]
+    pub fn with_channels(
+        mut self,
+        channel: Option<ChannelSelector>,
+        intensity_channel: Option<ChannelSelector>,
+    ) -> Self {
+        self.channel = channel;
+        self.intensity_channel = intensity_channel;
+        self
     }
 }
 
@@ -111,6 +133,11 @@ pub struct LoadedMap {
     /// The channels of the map file (name, unit, size, pitch), in the order
     /// `ReadOptions::channel` counts them; empty for a stack.
     pub channels: Vec<Channel>,
+    /// The index (in `channels`) of the height channel read; `None` for a stack.
+    pub channel: Option<usize>,
+    /// The index of the intensity channel of the same file used as the intensity map,
+    /// if one was.
+    pub intensity_channel: Option<usize>,
 }
 
 /// Why a map could not be read.
@@ -140,7 +167,7 @@ pub enum LoadError {
         source: HeightMapError,
     },
     /// A cutoff is asked for a height map without an intensity partner.
-    #[error("{}: a cutoff of {cutoff} is asked but the map has no intensity map to apply it to", map.display())]
+    #[error("{}: a cutoff of {cutoff} is asked but the map has no intensity map (or intensity channel) to apply it to", map.display())]
     NoIntensity {
         /// The height map.
         map: PathBuf,
@@ -154,6 +181,34 @@ pub enum LoadError {
         map: PathBuf,
         /// The intensity map.
         intensity: PathBuf,
+    },
+    /// An intensity channel of the map file is given without a cutoff to apply.
+    #[error("{}: the intensity channel {channel} is given but no cutoff to apply it with", map.display())]
+    ChannelWithoutCutoff {
+        /// The height map.
+        map: PathBuf,
+        /// The intensity channel.
+        channel: ChannelSelector,
+    },
+    /// Both a partner file and an intensity channel are given for one map.
+    #[error("{}: both the intensity map {} and the intensity channel {channel} of the same file are given; give one of them", map.display(), intensity.display())]
+    TwoIntensities {
+        /// The height map.
+        map: PathBuf,
+        /// The partner file.
+        intensity: PathBuf,
+        /// The intensity channel.
+        channel: ChannelSelector,
+    },
+    /// A channel was chosen for a z-stack, which has none.
+    #[error("{}: a z-stack has no channels to choose ({what} {channel} was given); it carries its own height and intensity", stack.display())]
+    StackChannel {
+        /// The stack.
+        stack: PathBuf,
+        /// `channel` or `intensity channel`.
+        what: &'static str,
+        /// The channel given.
+        channel: ChannelSelector,
     },
     /// An intensity map was paired with a stack, which carries its own.
     #[error("{}: a z-stack carries its own intensity; the intensity map {} cannot be paired with it", stack.display(), intensity.display())]
@@ -181,6 +236,18 @@ pub fn load_map(
     let path = &source.height;
     match source.kind {
         SourceKind::Stack => {
+            for (what, c) in [
+                ("channel", &source.channel),
+                ("intensity channel", &source.intensity_channel),
+            ] {
+                if let Some(c) = c {
+                    return Err(LoadError::StackChannel {
+                        stack: path.clone(),
+                        what,
+                        channel: c.clone(),
+                    });
+                }
+            }
             if let Some(i) = &source.intensity {
                 return Err(LoadError::StackWithIntensity {
                     stack: path.clone(),
@@ -210,16 +277,50 @@ pub fn load_map(
                     peak: maps.peak,
                 }),
                 channels: Vec::new(),
+                channel: None,
+                intensity_channel: None,
             })
         }
         SourceKind::Map => {
-            let (mut map, format) =
-                read_map(path, &options.read).map_err(|e| LoadError::Height(Box::new(e)))?;
-            let (channels, _) =
-                list_channels(path, &options.read).map_err(|e| LoadError::Height(Box::new(e)))?;
+            if let (Some(i), Some(c)) = (&source.intensity, &source.intensity_channel) {
+                return Err(LoadError::TwoIntensities {
+                    map: path.clone(),
+                    intensity: i.clone(),
+                    channel: c.clone(),
+                });
+            }
+            if let (Some(c), None) = (&source.intensity_channel, options.cutoff) {
+                return Err(LoadError::ChannelWithoutCutoff {
+                    map: path.clone(),
+                    channel: c.clone(),
+                });
+            }
+            let read = read_selected(
+                path,
+                &options.read,
+                source.channel.as_ref(),
+                source.intensity_channel.as_ref(),
+            )
+            .map_err(|e| LoadError::Height(Box::new(e)))?;
+            let mut map = read.map;
             let valid_before_cutoff = map.valid_count();
-            match (&source.intensity, options.cutoff) {
-                (Some(ipath), Some(cutoff)) => {
+            let cut = |map: &mut HeightMap, mask: &HeightMap, cutoff: f64, intensity: String| {
+                map.apply_intensity_cutoff(mask, cutoff)
+                    .map(|_| ())
+                    .map_err(|source| LoadError::Cutoff {
+                        map: path.clone(),
+                        intensity,
+                        cutoff,
+                        source,
+                    })
+            };
+            match (&source.intensity, &read.intensity, options.cutoff) {
+                (_, Some((mask, i)), Some(cutoff)) => {
+                    let c = &read.channels[*i];
+                    let what = format!("channel {i} ({}) of the same file", c.name);
+                    cut(&mut map, mask, cutoff, what)?;
+                }
+                (Some(ipath), None, Some(cutoff)) => {
                     // The channel choice is the height map's; the partner file's first.
                     let partner = ReadOptions {
                         channel: None,
@@ -230,34 +331,30 @@ pub fn load_map(
                             map: path.clone(),
                             source: Box::new(source),
                         })?;
-                    map.apply_intensity_cutoff(&mask, cutoff)
-                        .map_err(|source| LoadError::Cutoff {
-                            map: path.clone(),
-                            intensity: ipath.display().to_string(),
-                            cutoff,
-                            source,
-                        })?;
+                    cut(&mut map, &mask, cutoff, ipath.display().to_string())?;
                 }
-                (None, Some(cutoff)) => {
+                (None, None, Some(cutoff)) => {
                     return Err(LoadError::NoIntensity {
                         map: path.clone(),
                         cutoff,
                     });
                 }
-                (Some(ipath), None) => {
+                (Some(ipath), _, None) => {
                     return Err(LoadError::NoCutoff {
                         map: path.clone(),
                         intensity: ipath.clone(),
                     });
                 }
-                (None, None) => {}
+                (None, _, None) => {}
             }
             Ok(LoadedMap {
                 map,
-                format: format.name().to_owned(),
+                format: read.format.name().to_owned(),
                 valid_before_cutoff,
                 stack: None,
-                channels,
+                channels: read.channels,
+                channel: Some(read.channel),
+                intensity_channel: read.intensity.map(|(_, i)| i),
             })
         }
     }

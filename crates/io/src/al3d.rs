@@ -14,9 +14,19 @@
 //! whose repeatability is above the filter, when the file has a repeatability plane
 //! (`DepthImageResPtr`, `DepthResFilterVal`, and planes at `TextureImageOffset`, one
 //! byte per point, `Cols` padded to 8): code × `DepthResShiftVal` + `DepthResMinVal` >
-//! `DepthResFilterVal`. One channel, `depth`. Metadata `al3d.*` (every tag with text).
+//! `DepthResFilterVal`. Metadata `al3d.*` (every tag with text).
 //!
-//! Not read: the texture (colour) planes and the icon.
+//! Channels: `depth` (m), then, when the file has a texture (`TexturePtr` lists its
+//! planes, `;`-separated: one for grey, three for R, G, B; `NumberOfPlanes` planes at
+//! `TextureImageOffset`, one byte per point, `Cols` padded to 8), the intensity channel
+//! `texture` (`a.u.`: the mean of the texture planes' bytes, the grey level itself for
+//! one plane) and, for three planes, `texture-r`, `texture-g`, `texture-b` (each plane's
+//! bytes as stored). Gwyddion 2.62 imports the three planes of `al3d-1.al3d` as
+//! "Texture (R)", "(G)", "(B)" scaled by 1/256; ×256 they are this reader's values.
+//! Every texture point is valid.
+//!
+//! Not read: the icon, the repeatability plane as a channel of its own (it masks the
+//! depths).
 
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
@@ -199,36 +209,120 @@ fn header(bytes: &[u8], t: &[(String, String)]) -> Result<Header, Al3dError> {
     })
 }
 
-/// The one channel of an AL3D file, `depth` (m).
+/// The texture channels: each name with the start of every plane it averages.
+fn textures(
+    bytes: &[u8],
+    t: &[(String, String)],
+    h: &Header,
+) -> Result<Vec<(String, Vec<usize>)>, Al3dError> {
+    let (Some(ptr), Some(offset)) = (get(t, "TexturePtr"), get(t, "TextureImageOffset")) else {
+        return Ok(Vec::new());
+    };
+    let offset: usize = offset.parse().map_err(|_| Al3dError::Tag {
+        tag: "TextureImageOffset".into(),
+        what: format!("{offset:?} is not a byte offset"),
+    })?;
+    if offset == 0 {
+        return Ok(Vec::new());
+    }
+    let planes: usize = number(t, "NumberOfPlanes")?;
+    let line = h.nx.div_ceil(8) * 8;
+    let mut starts = Vec::new();
+    for p in ptr.split(';') {
+        let plane: usize = p.trim().parse().ok().filter(|&p| p < planes).ok_or_else(|| Al3dError::Tag {
+            tag: "TexturePtr".into(),
+            what: format!("{ptr:?}: expected plane numbers below NumberOfPlanes = {planes}, separated by ;"),
+        })?;
+        let start = (offset as u64) + (plane as u64) * (line as u64) * (h.ny as u64);
+        let need = (line as u64) * (h.ny as u64 - 1) + h.nx as u64;
+        if (bytes.len() as u64) < start + need {
+            return Err(Al3dError::Truncated {
+                what: format!("texture plane {plane}"),
+                offset: (start as usize).min(bytes.len()),
+                needed: need,
+                end: bytes.len(),
+            });
+        }
+        starts.push(start as usize);
+    }
+    let mut out = vec![("texture".to_string(), starts.clone())];
+    if starts.len() == 3 {
+        for (c, s) in ["r", "g", "b"].iter().zip(&starts) {
+            out.push((format!("texture-{c}"), vec![*s]));
+        }
+    }
+    Ok(out)
+}
+
+/// The channels of an AL3D file: `depth` (m), then its texture channels (`a.u.`;
+/// module notes).
 ///
 /// # Errors
 /// [`Al3dError`] naming the tag or byte offset at fault.
 pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, Al3dError> {
     let t = tags(bytes)?;
     let h = header(bytes, &t)?;
-    Ok(vec![Channel {
+    let mut out = vec![Channel {
         name: "depth".into(),
         unit: Some("m".into()),
         nx: h.nx,
         ny: h.ny,
         pitch_um: Some((h.dx, h.dy)),
-    }])
+    }];
+    out.extend(
+        textures(bytes, &t, &h)?
+            .into_iter()
+            .map(|(name, _)| Channel {
+                name,
+                unit: Some("a.u.".into()),
+                nx: h.nx,
+                ny: h.ny,
+                pitch_um: Some((h.dx, h.dy)),
+            }),
+    );
+    Ok(out)
 }
 
-/// Reads the depth image of an AL3D file as heights in µm (see the module notes).
-/// Intensity reads are refused (the texture is not read yet).
+/// Reads a channel of an AL3D file (`options.channel`, default 0 = `depth`): the depth
+/// image as heights in µm, or a texture channel's values (see the module notes). The
+/// depth read as intensity, or a texture as heights, is refused.
 ///
 /// # Errors
 /// [`Al3dError`] naming the tag or byte offset at fault.
-pub fn read(bytes: &[u8], _options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, Al3dError> {
+pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, Al3dError> {
     let t = tags(bytes)?;
-    if kind == ValueKind::Intensity {
-        return Err(Al3dError::Tag {
-            tag: "TextureImageOffset".into(),
-            what: "AL3D textures are not read as intensity maps yet".into(),
-        });
-    }
     let h = header(bytes, &t)?;
+    let index = options.channel.unwrap_or(0);
+    let tex = textures(bytes, &t, &h)?;
+    match (index, kind) {
+        (0, ValueKind::Height) => {}
+        (0, ValueKind::Intensity) => {
+            return Err(Al3dError::Tag {
+                tag: "depth".into(),
+                what: "the depth channel holds heights (m), not an intensity image; the texture is the channel `texture`".into(),
+            });
+        }
+        (i, kind) => {
+            let Some((name, planes)) = tex.get(i - 1) else {
+                return Err(Al3dError::Tag {
+                    tag: "TexturePtr".into(),
+                    what: format!(
+                        "channel {i} asked for, the file has {} channel(s)",
+                        tex.len() + 1
+                    ),
+                });
+            };
+            if kind == ValueKind::Height {
+                return Err(Al3dError::Tag {
+                    tag: "TexturePtr".into(),
+                    what: format!(
+                        "channel {name} is an intensity image (a.u.), not heights; read it as the intensity map (--intensity-channel)"
+                    ),
+                });
+            }
+            return read_texture(bytes, &t, &h, name, planes);
+        }
+    }
     let limit = match get(&t, "InvalidPixelValue").map(str::parse::<f64>) {
         Some(Ok(v)) if v.is_finite() => v,
         _ => f64::from(3.0e15_f32),
@@ -296,5 +390,35 @@ pub fn read(bytes: &[u8], _options: &ReadOptions, kind: ValueKind) -> Result<Hei
     if plane.is_some() {
         map.set_metadata("al3d.repeatability_mask", "applied");
     }
+    Ok(map)
+}
+
+/// A texture channel: the mean of its planes' bytes at every point.
+fn read_texture(
+    bytes: &[u8],
+    t: &[(String, String)],
+    h: &Header,
+    name: &str,
+    planes: &[usize],
+) -> Result<HeightMap, Al3dError> {
+    let line = h.nx.div_ceil(8) * 8;
+    let n = planes.len() as f64;
+    let mut z = Vec::with_capacity(h.nx * h.ny);
+    for row in 0..h.ny {
+        for col in 0..h.nx {
+            let sum: f64 = planes
+                .iter()
+                .map(|p| f64::from(bytes[p + row * line + col]))
+                .sum();
+            z.push(sum / n);
+        }
+    }
+    let mut map = HeightMap::new(h.nx, h.ny, h.dx, h.dy, z).map_err(Al3dError::Map)?;
+    for (k, v) in t {
+        if !k.is_empty() && v.chars().all(|c| c.is_ascii_graphic() || c == ' ') {
+            map.set_metadata(format!("al3d.{k}"), v.trim());
+        }
+    }
+    map.set_metadata("al3d.channel", name);
     Ok(map)
 }

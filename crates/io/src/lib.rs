@@ -44,6 +44,7 @@ pub mod opd;
 pub mod plu;
 pub mod reader;
 pub mod sdf;
+pub mod select;
 pub mod spectral;
 pub mod stack;
 pub mod sur;
@@ -58,6 +59,10 @@ pub use map::{
     write_map,
 };
 pub use reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
+pub use select::{
+    ChannelError, ChannelSelector, SelectedRead, describe_channels, read_selected,
+    read_selected_bytes,
+};
 pub use stack::{
     PageOrder, ReadStackError, SampleType, StackError, StackFormat, StackInfo, StackOptions,
     StackReader,

@@ -27,6 +27,7 @@ use crate::opd::{self, OpdError};
 use crate::plu::{self, PluError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
+use crate::select::{ChannelError, ChannelSelector};
 use crate::sur::{self, SurError};
 use crate::text::{self, TextError};
 use crate::x3p::{self, ArchiveError, X3pError};
@@ -370,18 +371,10 @@ pub enum MapError {
         /// Why the format does not need it.
         why: &'static str,
     },
-    /// The channel asked for does not exist.
-    #[error(
-        "channel {requested} was asked for, but the file has {} channel(s): {}",
-        available.len(),
-        available.iter().enumerate().map(|(i, n)| format!("{i} = {n}")).collect::<Vec<_>>().join(", ")
-    )]
-    NoSuchChannel {
-        /// The 0-based index asked for.
-        requested: usize,
-        /// The names of the channels present.
-        available: Vec<String>,
-    },
+    /// The channel asked for does not exist, or a name matches none or several
+    /// (the message lists every channel: index, name, unit, size).
+    #[error("{0}")]
+    Channel(#[from] ChannelError),
 }
 
 /// Error from [`read_map`] and [`read_intensity`]: the file and what went wrong.
@@ -511,13 +504,7 @@ pub fn read_bytes(
     }
     let spec = spec(format);
     if let Some(requested) = options.channel {
-        let available = (spec.channels)(bytes, options)?;
-        if requested >= available.len() {
-            return Err(MapError::NoSuchChannel {
-                requested,
-                available: available.into_iter().map(|c| c.name).collect(),
-            });
-        }
+        ChannelSelector::Index(requested).resolve(&(spec.channels)(bytes, options)?)?;
     }
     let mut map = (spec.read)(bytes, options, kind)?;
     if let Some((dx, dy)) = options.pixel_um {

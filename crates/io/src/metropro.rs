@@ -22,10 +22,16 @@
 //! Conventions: a height is `raw × S × W × O / R` metres (converted to µm); raw values
 //! ≥ 2147483640 are invalid points (MetroPro's "no data"). The pitch is `lateral_res`
 //! in x and y; a file with `lateral_res = 0` is uncalibrated and needs `pixel_um`.
-//! One channel, `phase`. Metadata keys `metropro.*`.
+//! Channels: `phase` (heights, m), then, when the file has an intensity frame, the
+//! intensity channel `intensity` (`a.u.`, `ac_width × ac_height`, u16 as stored; one
+//! bucket) or `intensity0`, `intensity1`, ... (one per bucket, listed but refused when
+//! read: the order of several buckets' samples is not confirmed by an independent
+//! reader here). The value 65535 marks an invalid intensity point (surfalize's constant
+//! for MetroPro's intensity no-data; none in `metropro-1.dat`, whose frame Gwyddion
+//! 2.62 and surfalize 0.19.2 both read with the same values as this reader). The
+//! intensity frame has the phase frame's pitch. Metadata keys `metropro.*`.
 //!
-//! Not read: the intensity frames (listed nowhere yet), the coordinate origins, the
-//! header-format-3 extension beyond byte 834.
+//! Not read: the coordinate origins, the header-format-3 extension beyond byte 834.
 
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
@@ -60,6 +66,15 @@ pub enum MetroProError {
         value: String,
         /// What was expected.
         expected: &'static str,
+    },
+    /// A channel was read as the other kind of values (heights / intensity), or
+    /// cannot be read.
+    #[error("channel {channel} holds {what}")]
+    NotThisKind {
+        /// The channel's name.
+        channel: String,
+        /// What it holds, and what to do.
+        what: &'static str,
     },
     /// The header's numbers do not make a valid height map.
     #[error("{0}")]
@@ -103,6 +118,8 @@ pub fn detect(bytes: &[u8]) -> Confidence {
 struct Header {
     size: usize,
     ac_bytes: u64,
+    /// Intensity frame width, height, buckets.
+    ac: (usize, usize, usize),
     nx: usize,
     ny: usize,
     scale_m: f64,
@@ -215,6 +232,11 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
     Ok(Header {
         size,
         ac_bytes,
+        ac: (
+            usize::from(be16(bytes, 52)),
+            usize::from(be16(bytes, 54)),
+            usize::from(be16(bytes, 56)),
+        ),
         nx: usize::from(nx),
         ny: usize::from(ny),
         scale_m,
@@ -227,23 +249,42 @@ fn pitch_um(h: &Header) -> Option<(f64, f64)> {
     (p.is_finite() && p > 0.0).then_some((p, p))
 }
 
-/// The one channel of a MetroPro file, `phase` (heights in m).
+/// The names of the intensity channels (none when the file has no intensity frame).
+fn intensity_names(h: &Header) -> Vec<String> {
+    match h.ac {
+        _ if h.ac_bytes == 0 => Vec::new(),
+        (_, _, 1) => vec!["intensity".into()],
+        (_, _, b) => (0..b).map(|k| format!("intensity{k}")).collect(),
+    }
+}
+
+/// The channels of a MetroPro file: `phase` (heights in m), then its intensity
+/// channels (`a.u.`; module notes).
 ///
 /// # Errors
 /// [`MetroProError`] naming the header field or byte offset at fault.
 pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, MetroProError> {
     let h = header(bytes)?;
-    Ok(vec![Channel {
+    let mut out = vec![Channel {
         name: "phase".into(),
         unit: Some("m".into()),
         nx: h.nx,
         ny: h.ny,
         pitch_um: pitch_um(&h),
-    }])
+    }];
+    out.extend(intensity_names(&h).into_iter().map(|name| Channel {
+        name,
+        unit: Some("a.u.".into()),
+        nx: h.ac.0,
+        ny: h.ac.1,
+        pitch_um: pitch_um(&h),
+    }));
+    Ok(out)
 }
 
-/// Reads the phase frame of a MetroPro file as heights in µm (see the module notes).
-/// Intensity reads are refused (the intensity frames are not read yet).
+/// Reads a MetroPro channel (`options.channel`, default 0 = `phase`): the phase frame
+/// as heights in µm, or the intensity frame's values as stored (see the module notes).
+/// The phase read as intensity, or the intensity as heights, is refused.
 ///
 /// # Errors
 /// [`MetroProError`] naming the header field or byte offset at fault.
@@ -253,25 +294,33 @@ pub fn read(
     kind: ValueKind,
 ) -> Result<HeightMap, MetroProError> {
     let h = header(bytes)?;
-    if kind == ValueKind::Intensity {
+    let names = intensity_names(&h);
+    let index = options.channel.unwrap_or(0);
+    if index > names.len() {
         return Err(MetroProError::BadField {
-            field: "ac_n_bytes",
-            offset: 60,
-            value: h.ac_bytes.to_string(),
-            expected: "nothing: MetroPro intensity frames are not read as intensity maps yet",
+            field: "ac_n_buckets",
+            offset: 56,
+            value: names.len().to_string(),
+            expected: "more intensity buckets than the channel asked for",
         });
     }
-    let (dx, dy) = match (pitch_um(&h), options.pixel_um) {
-        (_, Some(p)) | (Some(p), None) => p,
-        (None, None) => {
-            return Err(MetroProError::BadField {
-                field: "lateral_res",
-                offset: 184,
-                value: h.lateral_m.to_string(),
-                expected: "a pitch > 0 in metres (or give the pixel pitch, --pixel-um)",
+    match (index, kind) {
+        (0, ValueKind::Intensity) => {
+            return Err(MetroProError::NotThisKind {
+                channel: "phase".into(),
+                what: "heights (m), not an intensity image; the intensity is the channel `intensity`",
             });
         }
-    };
+        (0, ValueKind::Height) => {}
+        (i, ValueKind::Height) => {
+            return Err(MetroProError::NotThisKind {
+                channel: names[i - 1].clone(),
+                what: "an intensity frame (a.u.), not heights; read it as the intensity map (--intensity-channel)",
+            });
+        }
+        (i, ValueKind::Intensity) => return read_intensity(bytes, &h, &names[i - 1], options),
+    }
+    let (dx, dy) = pitch_or(&h, options)?;
     let start = h.size + h.ac_bytes as usize;
     let scale_um = h.scale_m * 1e6;
     let z: Vec<f64> = bytes[start..start + 4 * h.nx * h.ny]
@@ -286,6 +335,24 @@ pub fn read(
         })
         .collect();
     let mut map = HeightMap::new(h.nx, h.ny, dx, dy, z).map_err(MetroProError::Map)?;
+    metadata(&mut map, bytes);
+    Ok(map)
+}
+
+/// The file's pitch, or the `pixel_um` override; an uncalibrated file needs the latter.
+fn pitch_or(h: &Header, options: &ReadOptions) -> Result<(f64, f64), MetroProError> {
+    match (pitch_um(h), options.pixel_um) {
+        (_, Some(p)) | (Some(p), None) => Ok(p),
+        (None, None) => Err(MetroProError::BadField {
+            field: "lateral_res",
+            offset: 184,
+            value: h.lateral_m.to_string(),
+            expected: "a pitch > 0 in metres (or give the pixel pitch, --pixel-um)",
+        }),
+    }
+}
+
+fn metadata(map: &mut HeightMap, bytes: &[u8]) {
     map.set_metadata("metropro.software_date", text(&bytes[12..42]));
     map.set_metadata("metropro.time_stamp", (be32(bytes, 76) as i32).to_string());
     map.set_metadata("metropro.comment", text(&bytes[80..162]));
@@ -295,5 +362,34 @@ pub fn read(
     map.set_metadata("metropro.objective", text(&bytes[246..258]));
     map.set_metadata("metropro.part_name", text(&bytes[258..298]));
     map.set_metadata("metropro.phase_res", (be16(bytes, 218) as i16).to_string());
+}
+
+/// The intensity frame (one bucket) as stored: u16, 65535 an invalid point.
+fn read_intensity(
+    bytes: &[u8],
+    h: &Header,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<HeightMap, MetroProError> {
+    let (nx, ny, buckets) = h.ac;
+    if buckets != 1 {
+        return Err(MetroProError::NotThisKind {
+            channel: name.into(),
+            what: "one bucket of several, whose sample order is not confirmed here; only single-bucket intensity frames are read",
+        });
+    }
+    let (dx, dy) = pitch_or(h, options)?;
+    let frame = &bytes[h.size..h.size + 2 * nx * ny];
+    let z: Vec<f64> = frame
+        .chunks_exact(2)
+        .map(|c| match u16::from_be_bytes([c[0], c[1]]) {
+            u16::MAX => f64::NAN,
+            v => f64::from(v),
+        })
+        .collect();
+    let mut map = HeightMap::new(nx, ny, dx, dy, z).map_err(MetroProError::Map)?;
+    metadata(&mut map, bytes);
+    map.set_metadata("metropro.channel", name);
+    map.set_metadata("metropro.ac_range", (be16(bytes, 58) as i16).to_string());
     Ok(map)
 }

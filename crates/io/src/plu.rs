@@ -18,12 +18,19 @@
 //! | 500 | per layer | `y`, `x` (u32), `x × y` heights (f32, µm, row-major, x fastest), min, max (f32), `3 × x × y × images` bytes of RGB image |
 //!
 //! Conventions: heights and pitch are in µm as stored; the value 1000001 marks a point
-//! that was not measured (an invalid point). Each layer is one channel `layerN`.
+//! that was not measured (an invalid point). Each layer is one channel `layerN` (µm);
+//! after every layer, each of its images is one intensity channel `imageK` (`a.u.`,
+//! `K` counting the images of all layers in order), listed after all the layers so that
+//! the layers keep their indices. An image is 3 bytes per point (R, G, B; row-major, x
+//! fastest, as the heights); its intensity is (R + G + B) / 3, the grey level itself in
+//! a grey image (R = G = B, as in `plu-1.plu`, whose image Gwyddion 2.62 imports as
+//! "Gray" and surfalize 0.19.2 as "Grayscale" with the same values). Every point of an
+//! image is valid.
 //! Metadata: `plu.date`, `plu.comment`, `plu.objective` / `plu.hardware` /
 //! `plu.algorithm` / `plu.method` (Sensofar's numeric codes; the objective's name is
 //! not decoded), `plu.version`.
 //!
-//! Not read: the RGB / grey images after each layer, profile files (type 1).
+//! Not read: profile files (type 1).
 //!
 //! Detection: the format has no magic, so the score (60) requires a text date followed
 //! only by NULs in the first 128 bytes, a measurement type of 1 or 3, at least one
@@ -63,6 +70,14 @@ pub enum PluError {
         value: String,
         /// What was expected.
         expected: &'static str,
+    },
+    /// A channel was read as the other kind of values (heights / intensity).
+    #[error("channel {channel} holds {what}")]
+    NotThisKind {
+        /// The channel's name.
+        channel: String,
+        /// What it holds, and what to do.
+        what: &'static str,
     },
     /// The header's numbers do not make a valid height map.
     #[error("{0}")]
@@ -112,11 +127,44 @@ pub fn detect(bytes: &[u8]) -> Confidence {
     }
 }
 
-/// One layer: its size and where its heights start.
+/// One layer: its size, where its heights start and how many images follow them.
 struct Layer {
     nx: usize,
     ny: usize,
     data: usize,
+    images: usize,
+}
+
+impl Layer {
+    /// Where image `k` of this layer starts (after the heights, min and max).
+    fn image(&self, k: usize) -> usize {
+        self.data + 4 * self.nx * self.ny + 8 + 3 * self.nx * self.ny * k
+    }
+}
+
+/// What channel `index` of a PLU file is.
+enum Entry<'a> {
+    /// The heights of a layer (its index).
+    Heights(usize, &'a Layer),
+    /// Image `k` of a layer (its channel name).
+    Image(String, &'a Layer, usize),
+}
+
+/// The channels in index order: every layer, then every image.
+fn entries(h: &Header) -> Vec<Entry<'_>> {
+    let mut out: Vec<Entry<'_>> = h
+        .layers
+        .iter()
+        .enumerate()
+        .map(|(i, l)| Entry::Heights(i, l))
+        .collect();
+    for l in &h.layers {
+        for k in 0..l.images {
+            let j = out.len() - h.layers.len();
+            out.push(Entry::Image(format!("image{j}"), l, k));
+        }
+    }
+    out
 }
 
 struct Header {
@@ -206,67 +254,93 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
             nx: nx as usize,
             ny: ny as usize,
             data: at + 8,
+            images: images as usize,
         });
         at += 8 + need as usize;
     }
     Ok(Header { dx, dy, layers })
 }
 
-/// The channels of a PLU file: one height layer each (`layer0`, ...), in µm.
+/// The channels of a PLU file: one height layer each (`layer0`, ..., in µm), then one
+/// intensity image each (`image0`, ..., `a.u.`).
 ///
 /// # Errors
 /// [`PluError`] naming the field or byte offset at fault.
 pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, PluError> {
     let h = header(bytes)?;
-    Ok(h.layers
+    Ok(entries(&h)
         .iter()
-        .enumerate()
-        .map(|(i, l)| Channel {
-            name: format!("layer{i}"),
-            unit: Some("µm".into()),
-            nx: l.nx,
-            ny: l.ny,
-            pitch_um: Some((h.dx, h.dy)),
+        .map(|e| {
+            let (name, unit, l) = match e {
+                Entry::Heights(i, l) => (format!("layer{i}"), "µm", l),
+                Entry::Image(name, l, _) => (name.clone(), "a.u.", l),
+            };
+            Channel {
+                name,
+                unit: Some(unit.into()),
+                nx: l.nx,
+                ny: l.ny,
+                pitch_um: Some((h.dx, h.dy)),
+            }
         })
         .collect())
 }
 
-/// Reads one layer (`options.channel`, default the first) of a PLU file: heights in µm
-/// (as stored), 1000001 as an invalid point. Intensity reads are refused.
+/// Reads one channel (`options.channel`, default the first) of a PLU file: a layer's
+/// heights in µm (as stored, 1000001 as an invalid point), or an image's intensity
+/// (R + G + B) / 3. A layer read as intensity, or an image read as heights, is refused.
 ///
 /// # Errors
 /// [`PluError`] naming the field or byte offset at fault.
 pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, PluError> {
     let h = header(bytes)?;
-    if kind == ValueKind::Intensity {
-        return Err(PluError::BadField {
-            field: "number of images",
-            offset: 492,
-            value: bytes[492].to_string(),
-            expected: "nothing: PLU images are not read as intensity maps yet (its layers are heights)",
-        });
-    }
+    let all = entries(&h);
     let index = options.channel.unwrap_or(0);
-    let Some(layer) = h.layers.get(index) else {
+    let Some(entry) = all.get(index) else {
         return Err(PluError::BadField {
             field: "number of layers",
             offset: 489,
             value: h.layers.len().to_string(),
-            expected: "more layers than the channel asked for",
+            expected: "more layers and images than the channel asked for",
         });
     };
-    let n = layer.nx * layer.ny;
-    let z: Vec<f64> = bytes[layer.data..layer.data + 4 * n]
-        .chunks_exact(4)
-        .map(|c| {
-            let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-            if v == NOT_MEASURED {
-                f64::NAN
-            } else {
-                f64::from(v)
-            }
-        })
-        .collect();
+    let (layer, name, z) = match (entry, kind) {
+        (Entry::Heights(i, layer), ValueKind::Height) => {
+            let n = layer.nx * layer.ny;
+            let z: Vec<f64> = bytes[layer.data..layer.data + 4 * n]
+                .chunks_exact(4)
+                .map(|c| {
+                    let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+                    if v == NOT_MEASURED {
+                        f64::NAN
+                    } else {
+                        f64::from(v)
+                    }
+                })
+                .collect();
+            (*layer, format!("layer{i}"), z)
+        }
+        (Entry::Image(name, layer, k), ValueKind::Intensity) => {
+            let (n, at) = (layer.nx * layer.ny, layer.image(*k));
+            let z: Vec<f64> = bytes[at..at + 3 * n]
+                .chunks_exact(3)
+                .map(|c| (f64::from(c[0]) + f64::from(c[1]) + f64::from(c[2])) / 3.0)
+                .collect();
+            (*layer, name.clone(), z)
+        }
+        (Entry::Heights(i, _), ValueKind::Intensity) => {
+            return Err(PluError::NotThisKind {
+                channel: format!("layer{i}"),
+                what: "heights (µm), not an intensity image; the images are the channels image0, ...",
+            });
+        }
+        (Entry::Image(name, _, _), ValueKind::Height) => {
+            return Err(PluError::NotThisKind {
+                channel: name.clone(),
+                what: "an intensity image (a.u.), not heights; read it as the intensity map (--intensity-channel)",
+            });
+        }
+    };
     let mut map = HeightMap::new(layer.nx, layer.ny, h.dx, h.dy, z).map_err(PluError::Map)?;
     map.set_metadata("plu.date", text(&bytes[..128]));
     map.set_metadata("plu.comment", text(&bytes[132..388]));
@@ -275,6 +349,6 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     map.set_metadata("plu.objective", u32_at(bytes, 440).to_string());
     map.set_metadata("plu.version", bytes[490].to_string());
     map.set_metadata("plu.hardware", bytes[491].to_string());
-    map.set_metadata("plu.channel", format!("layer{index}"));
+    map.set_metadata("plu.channel", name);
     Ok(map)
 }

@@ -979,7 +979,10 @@ fn channels_are_listed_and_a_missing_one_refused() {
     };
     let e = read_map_bytes(&x, &one).unwrap_err();
     assert!(
-        matches!(e, MapError::NoSuchChannel { requested: 1, .. }),
+        matches!(
+            e,
+            MapError::Channel(flakescatter_io::ChannelError::NoSuchIndex { requested: 1, .. })
+        ),
         "{e:?}"
     );
     assert!(e.to_string().contains("0 = Z"), "{e}");

@@ -209,7 +209,8 @@ fn sensofar_plu() {
     assert_eq!(map.get(0, 0), Some(-111.2265625));
     assert_eq!(map.get(1, 0), Some(-111.21484375));
     let (channels, _) = list_channels(data("plu-1.plu"), &ReadOptions::default()).unwrap();
-    assert_eq!(channels.len(), 1);
+    // One layer and, after it, its one image (`plu_grey_image_is_an_intensity_channel`).
+    assert_eq!(channels.len(), 2);
     assert_eq!((channels[0].nx, channels[0].ny), (768, 576));
 }
 
@@ -766,4 +767,273 @@ fn frt_hand_built_files() {
     let no_z = frt_file("1.00", &[(0x0067, range(2e-6, 1e-6)), (0x007d, images)]);
     assert!(err(&no_z, &opts).contains("block 0x006c (the z scale) is missing"));
     assert!(read(&no_z, &opts, ValueKind::Intensity).is_ok());
+}
+
+// ---- Intensity channels of the same file (issue 14) ----------------------------------
+//
+// The numbers are from `fixtures/real/instruments/expected_channels.py` (output in
+// `expected-channels.txt`): Gwyddion 2.62's importers (run as `gwyddion
+// --convert-to-gwy`, the result opened with gwyfile) and surfalize 0.19.2
+// (`read_image_layers=True`). Besides the statistics, each channel is checked at one
+// point (x = 11, y = 7) and by the mean of its first row, which a transposed, flipped or
+// shifted image would not match.
+
+/// (mean, min, max, rms about the mean) of the valid values, and the first row's mean.
+fn value_stats(map: &flakescatter_stats::heightmap::HeightMap) -> (f64, f64, f64, f64, f64) {
+    let v: Vec<f64> = map
+        .heights()
+        .iter()
+        .zip(map.valid())
+        .filter(|(_, ok)| **ok)
+        .map(|(z, _)| *z)
+        .collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let rms = (v.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let row0 = map.heights()[..map.nx()].iter().sum::<f64>() / map.nx() as f64;
+    (mean, min, max, rms, row0)
+}
+
+/// What an intensity channel must hold: the independent readers' numbers.
+struct Intensity {
+    name: &'static str,
+    nx: usize,
+    ny: usize,
+    mean: f64,
+    min: f64,
+    max: f64,
+    rms: f64,
+    row0_mean: f64,
+    at_11_7: f64,
+}
+
+/// Reads channel `want.name` of `file` as intensity (selected by name) beside the
+/// height channel 0, and compares it with `want`.
+fn check_intensity(file: &str, want: &Intensity) -> flakescatter_io::SelectedRead {
+    use flakescatter_io::{ChannelSelector, read_selected};
+    let sel = ChannelSelector::Name(want.name.into());
+    let r = read_selected(data(file), &ReadOptions::default(), None, Some(&sel))
+        .unwrap_or_else(|e| panic!("{file}: {e}"));
+    let (map, index) = r.intensity.as_ref().expect("an intensity channel");
+    assert_eq!(r.channels[*index].name, want.name, "{file}");
+    assert_eq!(r.channels[*index].unit.as_deref(), Some("a.u."), "{file}");
+    assert_eq!((map.nx(), map.ny()), (want.nx, want.ny), "{file} size");
+    assert_eq!(
+        (r.map.dx(), r.map.dy()),
+        (map.dx(), map.dy()),
+        "{file} pitch"
+    );
+    assert_eq!(map.valid_count(), map.len(), "{file}: every point valid");
+    let (mean, min, max, rms, row0) = value_stats(map);
+    close(
+        &format!("{file} {} mean", want.name),
+        mean,
+        want.mean,
+        1e-12,
+    );
+    close(&format!("{file} {} rms", want.name), rms, want.rms, 1e-10);
+    close(
+        &format!("{file} {} row 0", want.name),
+        row0,
+        want.row0_mean,
+        1e-12,
+    );
+    assert_eq!((min, max), (want.min, want.max), "{file} {}", want.name);
+    assert_eq!(map.get(11, 7), Some(want.at_11_7), "{file} {}", want.name);
+    assert_eq!(
+        map.metadata()["values"],
+        "intensity as stored in the file (unit-less)"
+    );
+    r
+}
+
+#[test]
+fn plu_grey_image_is_an_intensity_channel() {
+    // Gwyddion "Gray" and surfalize "Grayscale" agree: 768 x 576 grey levels (R = G = B
+    // at every point, checked in numpy), mean 172.70937997323495, min 0, max 255, rms
+    // 22.29511928287382, first row's mean 164.3125, 160 at x = 11, y = 7.
+    let r = check_intensity(
+        "plu-1.plu",
+        &Intensity {
+            name: "image0",
+            nx: 768,
+            ny: 576,
+            mean: 172.70937997323495,
+            min: 0.0,
+            max: 255.0,
+            rms: 22.29511928287382,
+            row0_mean: 164.3125,
+            at_11_7: 160.0,
+        },
+    );
+    let names: Vec<&str> = r.channels.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["layer0", "image0"]);
+    assert_eq!(r.channels[0].unit.as_deref(), Some("µm"));
+    // The cutoff: expected_channels.py counts 212266 of the 442368 grey levels below 170,
+    // so 442368 - 212266 = 230102 points stay valid (every height is valid).
+    let mut map = r.map;
+    let (grey, _) = r.intensity.unwrap();
+    assert_eq!(map.apply_intensity_cutoff(&grey, 170.0).unwrap(), 230_102);
+    assert_eq!(map.valid_count(), 230_102);
+}
+
+#[test]
+fn metropro_intensity_frame_is_an_intensity_channel() {
+    // Gwyddion "Intensity" and surfalize "Intensity" agree: 640 x 480 (ac_width x
+    // ac_height at bytes 52, 54; one bucket), mean 99.83694986979167, min 35, max 140,
+    // rms 19.787925083448343, first row's mean 131.3953125, 116 at x = 11, y = 7.
+    let r = check_intensity(
+        "metropro-1.dat",
+        &Intensity {
+            name: "intensity",
+            nx: 640,
+            ny: 480,
+            mean: 99.83694986979167,
+            min: 35.0,
+            max: 140.0,
+            rms: 19.787925083448343,
+            row0_mean: 131.3953125,
+            at_11_7: 116.0,
+        },
+    );
+    let names: Vec<&str> = r.channels.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["phase", "intensity"]);
+    // 150521 of the 307200 values are below 100 (expected_channels.py): 156679 stay.
+    let mut map = r.map;
+    let (i, _) = r.intensity.unwrap();
+    assert_eq!(map.apply_intensity_cutoff(&i, 100.0).unwrap(), 156_679);
+    assert!(i.metadata().contains_key("metropro.ac_range"));
+}
+
+#[test]
+fn al3d_texture_planes_are_intensity_channels() {
+    // Gwyddion imports the planes TexturePtr = 0;1;2 as "Texture (R)", "(G)", "(B)",
+    // each byte / 256; times 256 (expected_channels.py): R mean 91.14765202702702, first
+    // row 45.01, 123 at x = 11, y = 7; G 91.15194256756757, 88.225, 131; B
+    // 90.90038851351352, 66.375, 127; their mean per point: mean 91.06666103603602, min
+    // 43.333333333333336, max 255, rms 21.198850620791003, first row 66.53666666666668,
+    // 127 at (11, 7). surfalize and SurfaceTopography read no AL3D texture.
+    let (channels, _) = list_channels(data("al3d-1.al3d"), &ReadOptions::default()).unwrap();
+    let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["depth", "texture", "texture-r", "texture-g", "texture-b"]
+    );
+    for (name, mean, row0, v) in [
+        ("texture-r", 91.14765202702702, 45.01, 123.0),
+        ("texture-g", 91.15194256756757, 88.225, 131.0),
+        ("texture-b", 90.90038851351352, 66.375, 127.0),
+    ] {
+        use flakescatter_io::{ChannelSelector, read_selected};
+        let sel = ChannelSelector::Name(name.into());
+        let r = read_selected(
+            data("al3d-1.al3d"),
+            &ReadOptions::default(),
+            None,
+            Some(&sel),
+        )
+        .unwrap();
+        let (m, _) = r.intensity.unwrap();
+        let (got_mean, _, _, _, got_row0) = value_stats(&m);
+        close(name, got_mean, mean, 1e-12);
+        close(name, got_row0, row0, 1e-12);
+        assert_eq!(m.get(11, 7), Some(v), "{name}");
+    }
+    let r = check_intensity(
+        "al3d-1.al3d",
+        &Intensity {
+            name: "texture",
+            nx: 200,
+            ny: 296,
+            mean: 91.06666103603602,
+            min: 43.333333333333336,
+            max: 255.0,
+            rms: 21.198850620791003,
+            row0_mean: 66.53666666666668,
+            at_11_7: 127.0,
+        },
+    );
+    // The depth at (11, 7) is Gwyddion's too (0.07635712623596191 m), so both readers
+    // orient the rows alike and the texture comparison above is point for point.
+    close(
+        "depth",
+        r.map.get(11, 7).unwrap() * 1e-6,
+        0.07635712623596191,
+        1e-12,
+    );
+    // 37555 of the 59200 texture means are below 90 (expected_channels.py): 21645 stay.
+    let mut map = r.map;
+    let (t, _) = r.intensity.unwrap();
+    assert_eq!(map.apply_intensity_cutoff(&t, 90.0).unwrap(), 21_645);
+}
+
+#[test]
+fn channels_by_name_and_kind_mismatches_are_refused_with_the_list() {
+    use flakescatter_io::{ChannelError, ChannelSelector, read_selected};
+    let plu = data("plu-1.plu");
+    let name = |n: &str| ChannelSelector::Name(n.into());
+    // Case-insensitive when unique; the index of a name is its place in the list.
+    let r = read_selected(
+        &plu,
+        &ReadOptions::default(),
+        Some(&name("LAYER0")),
+        Some(&name("Image0")),
+    )
+    .unwrap();
+    assert_eq!((r.channel, r.intensity.map(|(_, i)| i)), (0, Some(1)));
+    // An unknown name: the error lists every channel with unit and size.
+    let e = read_selected(&plu, &ReadOptions::default(), Some(&name("phase")), None).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("plu-1.plu")
+            && text.contains("\"phase\"")
+            && text.contains("0 = layer0 (µm, 768 x 576), 1 = image0 (a.u., 768 x 576)"),
+        "{text}"
+    );
+    // The image as heights, the layer as intensity: refused, naming the channel.
+    let e = read_selected(&plu, &ReadOptions::default(), Some(&name("image0")), None).unwrap_err();
+    assert!(
+        e.to_string().contains("image0 holds an intensity image"),
+        "{e}"
+    );
+    let e = read_selected(
+        &plu,
+        &ReadOptions::default(),
+        None,
+        Some(&ChannelSelector::Index(0)),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ReadMapError::Format {
+                error: MapError::Channel(ChannelError::SameAsHeight { index: 0, .. }),
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    // MetroPro and AL3D: the height channel read as intensity, and the other way round.
+    let dat = data("metropro-1.dat");
+    let e = flakescatter_io::read_intensity(&dat, &ReadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("phase holds heights"), "{e}");
+    let one = ReadOptions {
+        channel: Some(1),
+        ..ReadOptions::default()
+    };
+    let e = read_map(&dat, &one).unwrap_err();
+    assert!(
+        e.to_string().contains("intensity holds an intensity frame"),
+        "{e}"
+    );
+    let e = read_map(data("al3d-1.al3d"), &one).unwrap_err();
+    assert!(
+        e.to_string().contains("texture is an intensity image"),
+        "{e}"
+    );
+    let e =
+        flakescatter_io::read_intensity(data("al3d-1.al3d"), &ReadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("depth channel holds heights"), "{e}");
 }

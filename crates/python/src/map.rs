@@ -7,7 +7,9 @@
 
 use std::path::PathBuf;
 
-use flakescatter::io::{MapFormat, ReadMapError, ReadOptions, WriteMapError, ZUnit};
+use flakescatter::io::{
+    ChannelSelector, MapError, MapFormat, ReadMapError, ReadOptions, WriteMapError, ZUnit,
+};
 use flakescatter::stats::heightmap::HeightMap;
 use numpy::ndarray::Array2;
 use numpy::{PyArray2, PyArrayMethods, PyUntypedArrayMethods};
@@ -33,6 +35,11 @@ pub struct Map {
 fn map_error(py: Python<'_>, e: &ReadMapError) -> PyErr {
     match e {
         ReadMapError::Io { .. } => to_py(py, Kind::File, e),
+        // A channel the file does not have is the caller's parameter at fault.
+        ReadMapError::Format {
+            error: MapError::Channel(_),
+            ..
+        } => to_py(py, Kind::Input, e),
         ReadMapError::Format { .. } => to_py(py, Kind::Content, e),
     }
 }
@@ -191,39 +198,69 @@ impl Map {
     }
 }
 
-/// Reads a height map (X3P, SDF or plain text, recognised from the content) and
-/// optionally masks it with an intensity image (points whose intensity is below
-/// `cutoff` become invalid), as the CLI's `MAP --intensity FILE --cutoff X`.
+/// A channel parameter: an int (index) or a str (all digits: an index, else a name).
+fn channel_of(
+    py: Python<'_>,
+    name: &str,
+    obj: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Option<ChannelSelector>> {
+    let Some(obj) = obj else { return Ok(None) };
+    if let Ok(i) = obj.extract::<usize>() {
+        return Ok(Some(ChannelSelector::Index(i)));
+    }
+    let s: String = obj.extract().map_err(|_| {
+        input(
+            py,
+            format!("{name}: expected an index (int >= 0) or a channel name (str)"),
+        )
+    })?;
+    s.parse()
+        .map(Some)
+        .map_err(|e| input(py, format!("{name}={s:?}: {e}")))
+}
+
+/// Reads a height map (X3P, SDF, plain text or an instrument format, recognised from
+/// the content) and optionally masks it with an intensity image (points whose intensity
+/// is below `cutoff` become invalid), as the CLI's `MAP --intensity FILE --cutoff X`, or
+/// with an intensity channel of the same file (`--intensity-channel`). `channel` and
+/// `intensity_channel`: an index or a name, as the CLI's `--channel`.
 #[pyfunction]
-#[pyo3(signature = (path, channel = None, intensity = None, cutoff = None, *, pixel_um = None, z_unit = None, accept_md5_mismatch = false))]
+#[pyo3(signature = (path, channel = None, intensity = None, cutoff = None, *, intensity_channel = None, pixel_um = None, z_unit = None, accept_md5_mismatch = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn read_map(
     py: Python<'_>,
     path: &Bound<'_, PyAny>,
-    channel: Option<usize>,
+    channel: Option<&Bound<'_, PyAny>>,
     intensity: Option<&Bound<'_, PyAny>>,
     cutoff: Option<f64>,
+    intensity_channel: Option<&Bound<'_, PyAny>>,
     pixel_um: Option<&Bound<'_, PyAny>>,
     z_unit: Option<&str>,
     accept_md5_mismatch: bool,
 ) -> PyResult<Map> {
     let path = path_of(py, "path", path)?;
-    // The readers of this build read a file's only channel.
-    if let Some(c) = channel
-        && c != 0
-    {
+    let channel = channel_of(py, "channel", channel)?;
+    let intensity_channel = channel_of(py, "intensity_channel", intensity_channel)?;
+    let intensity: Option<PathBuf> = intensity.map(|i| path_of(py, "intensity", i)).transpose()?;
+    if intensity.is_some() && intensity_channel.is_some() {
         return Err(input(
             py,
-            format!(
-                "channel={c}: the readers of this version read one channel per file (channel 0)"
-            ),
+            "give intensity (a second file) or intensity_channel (a channel of the same file), not both",
         ));
     }
-    let intensity: Option<PathBuf> = intensity.map(|i| path_of(py, "intensity", i)).transpose()?;
-    match (&intensity, cutoff) {
-        (Some(_), None) => return Err(input(py, "intensity needs cutoff (a number)")),
-        (None, Some(c)) => {
-            return Err(input(py, format!("cutoff={c} needs intensity (a path)")));
+    let has_intensity = intensity.is_some() || intensity_channel.is_some();
+    match (has_intensity, cutoff) {
+        (true, None) => {
+            return Err(input(
+                py,
+                "intensity or intensity_channel needs cutoff (a number)",
+            ));
+        }
+        (false, Some(c)) => {
+            return Err(input(
+                py,
+                format!("cutoff={c} needs intensity (a path) or intensity_channel"),
+            ));
         }
         (_, Some(c)) if !c.is_finite() => {
             return Err(input(py, format!("cutoff={c}: expected a finite number")));
@@ -244,7 +281,22 @@ pub fn read_map(
         ..ReadOptions::default()
     };
     let read = released(py, || -> Result<_, ReadFail> {
-        let (mut map, format) = flakescatter::io::read_map(&path, &options)?;
+        let sel = flakescatter::io::read_selected(
+            &path,
+            &options,
+            channel.as_ref(),
+            intensity_channel.as_ref(),
+        )?;
+        let (mut map, format) = (sel.map, sel.format);
+        if let (Some((mask, i)), Some(cutoff)) = (&sel.intensity, cutoff) {
+            let name = &sel.channels[*i].name;
+            map.apply_intensity_cutoff(mask, cutoff).map_err(|e| {
+                ReadFail::Cutoff(format!(
+                    "height map {} with intensity channel {i} ({name}) of the same file and cutoff {cutoff}: {e}",
+                    path.display()
+                ))
+            })?;
+        }
         if let (Some(ipath), Some(cutoff)) = (&intensity, cutoff) {
             let (mask, _) = flakescatter::io::read_intensity(ipath, &options)?;
             map.apply_intensity_cutoff(&mask, cutoff).map_err(|e| {

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 import flakescatter as fs
-from conftest import CUTOFF, HEIGHT, INTENSITY
+from conftest import CUTOFF, FIXTURES, HEIGHT, INTENSITY
+
+FIXTURES_REAL = FIXTURES / "real"
 
 
 def x3p_heights_um(path):
@@ -121,6 +123,28 @@ def test_bad_content_is_file_format_error_with_the_cli_message(cli, tmp_path):
     assert str(e.value) in cli.fails("info", broken)
 
 
+PLU = FIXTURES_REAL / "instruments" / "plu-1.plu"
+
+
+def test_intensity_channel_of_the_same_file_as_cli(cli):
+    # plu-1.plu: a grey image after the heights. Gwyddion 2.62 and surfalize 0.19.2
+    # count 212266 of its 442368 grey levels below 170 (fixtures/real/instruments/
+    # expected-channels.txt), and every height is valid: 230102 points stay.
+    m = fs.read_map(PLU, intensity_channel="Image0", cutoff=170)
+    info = cli.json("info", PLU, "--intensity-channel", "Image0", "--cutoff", 170)
+    assert m.valid_count == info["valid_points"] == 442368 - 212266
+    assert info["intensity_channel"] == 1 and info["channel"] == 0
+    assert fs.read_map(PLU, channel="layer0").valid_count == 442368
+    with pytest.raises(fs.InputError) as e:
+        fs.read_map(PLU, channel="phase")
+    assert "1 = image0 (a.u., 768 x 576)" in str(e.value)
+    assert str(e.value) in cli.fails("info", PLU, "--channel", "phase")
+    with pytest.raises(fs.InputError):
+        fs.read_map(PLU, intensity=PLU, intensity_channel=1, cutoff=1.0)
+    with pytest.raises(fs.InputError):
+        fs.read_map(PLU, intensity_channel=1)
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [
@@ -128,6 +152,8 @@ def test_bad_content_is_file_format_error_with_the_cli_message(cli, tmp_path):
         dict(intensity=INTENSITY),
         dict(intensity=INTENSITY, cutoff=float("nan")),
         dict(channel=1),
+        dict(channel=""),
+        dict(channel=-1),
         dict(pixel_um=-1.0),
         dict(z_unit="furlong"),
     ],

@@ -106,14 +106,21 @@ fn resolve(file: &Path) -> anyhow::Result<SampleInput> {
     };
     let flag = format!("{shown}: key `maps.files`");
     let files = expand(&flag, &m.files, Some(base), &pairing, Repeats::Refuse)?;
-    let maps = pair(&files, &pairing).with_context(|| format!("{shown}: key `maps`"))?;
+    let (channel, intensity_channel) = m.channels().map_err(|e| anyhow::anyhow!("{shown}: {e}"))?;
+    let maps: Vec<_> = pair(&files, &pairing)
+        .with_context(|| format!("{shown}: key `maps`"))?
+        .into_iter()
+        .map(|s| s.with_channels(channel.clone(), intensity_channel.clone()))
+        .collect();
     if m.cutoff.is_some()
-        && let Some(s) = maps
-            .iter()
-            .find(|s| s.intensity.is_none() && s.kind == flakescatter::inputs::SourceKind::Map)
+        && let Some(s) = maps.iter().find(|s| {
+            s.intensity.is_none()
+                && s.intensity_channel.is_none()
+                && s.kind == flakescatter::inputs::SourceKind::Map
+        })
     {
         bail!(
-            "{shown}: key `maps.cutoff` needs an intensity map for {} (`maps.intensity` or `maps.intensity_suffix`)",
+            "{shown}: key `maps.cutoff` needs an intensity map for {} (`maps.intensity`, `maps.intensity_suffix` or `maps.intensity_channel`)",
             s.height.display()
         );
     }

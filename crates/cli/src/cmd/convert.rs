@@ -51,7 +51,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         read: options,
         ..LoadOptions::default()
     };
-    let mut loaded = load_all(&[MapSource::new(&args.input, None)], &load)?;
+    let source = MapSource::new(&args.input, None).with_channels(args.calibration.channel()?, None);
+    let mut loaded = load_all(&[source], &load)?;
     let loaded = loaded.remove(0).loaded;
     let map = &loaded.map;
     let detail = format!(

@@ -27,20 +27,25 @@ pub struct Args {
     /// Print a JSON summary on stdout: `nx`, `ny`, `dx_m`, `dy_m`, `valid_points`,
     /// `invalid_points`, `min_m`, `max_m`, `mean_m`, `rms_m` (about the mean, valid points
     /// only), `format`, `metadata`, `channels` (name, unit, nx, ny, dx_m, dy_m of each
-    /// channel of the file) and `channel` (the index read), `file`, `version`.
+    /// channel of the file), `channel` (the index read) and `intensity_channel` (the
+    /// index of the intensity channel used, or null), `file`, `version`.
     #[arg(long)]
     pub json: bool,
     /// Intensity image of the same size (X3P, SDF or text, values as stored); points
     /// whose intensity is below `--cutoff` are counted as invalid.
     #[arg(long, value_name = "FILE", requires = "cutoff")]
     pub intensity: Option<PathBuf>,
-    /// Intensity cutoff, in the intensity file's own stored values (unit-less).
+    /// Use this channel of MAP itself (index or name, as listed under `channels`) as the
+    /// intensity image, instead of a second file.
     #[arg(
-        long,
-        value_name = "X",
-        requires = "intensity",
-        allow_negative_numbers = true
+        long = "intensity-channel",
+        value_name = "NAME|INDEX",
+        requires = "cutoff",
+        conflicts_with = "intensity"
     )]
+    pub intensity_channel: Option<String>,
+    /// Intensity cutoff, in the intensity image's own stored values (unit-less).
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
     pub cutoff: Option<f64>,
     /// Calibration flags.
     #[command(flatten)]
@@ -101,6 +106,8 @@ fn summary_json(args: &Args, options: &ReadOptions, loaded: &LoadedMap) -> Value
             "accept_md5_mismatch": options.accept_md5_mismatch,
             "decimal": options.decimal.name(),
             "intensity_file": args.intensity.as_ref().map(|p| p.display().to_string()),
+            "channel": args.calibration.channel,
+            "intensity_channel": args.intensity_channel,
             "cutoff": args.cutoff,
         },
         "valid_points_before_cutoff": valid_before_cutoff,
@@ -115,7 +122,8 @@ fn summary_json(args: &Args, options: &ReadOptions, loaded: &LoadedMap) -> Value
         "mean_m": stat(|s| s.mean),
         "rms_m": stat(|s| s.rms),
         "metadata": metadata,
-        "channel": options.channel.unwrap_or(0),
+        "channel": loaded.channel,
+        "intensity_channel": loaded.intensity_channel,
         "channels": loaded.channels.iter().map(|c| json!({
             "name": c.name,
             "unit": c.unit,
@@ -132,7 +140,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options = args.calibration.read_options()?;
     check_cutoff(args.cutoff)?;
     let (stack_options, peak) = args.stack.options(&options)?;
-    let source = MapSource::new(&args.map, args.intensity.clone());
+    if args.cutoff.is_some() && args.intensity.is_none() && args.intensity_channel.is_none() {
+        anyhow::bail!("--cutoff needs --intensity FILE or --intensity-channel NAME|INDEX");
+    }
+    let source = MapSource::new(&args.map, args.intensity.clone()).with_channels(
+        args.calibration.channel()?,
+        crate::flags::selector("--intensity-channel", args.intensity_channel.as_deref())?,
+    );
     let load = LoadOptions {
         read: options,
         cutoff: args.cutoff,
@@ -178,11 +192,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         n - valid,
         100.0 * (n - valid) as f64 / n as f64
     );
-    if let (Some(path), Some(cutoff)) = (&args.intensity, args.cutoff) {
+    let mask = match (&args.intensity, loaded.intensity_channel) {
+        (Some(path), _) => Some(path.display().to_string()),
+        (None, Some(i)) => Some(format!(
+            "channel {i} ({})",
+            loaded.channels.get(i).map_or("?", |c| c.name.as_str())
+        )),
+        (None, None) => None,
+    };
+    if let (Some(mask), Some(cutoff)) = (mask, args.cutoff) {
         let _ = writeln!(
             s,
-            "intensity mask  {} with cutoff {cutoff}: {valid} of {valid_before_cutoff} valid points kept",
-            path.display()
+            "intensity mask  {mask} with cutoff {cutoff}: {valid} of {valid_before_cutoff} valid points kept"
         );
     }
     match map.summary() {
@@ -195,13 +216,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => s.push_str("heights         no valid point\n"),
     }
     if !loaded.channels.is_empty() {
-        let chosen = options.channel.unwrap_or(0);
-        s.push_str("channels\n");
+        s.push_str("channels        (* heights read, i intensity used)\n");
         for (i, c) in loaded.channels.iter().enumerate() {
             let _ = writeln!(
                 s,
                 "  {} {i}  {:<20} {:<6} {} x {}",
-                if i == chosen { "*" } else { " " },
+                if Some(i) == loaded.channel {
+                    "*"
+                } else if Some(i) == loaded.intensity_channel {
+                    "i"
+                } else {
+                    " "
+                },
                 c.name,
                 c.unit.as_deref().unwrap_or("-"),
                 c.nx,

@@ -16,7 +16,7 @@ pub use colour::{ColourArgs, GeometryArgs};
 pub use instrument::{InstrumentArgs, MAX_ROWS, OpticsArgs};
 pub use measured::MeasuredArgs;
 pub use polarization::PolarizationArgs;
-pub use source::{MapArgs, OrientationArgs, SegmentArgs, width};
+pub use source::{MapArgs, OrientationArgs, SegmentArgs, selector, width};
 pub use spectral::{DEFAULT_WAVELENGTHS, SpectralArgs};
 
 /// Default incidences of `model` and `topo`, degrees.

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::io::flakes::read_histogram;
-use flakescatter::io::{DecimalMark, ReadOptions, ZUnit};
+use flakescatter::io::{ChannelSelector, DecimalMark, ReadOptions, ZUnit};
 use flakescatter::stats::segment::SegmentParams;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use serde_json::{Value, json};
@@ -151,11 +151,12 @@ pub struct MapArgs {
     /// Plain-text matrices write decimals with a point; commas separate values.
     #[arg(long)]
     pub decimal_point: bool,
-    /// Which channel of the map file to read: its 0-based index as `info` lists the
-    /// channels (GWY data fields, PLU layers, OPD arrays, SUR objects). Default: the
-    /// first. An index the file does not have is refused with the list of its channels.
-    #[arg(long, value_name = "INDEX")]
-    pub channel: Option<usize>,
+    /// Which channel of the map file holds the heights: its 0-based index as `info`
+    /// lists the channels (GWY data fields, PLU layers, OPD arrays, SUR objects, ...) or
+    /// its name (matched exactly, else ignoring case when that is unique). Default: the
+    /// first. A channel the file does not have is refused with the list of its channels.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub channel: Option<String>,
 }
 
 impl MapArgs {
@@ -191,9 +192,26 @@ impl MapArgs {
             } else {
                 DecimalMark::Auto
             },
-            channel: self.channel,
+            // Channels are chosen per file (a name may have another index in each):
+            // see `channel`, resolved when each file is read.
+            channel: None,
         })
     }
+
+    /// The `--channel` choice; errors name the flag.
+    pub fn channel(&self) -> anyhow::Result<Option<ChannelSelector>> {
+        selector("--channel", self.channel.as_deref())
+    }
+}
+
+/// Parses a `NAME|INDEX` flag value (all digits: an index, else a name).
+pub fn selector(flag: &str, value: Option<&str>) -> anyhow::Result<Option<ChannelSelector>> {
+    value
+        .map(|v| {
+            v.parse::<ChannelSelector>()
+                .with_context(|| format!("{flag} {v:?}"))
+        })
+        .transpose()
 }
 
 /// Segmentation flags of `segment` and `stats --map` (the map inputs are

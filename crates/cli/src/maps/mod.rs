@@ -133,6 +133,15 @@ pub struct MapInputArgs {
         requires = "intensity_suffix"
     )]
     pub height_suffix: String,
+    /// Use this channel of each height map file (index or name, as `info` lists them:
+    /// PLU `image0`, MetroPro `intensity`, AL3D `texture`, GWY/SUR/OPD channels) as its
+    /// intensity map, instead of a second file.
+    #[arg(
+        long = "intensity-channel",
+        value_name = "NAME|INDEX",
+        conflicts_with_all = ["intensity", "intensity_suffix"]
+    )]
+    pub intensity_channel: Option<String>,
     /// Intensity cutoff, in the intensity maps' own stored values (unit-less; full scale
     /// 1 for z-stacks).
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
@@ -183,18 +192,27 @@ impl MapInputArgs {
     ) -> anyhow::Result<Vec<MapSource>> {
         check_cutoff(self.cutoff)?;
         self.load_options()?;
+        let channel = self.calibration.channel()?;
+        let intensity_channel =
+            crate::flags::selector("--intensity-channel", self.intensity_channel.as_deref())?;
+        if let (Some(c), None) = (&intensity_channel, self.cutoff) {
+            bail!("--intensity-channel {c} needs --cutoff X");
+        }
         let pairing = self.pairing();
         let files = expand(flag, maps, None, &pairing, repeats)?;
-        let sources = pair(&files, &pairing)?;
+        let sources: Vec<MapSource> = pair(&files, &pairing)?
+            .into_iter()
+            .map(|s| s.with_channels(channel.clone(), intensity_channel.clone()))
+            .collect();
         for s in &sources {
-            match (&s.intensity, self.cutoff, s.kind) {
-                (Some(i), None, _) => bail!(
+            match (&s.intensity, &s.intensity_channel, self.cutoff, s.kind) {
+                (Some(i), _, None, _) => bail!(
                     "intensity map {} (of {}) needs --cutoff X",
                     i.display(),
                     s.height.display()
                 ),
-                (None, Some(c), SourceKind::Map) => bail!(
-                    "--cutoff {c} needs --intensity FILE (once per map) or --intensity-suffix: {} has no intensity map",
+                (None, None, Some(c), SourceKind::Map) => bail!(
+                    "--cutoff {c} needs --intensity FILE (once per map), --intensity-suffix or --intensity-channel: {} has no intensity map",
                     s.height.display()
                 ),
                 _ => {}
@@ -229,6 +247,8 @@ impl MapInputArgs {
             "intensity_suffix": self.intensity_suffix,
             "height_suffix": self.intensity_suffix.as_ref().map(|_| &self.height_suffix),
             "cutoff": self.cutoff,
+            "channel": self.calibration.channel,
+            "intensity_channel": self.intensity_channel,
             "pixel_um": self.calibration.pixel_um,
             "z_unit": self.calibration.z_unit,
             "stacks": sources.iter().any(|s| s.kind == SourceKind::Stack).then(|| serde_json::json!({

@@ -81,6 +81,67 @@ pub struct Maps {
     /// Unit of plain-text heights: `um`, `nm` or `m`.
     #[serde(default)]
     pub z_unit: Option<String>,
+    /// Which channel of each map file holds the heights: a 0-based index (`2`, or
+    /// `"2"`) or a channel name (`"layer0"`: exact, else ignoring case when unique), as
+    /// `flakescatter info` lists them. Default: the first.
+    #[serde(default)]
+    pub channel: Option<ChannelKey>,
+    /// An intensity channel of each map file itself (index or name, as `channel`) used
+    /// as its intensity map with `cutoff`, instead of a second file; excludes
+    /// `intensity` and `intensity_suffix`.
+    #[serde(default)]
+    pub intensity_channel: Option<ChannelKey>,
+}
+
+/// A channel in a manifest: an integer index or a string (all digits: an index; else a
+/// name).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ChannelKey {
+    /// A 0-based index.
+    Index(usize),
+    /// A name (or an index written as a string).
+    Name(String),
+}
+
+impl ChannelKey {
+    /// The selector this key means.
+    ///
+    /// # Errors
+    /// The reason an empty (or too large) value is refused.
+    pub fn selector(&self) -> Result<flakescatter_io::ChannelSelector, String> {
+        match self {
+            ChannelKey::Index(i) => Ok(flakescatter_io::ChannelSelector::Index(*i)),
+            ChannelKey::Name(n) => n.parse().map_err(|e| format!("{e}")),
+        }
+    }
+}
+
+impl Maps {
+    /// The height channel and intensity channel selectors of the keys `channel` and
+    /// `intensity_channel`.
+    ///
+    /// # Errors
+    /// A message naming the key.
+    pub fn channels(
+        &self,
+    ) -> Result<
+        (
+            Option<flakescatter_io::ChannelSelector>,
+            Option<flakescatter_io::ChannelSelector>,
+        ),
+        String,
+    > {
+        let one = |key: &str, v: &Option<ChannelKey>| {
+            v.as_ref()
+                .map(|c| c.selector().map_err(|e| format!("key `maps.{key}`: {e}")))
+                .transpose()
+        };
+        Ok((
+            one("channel", &self.channel)?,
+            one("intensity_channel", &self.intensity_channel)?,
+        ))
+    }
 }
 
 fn default_height_suffix() -> String {
@@ -418,6 +479,27 @@ impl Manifest {
         {
             return bad("maps.cutoff", format!("{c} is not a finite number"));
         }
+        if m.intensity_channel.is_some()
+            && (!m.intensity.is_empty() || m.intensity_suffix.is_some())
+        {
+            return bad(
+                "maps.intensity_channel",
+                "give either an intensity channel of the map files or intensity files (`maps.intensity`, `maps.intensity_suffix`), not both"
+                    .into(),
+            );
+        }
+        if let Err(e) = m.channels() {
+            return Err(ManifestError {
+                file: file.to_string(),
+                message: e,
+            });
+        }
+        if m.cutoff.is_none() && m.intensity_channel.is_some() {
+            return bad(
+                "maps.cutoff",
+                "an intensity channel is given but no cutoff to apply it with".into(),
+            );
+        }
         if m.cutoff.is_none() && (!m.intensity.is_empty() || m.intensity_suffix.is_some()) {
             return bad(
                 "maps.cutoff",
@@ -606,6 +688,30 @@ mod tests {
     }
 
     #[test]
+    fn channels_are_indices_or_names() {
+        use flakescatter_io::ChannelSelector;
+        let text = OK.replace(
+            "intensity_suffix = \".intensity\"\n",
+            "channel = 0\nintensity_channel = \"Image0\"\n",
+        );
+        let m = Manifest::from_toml(&text, "s.toml").unwrap();
+        assert_eq!(
+            m.maps.channels().unwrap(),
+            (
+                Some(ChannelSelector::Index(0)),
+                Some(ChannelSelector::Name("Image0".into()))
+            )
+        );
+        // A string of digits is an index, as on the command line.
+        let m = Manifest::from_toml(&OK.replace("cutoff", "channel = \"2\"\ncutoff"), "s.toml")
+            .unwrap();
+        assert_eq!(
+            m.maps.channels().unwrap().0,
+            Some(ChannelSelector::Index(2))
+        );
+    }
+
+    #[test]
     fn errors_name_the_key_and_the_file() {
         let cases = [
             (
@@ -628,6 +734,22 @@ mod tests {
             ),
             (OK.replace("cutoff = 0.49\n", ""), "maps.cutoff"),
             (format!("name = \"a b\"\n{OK}"), "key `name`"),
+            (
+                OK.replace("cutoff = 0.49", "cutoff = 0.49\nintensity_channel = 1"),
+                "maps.intensity_channel",
+            ),
+            (
+                OK.replace("cutoff = 0.49", "cutoff = 0.49\nchannel = \"\""),
+                "maps.channel",
+            ),
+            (
+                OK.replace(
+                    "intensity_suffix = \".intensity\"",
+                    "intensity_channel = \"image0\"",
+                )
+                .replace("cutoff = 0.49\n", ""),
+                "maps.cutoff",
+            ),
         ];
         for (text, needle) in cases {
             let e = Manifest::from_toml(&text, "dir/s.toml")

@@ -736,6 +736,7 @@ pub fn analyze_sample(
             "intensity_sha256": ih,
             "maps": {
                 "cutoff": m.maps.cutoff, "pixel_um": m.maps.pixel_um, "z_unit": m.maps.z_unit,
+                "channel": m.maps.channel, "intensity_channel": m.maps.intensity_channel,
             },
             "stack": m.stack,
             "instrument": m.instrument,

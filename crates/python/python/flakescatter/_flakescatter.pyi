@@ -85,19 +85,25 @@ class Map:
 
 def read_map(
     path: PathLike,
-    channel: Optional[int] = None,
+    channel: Optional[Union[int, str]] = None,
     intensity: Optional[PathLike] = None,
     cutoff: Optional[float] = None,
     *,
+    intensity_channel: Optional[Union[int, str]] = None,
     pixel_um: Optional[Union[float, Tuple[float, float]]] = None,
     z_unit: Optional[Literal["um", "nm", "m"]] = None,
     accept_md5_mismatch: bool = False,
 ) -> Map:
-    """Read a height map (X3P, SDF, plain text; recognised from the content).
+    """Read a height map (X3P, SDF, plain text or an instrument format; recognised from
+    the content).
 
     ``intensity`` (a path) with ``cutoff`` (in the intensity file's stored values)
-    masks points whose intensity is below the cutoff. ``channel``: only 0 (each format
-    read holds one channel). ``pixel_um`` (µm) and ``z_unit`` calibrate plain-text
+    masks points whose intensity is below the cutoff; ``intensity_channel`` instead
+    uses a channel of the same file (PLU ``image0``, MetroPro ``intensity``, AL3D
+    ``texture``, ...). ``channel`` and ``intensity_channel``: a 0-based index or a
+    channel name (exact, else ignoring case when unique), as the CLI's ``--channel``
+    and ``--intensity-channel``; a channel the file lacks is an InputError listing the
+    file's channels. ``pixel_um`` (µm) and ``z_unit`` calibrate plain-text
     matrices, as the CLI's ``--pixel-um`` and ``--z-unit``.
 
     Raises FileError (missing file), FileFormatError (bad content), InputError.
