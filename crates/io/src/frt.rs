@@ -452,8 +452,8 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
     if out.is_empty() {
         return Err(FrtError::Missing {
             block: 0x000b,
-            what: "image data; nor is there an image in block 0x007d",
-            hint: "",
+            what: "the image data",
+            hint: ", and block 0x007d holds no image either",
         });
     }
     Ok(out)

@@ -739,6 +739,11 @@ fn frt_hand_built_files() {
         e.contains("block 0x0067 (byte 68): appears a second time (first at byte 18)"),
         "{e}"
     );
+    let e = err(&frt_file("1.00", &[(0x0067, range(1e-6, 1e-6))]), &opts);
+    assert!(
+        e.contains("block 0x000b (the image data) is missing"),
+        "{e}"
+    );
     let mut v102 = single.clone();
     v102[12..16].copy_from_slice(b"1.02");
     assert!(err(&v102, &opts).contains("version (byte 12) = \"1.02\""));
