@@ -48,6 +48,13 @@ fn point_brdf(c: &mut Criterion) {
     g.bench_function("point_brdf_x1000", |b| {
         b.iter(|| dirs.iter().map(|r| m.brdf(&inc, black_box(r))).sum::<f64>());
     });
+    g.bench_function("point_brdf_batch_x1000", |b| {
+        let mut out = Vec::with_capacity(dirs.len());
+        b.iter(|| {
+            m.brdf_batch(&inc, black_box(&dirs), &mut out);
+            out.iter().sum::<f64>()
+        });
+    });
     g.bench_function("point_mueller_x1000", |b| {
         b.iter(|| {
             dirs.iter()
