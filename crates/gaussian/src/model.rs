@@ -299,7 +299,14 @@ impl DistributionModel {
     /// along `k_out`: from the ray's Jones matrix for `exact-unpolarized`, `s`, `p`
     /// (module docs), the product of averages for `paper`.
     #[inline]
-    fn path_factor(&self, inc: &Incidence, m: &Vec3, gamma: f64, k2: &Vec3, k_out: &Vec3) -> f64 {
+    pub(crate) fn path_factor(
+        &self,
+        inc: &Incidence,
+        m: &Vec3,
+        gamma: f64,
+        k2: &Vec3,
+        k_out: &Vec3,
+    ) -> f64 {
         let t = self.options.transmission;
         if t != Transmission::Paper {
             let amps = self.amplitudes(inc, gamma, k2, k_out);

@@ -216,6 +216,17 @@ pub const ROWS: &[RowSpec] = &[
         quick: true,
     },
     RowSpec {
+        operation: "Distribution model, batch point BRDF (issue 22)",
+        size: "1000 directions",
+        id: "gaussian/point_brdf_batch_x1000",
+        floor: None,
+        work: 1000.0,
+        unit: Unit::Evaluations,
+        target: Some(Target::MinPerSecond(1.2e8)),
+        target_note: "≥ 120 M evaluations/s, 1 thread",
+        quick: true,
+    },
+    RowSpec {
         operation: "Distribution model, point Mueller BRDF",
         size: "1000 directions",
         id: "gaussian/point_mueller_x1000",
