@@ -233,9 +233,11 @@ fn textures(
             tag: "TexturePtr".into(),
             what: format!("{ptr:?}: expected plane numbers below NumberOfPlanes = {planes}, separated by ;"),
         })?;
-        let start = (offset as u64) + (plane as u64) * (line as u64) * (h.ny as u64);
+        // Saturating: a hostile plane number or offset must not overflow.
+        let start = (offset as u64)
+            .saturating_add((plane as u64).saturating_mul(line as u64 * h.ny as u64));
         let need = (line as u64) * (h.ny as u64 - 1) + h.nx as u64;
-        if (bytes.len() as u64) < start + need {
+        if (bytes.len() as u64) < start.saturating_add(need) {
             return Err(Al3dError::Truncated {
                 what: format!("texture plane {plane}"),
                 offset: (start as usize).min(bytes.len()),
@@ -347,9 +349,10 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
                 None
             } else {
                 let line = h.nx.div_ceil(8) * 8;
-                let start = (o as u64) + (p as u64) * (line as u64) * (h.ny as u64);
+                let start =
+                    (o as u64).saturating_add((p as u64).saturating_mul(line as u64 * h.ny as u64));
                 let need = (line as u64) * (h.ny as u64 - 1) + h.nx as u64;
-                if (bytes.len() as u64) < start + need {
+                if (bytes.len() as u64) < start.saturating_add(need) {
                     return Err(Al3dError::Truncated {
                         what: format!("repeatability plane {p}"),
                         offset: (start as usize).min(bytes.len()),
