@@ -209,6 +209,31 @@ fn header(bytes: &[u8], t: &[(String, String)]) -> Result<Header, Al3dError> {
     })
 }
 
+/// Start of byte plane `plane` of the block at `offset` (lines of `nx` bytes padded to
+/// 8, `ny` lines per plane), checked to lie inside the file; `what` names the plane in
+/// the error. Saturating: a hostile plane number or offset must not overflow the check.
+fn byte_plane(
+    bytes: &[u8],
+    h: &Header,
+    offset: usize,
+    plane: usize,
+    what: &str,
+) -> Result<usize, Al3dError> {
+    let line = h.nx.div_ceil(8) * 8;
+    let start =
+        (offset as u64).saturating_add((plane as u64).saturating_mul(line as u64 * h.ny as u64));
+    let need = (line as u64) * (h.ny as u64 - 1) + h.nx as u64;
+    if (bytes.len() as u64) < start.saturating_add(need) {
+        return Err(Al3dError::Truncated {
+            what: format!("{what} plane {plane}"),
+            offset: (start as usize).min(bytes.len()),
+            needed: need,
+            end: bytes.len(),
+        });
+    }
+    Ok(start as usize)
+}
+
 /// The texture channels: each name with the start of every plane it averages.
 fn textures(
     bytes: &[u8],
@@ -226,26 +251,13 @@ fn textures(
         return Ok(Vec::new());
     }
     let planes: usize = number(t, "NumberOfPlanes")?;
-    let line = h.nx.div_ceil(8) * 8;
     let mut starts = Vec::new();
     for p in ptr.split(';') {
         let plane: usize = p.trim().parse().ok().filter(|&p| p < planes).ok_or_else(|| Al3dError::Tag {
             tag: "TexturePtr".into(),
             what: format!("{ptr:?}: expected plane numbers below NumberOfPlanes = {planes}, separated by ;"),
         })?;
-        // Saturating: a hostile plane number or offset must not overflow.
-        let start = (offset as u64)
-            .saturating_add((plane as u64).saturating_mul(line as u64 * h.ny as u64));
-        let need = (line as u64) * (h.ny as u64 - 1) + h.nx as u64;
-        if (bytes.len() as u64) < start.saturating_add(need) {
-            return Err(Al3dError::Truncated {
-                what: format!("texture plane {plane}"),
-                offset: (start as usize).min(bytes.len()),
-                needed: need,
-                end: bytes.len(),
-            });
-        }
-        starts.push(start as usize);
+        starts.push(byte_plane(bytes, h, offset, plane, "texture")?);
     }
     let mut out = vec![("texture".to_string(), starts.clone())];
     if starts.len() == 3 {
@@ -348,19 +360,8 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             if o == 0 {
                 None
             } else {
-                let line = h.nx.div_ceil(8) * 8;
-                let start =
-                    (o as u64).saturating_add((p as u64).saturating_mul(line as u64 * h.ny as u64));
-                let need = (line as u64) * (h.ny as u64 - 1) + h.nx as u64;
-                if (bytes.len() as u64) < start.saturating_add(need) {
-                    return Err(Al3dError::Truncated {
-                        what: format!("repeatability plane {p}"),
-                        offset: (start as usize).min(bytes.len()),
-                        needed: need,
-                        end: bytes.len(),
-                    });
-                }
-                Some((start as usize, shift, min, number(&t, "DepthResFilterVal")?))
+                let start = byte_plane(bytes, &h, o, p, "repeatability")?;
+                Some((start, shift, min, number(&t, "DepthResFilterVal")?))
             }
         }
         _ => None,
