@@ -272,7 +272,13 @@ impl DistributionModel {
             ConeMethod::Exact => self.cone_integral_of(
                 inc,
                 cone,
-                |r: &Vec3| self.mueller_about(inc, r, &Vec3::zeros(), Some(&u)),
+                |dirs: &[Vec3], out: &mut Vec<Mueller>| {
+                    out.clear();
+                    out.extend(
+                        dirs.iter()
+                            .map(|r| self.mueller_about(inc, r, &Vec3::zeros(), Some(&u))),
+                    );
+                },
                 |p: &Vec3, o: &Vec3| self.mueller_about(inc, p, o, Some(&u)),
             ),
         };
