@@ -710,23 +710,24 @@ impl Run<'_> {
         // numbers) are drawn for the whole group, the grid loads the data of their first
         // columns together (the loads overlap instead of each ray waiting on its own),
         // then the rays are traced one by one, in order, as before.
-        let mut rngs: Vec<ChaCha8Rng> = Vec::with_capacity(WARM_GROUP);
+        // The generators stay in place (each is a few hundred bytes).
+        let mut rngs: Vec<ChaCha8Rng> = vec![self.base_rng.clone(); WARM_GROUP];
         let mut starts: Vec<Vec3> = Vec::with_capacity(WARM_GROUP);
         let mut r = first;
         while r < end {
             let stop = end.min(r + WARM_GROUP as u64);
-            for q in r..stop {
-                let mut rng = self.base_rng.clone();
+            for (rng, q) in rngs.iter_mut().zip(r..stop) {
+                rng.clone_from(&self.base_rng);
                 rng.set_stream(ii * self.rays + q);
                 let x = l * rng.random::<f64>();
                 let y = l * rng.random::<f64>();
-                rngs.push(rng);
                 starts.push(Vec3::new(x, y, 0.0));
             }
             self.grid.warm(self.flakes, &starts);
-            for (mut rng, pos) in rngs.drain(..).zip(starts.drain(..)) {
-                self.ray(pos, &k1, &entry, &mut rng, &mut p);
+            for (rng, &pos) in rngs.iter_mut().zip(&starts) {
+                self.ray(pos, &k1, &entry, rng, &mut p);
             }
+            starts.clear();
             r = stop;
         }
         p
