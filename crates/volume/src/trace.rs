@@ -46,6 +46,9 @@ pub const DEFAULT_MIN_WEIGHT: f64 = 1e-6;
 /// Largest number of rays per incidence.
 pub const MAX_RAYS: u64 = 1 << 40;
 
+/// Rays whose first columns are loaded together (see `Run::batch`).
+const WARM_GROUP: usize = 16;
+
 /// Batches traced between two progress reports.
 const PROGRESS_CHUNK: usize = 16;
 
@@ -700,21 +703,49 @@ impl Run<'_> {
             energy: [0.0; E_SLOTS],
             segments: 0,
         };
+        let l = self.tile;
         let first = b * self.batch_rays;
-        for r in first..first + self.batch_rays {
-            let mut rng = self.base_rng.clone();
-            rng.set_stream(ii * self.rays + r);
-            self.ray(&k1, &entry, &mut rng, &mut p);
+        let end = first + self.batch_rays;
+        // Rays go in groups: each ray's generator and entry point (its first two
+        // numbers) are drawn for the whole group, the grid loads the data of their first
+        // columns together (the loads overlap instead of each ray waiting on its own),
+        // then the rays are traced one by one, in order, as before.
+        // The generators stay in place (each is a few hundred bytes).
+        let mut rngs: Vec<ChaCha8Rng> = vec![self.base_rng.clone(); WARM_GROUP];
+        let mut starts: Vec<Vec3> = Vec::with_capacity(WARM_GROUP);
+        let mut r = first;
+        while r < end {
+            let stop = end.min(r + WARM_GROUP as u64);
+            for (rng, q) in rngs.iter_mut().zip(r..stop) {
+                rng.clone_from(&self.base_rng);
+                rng.set_stream(ii * self.rays + q);
+                let x = l * rng.random::<f64>();
+                let y = l * rng.random::<f64>();
+                starts.push(Vec3::new(x, y, 0.0));
+            }
+            self.grid.warm(self.flakes, &starts);
+            for (rng, &pos) in rngs.iter_mut().zip(&starts) {
+                self.ray(pos, &k1, &entry, rng, &mut p);
+            }
+            starts.clear();
+            r = stop;
         }
         p
     }
 
-    /// One path from the top interface until it has no weight left.
-    fn ray(&self, k1: &Vec3, entry: &FresnelPower, rng: &mut ChaCha8Rng, p: &mut Partial) {
+    /// One path from the entry point `pos` (on the top interface) until it has no
+    /// weight left.
+    fn ray(
+        &self,
+        mut pos: Vec3,
+        k1: &Vec3,
+        entry: &FresnelPower,
+        rng: &mut ChaCha8Rng,
+        p: &mut Partial,
+    ) {
         let opts = self.options;
         let n = opts.n;
         let l = self.tile;
-        let mut pos = Vec3::new(l * rng.random::<f64>(), l * rng.random::<f64>(), 0.0);
         let mut k = *k1;
         let (mut ws, mut wp) = (0.5 * entry.ts, 0.5 * entry.tp);
         let mut flake_hits = 0u32;
