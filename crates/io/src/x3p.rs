@@ -407,14 +407,75 @@ fn parse_header(
 type Member = (Vec<u8>, Option<String>);
 
 /// Reads member `name`, at most `limit` bytes of it (so that a zip bomb or a lying header
-/// cannot exhaust memory); with `hash`, also its MD5, computed on a second thread while a
-/// large member is being decompressed.
+/// cannot exhaust memory); with `hash`, also its MD5.
 fn read_member<R: Read + Seek>(
     archive: &mut zip::ZipArchive<R>,
     name: &str,
     hash: bool,
     limit: u64,
 ) -> Result<Option<Member>, X3pError> {
+    let mut buf = Vec::new();
+    let read = stream_member(archive, name, hash, limit, &mut buf)?;
+    Ok(read.map(|(_, digest)| (buf, digest)))
+}
+
+/// Where [`stream_member`] puts a member's bytes.
+trait Sink {
+    /// Called once before the first chunk, with a capacity hint in bytes.
+    fn reserve(&mut self, hint: usize);
+    /// One chunk of the member, in order.
+    fn take(&mut self, chunk: &[u8]);
+}
+
+impl Sink for Vec<u8> {
+    fn reserve(&mut self, hint: usize) {
+        Vec::reserve(self, hint);
+    }
+    fn take(&mut self, chunk: &[u8]) {
+        self.extend_from_slice(chunk);
+    }
+}
+
+/// Decodes `data.bin` into heights as it is inflated: at most `n` points of `dtype`,
+/// `raw × scale (+ offset)`.
+struct Points {
+    z: Vec<f64>,
+    n: usize,
+    dtype: DataType,
+    scale: f64,
+    offset: f64,
+}
+
+impl Sink for Points {
+    fn reserve(&mut self, hint: usize) {
+        self.z.reserve((hint / self.dtype.width()).min(self.n));
+    }
+    fn take(&mut self, chunk: &[u8]) {
+        let room = self.n - self.z.len();
+        let (dtype, scale, offset) = (self.dtype, self.scale, self.offset);
+        self.z
+            .extend(chunk.chunks_exact(dtype.width()).take(room).map(|c| {
+                let z = dtype.decode(c) * scale;
+                if offset == 0.0 { z } else { z + offset }
+            }));
+    }
+}
+
+/// Inflates member `name` chunk by chunk into `sink`, at most `limit` bytes of it (so
+/// that a zip bomb or a lying header cannot exhaust memory), without holding the whole
+/// member: every chunk but the last is [`STREAM_CHUNK`] bytes (a multiple of every
+/// point width). [`Sink::reserve`] is called first with a capacity hint, the declared
+/// size bounded by what the compressed bytes can inflate to. With `hash`, the MD5 of the
+/// bytes is computed too, on a second thread for a large member (each chunk goes to it
+/// once `sink` has seen it, while the next one is being inflated). Returns the number
+/// of bytes read and the MD5 (lower-case hex); `None` when there is no such member.
+fn stream_member<R: Read + Seek>(
+    archive: &mut zip::ZipArchive<R>,
+    name: &str,
+    hash: bool,
+    limit: u64,
+    sink: &mut impl Sink,
+) -> Result<Option<(u64, Option<String>)>, X3pError> {
     let file = match archive.by_name(name) {
         Ok(f) => f,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
@@ -428,37 +489,55 @@ fn read_member<R: Read + Seek>(
         .compressed_size()
         .saturating_mul(1032)
         .saturating_add(64);
-    let hint = usize::try_from(declared.min(limit).min(plausible))
-        .unwrap_or(0)
-        .min(1 << 28);
+    sink.reserve(
+        usize::try_from(declared.min(limit).min(plausible))
+            .unwrap_or(0)
+            .min(1 << 28),
+    );
     let mut file = file.take(limit);
-    let mut buf = Vec::with_capacity(hint);
-    const CHUNK: usize = 1 << 20;
-    if !hash || declared < 8 * CHUNK as u64 {
-        file.read_to_end(&mut buf).map_err(zip_err)?;
-        let digest = hash.then(|| md5_hex(&buf));
-        return Ok(Some((buf, digest)));
+    let mut total = 0u64;
+    // One chunk: inflated into `chunk` (cleared first); false at the end of the member.
+    let mut next = |chunk: &mut Vec<u8>| -> Result<bool, X3pError> {
+        chunk.clear();
+        let n = (&mut file)
+            .take(STREAM_CHUNK as u64)
+            .read_to_end(chunk)
+            .map_err(zip_err)?;
+        total += n as u64;
+        Ok(n > 0)
+    };
+    if !hash || declared < 8 * STREAM_CHUNK as u64 {
+        let mut h = hash.then(Md5::new);
+        let mut chunk = Vec::with_capacity(STREAM_CHUNK);
+        while next(&mut chunk)? {
+            sink.take(&chunk);
+            if let Some(h) = &mut h {
+                h.update(&chunk);
+            }
+        }
+        return Ok(Some((total, h.map(|h| hex(&h.finalize())))));
     }
     let digest = std::thread::scope(|scope| {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(16);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(4);
+        let (back_tx, back_rx) = std::sync::mpsc::channel::<Vec<u8>>();
         let hasher = scope.spawn(move || {
             let mut h = Md5::new();
             for chunk in rx {
                 h.update(&chunk);
+                // Hand the buffer back for reuse; the reader may have stopped already.
+                let _ = back_tx.send(chunk);
             }
             hex(&h.finalize())
         });
         let read = (|| {
             loop {
-                let mut chunk = Vec::with_capacity(CHUNK);
-                let n = (&mut file)
-                    .take(CHUNK as u64)
-                    .read_to_end(&mut chunk)
-                    .map_err(zip_err)?;
-                if n == 0 {
+                let mut chunk = back_rx
+                    .try_recv()
+                    .unwrap_or_else(|_| Vec::with_capacity(STREAM_CHUNK));
+                if !next(&mut chunk)? {
                     return Ok(());
                 }
-                buf.extend_from_slice(&chunk);
+                sink.take(&chunk);
                 if tx.send(chunk).is_err() {
                     return Err(X3pError::Zip(format!(
                         "member {name:?}: checksum thread stopped"
@@ -472,8 +551,12 @@ fn read_member<R: Read + Seek>(
             .map_err(|_| X3pError::Zip(format!("member {name:?}: checksum thread failed")));
         read.and(digest)
     })?;
-    Ok(Some((buf, Some(digest))))
+    Ok(Some((total, Some(digest))))
 }
+
+/// Bytes inflated per step by [`stream_member`] (1 MiB, a multiple of every point
+/// width).
+const STREAM_CHUNK: usize = 1 << 20;
 
 /// Deepest `Record2` element whose text goes into the metadata (ISO 25178-72 nests
 /// two levels, e.g. `Instrument/Manufacturer`).
@@ -644,23 +727,34 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             detail: detail(),
         });
     }
-    // Read one byte more than needed, to tell "too long" from "just right".
-    let (data, computed) = read_member(
+    // Read one byte more than needed, to tell "too long" from "just right"; the points
+    // are decoded as the member is inflated, into the heights' own vector (no copy of
+    // the member's bytes is held), at most `n` of them.
+    let mut points = Points {
+        z: Vec::new(),
+        n,
+        dtype: h.dtype,
+        scale: h.z_scale,
+        offset: h.z_offset,
+    };
+    let (read_len, computed) = stream_member(
         &mut archive,
         &data_name,
         h.data_md5.is_some(),
         expected.saturating_add(1),
+        &mut points,
     )?
     .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
-    if data.len() as u64 != expected {
-        let found = if data.len() as u64 > expected {
+    let z = points.z;
+    if read_len != expected {
+        let found = if read_len > expected {
             // Longer than needed: report the size the archive declares.
             archive
                 .by_name(&data_name)
                 .map(|f| f.size())
-                .unwrap_or(data.len() as u64)
+                .unwrap_or(read_len)
         } else {
-            data.len() as u64
+            read_len
         };
         return Err(X3pError::DataLength {
             member: data_name,
@@ -672,15 +766,6 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     if let (Some(d), Some(c)) = (&h.data_md5, computed) {
         check_md5(&data_name, &c, Ok(d), options, &mut notes)?;
     }
-
-    let (z_scale, z_offset) = (h.z_scale, h.z_offset);
-    let z: Vec<f64> = data
-        .chunks_exact(width)
-        .map(|c| {
-            let z = h.dtype.decode(c) * z_scale;
-            if z_offset == 0.0 { z } else { z + z_offset }
-        })
-        .collect();
 
     let mut valid = vec![true; n];
     if let Some(link) = &h.valid_link {

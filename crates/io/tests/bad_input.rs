@@ -1096,3 +1096,58 @@ fn many_header_lines_columns_and_deep_nesting_stay_cheap() {
     assert!(!map.metadata().contains_key("x3p.l0.l1.l2.l3.l4.l5.v"));
     assert!(map.metadata().len() < 40, "{}", map.metadata().len());
 }
+
+#[test]
+fn a_large_member_is_decoded_as_it_is_inflated_and_its_md5_checked() {
+    // 1200 x 1000 int32 points (4.8 MB) and 1100 x 1100 float64 points (9.7 MB, above
+    // the 8 MiB where the MD5 runs on a second thread while the next 1 MiB chunk is
+    // inflated): every point is the value it was written as (`raw × 1e-6 m` in µm,
+    // raw = 7i − 3 000 000), the data MD5 (md-5 crate) is checked, and one flipped byte
+    // in the last chunk is a checksum error naming the member.
+    for (nx, ny, dtype, width) in [(1200usize, 1000usize, "L", 4usize), (1100, 1100, "D", 8)] {
+        let raw: Vec<i64> = (0..nx * ny).map(|i| 7 * i as i64 - 3_000_000).collect();
+        let data: Vec<u8> = raw
+            .iter()
+            .flat_map(|&r| {
+                if width == 4 {
+                    i32::try_from(r).unwrap().to_le_bytes().to_vec()
+                } else {
+                    (r as f64).to_le_bytes().to_vec()
+                }
+            })
+            .collect();
+        let with_md5 = |data: &[u8]| {
+            xml(&nx.to_string(), &ny.to_string(), dtype, "1e-6").replace(
+                "<PointDataLink>bindata/data.bin</PointDataLink>",
+                &format!(
+                    "<PointDataLink>bindata/data.bin</PointDataLink><MD5ChecksumPointData>{}</MD5ChecksumPointData>",
+                    md5_hex(data)
+                ),
+            )
+        };
+        let bytes = x3p(&with_md5(&data), &data);
+        let (map, _) = read_map_bytes(&bytes, &ReadOptions::default()).unwrap();
+        assert_eq!((map.nx(), map.ny()), (nx, ny));
+        for (i, (&z, &r)) in map.heights().iter().zip(&raw).enumerate() {
+            // 1e-6 m per count is 1 µm per count: the µm value is the raw count
+            // (the product by 1e-6 and back by 1e6 is exact for these integers to 1 ulp).
+            assert!(
+                (z - r as f64).abs() <= 1e-9 * (r as f64).abs().max(1.0),
+                "{i}: {z} vs {r}"
+            );
+        }
+        assert_eq!(
+            map.metadata().get("x3p.md5").map(String::as_str),
+            Some("ok")
+        );
+        let mut bad = data.clone();
+        let k = bad.len() - 5;
+        bad[k] ^= 0x40;
+        let e = x3p_err(&x3p(&with_md5(&data), &bad));
+        assert!(
+            matches!(&e, X3pError::Md5Mismatch { .. })
+                && e.to_string().contains("bindata/data.bin"),
+            "{e:?}"
+        );
+    }
+}
