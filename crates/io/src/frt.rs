@@ -528,19 +528,8 @@ pub fn channels(bytes: &[u8], _options: &ReadOptions) -> Result<Vec<Channel>, Fr
 
 /// `YYYY-MM-DD hh:mm:ss UTC` of a count of seconds since 1970-01-01 00:00 UTC.
 fn utc(seconds: u32) -> String {
-    let days = i64::from(seconds / 86_400);
+    let (year, month, day) = crate::provenance::civil_from_days(i64::from(seconds / 86_400));
     let s = seconds % 86_400;
-    // Days to a proleptic Gregorian date, in 400-year eras of 146097 days starting on
-    // 0000-03-01 (so that the leap day is the last day of a year).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
     format!(
         "{year:04}-{month:02}-{day:02} {:02}:{:02}:{:02} UTC",
         s / 3600,

@@ -42,6 +42,7 @@ pub mod measured;
 pub mod metropro;
 pub mod opd;
 pub mod plu;
+pub mod provenance;
 pub mod reader;
 pub mod sdf;
 pub mod select;

@@ -469,11 +469,23 @@ pub enum SdfWriteError {
 
 /// The `key = value` header lines both writers share, from the map's `sdf.*` metadata
 /// where it has them (a file read from SDF keeps its ManufacID and dates).
+/// Without one, `ManufacID` and `CreateDate` come from what the map's metadata says of
+/// another format's file ([`crate::provenance`]).
 fn field(map: &HeightMap, key: &str, default: &str, width: usize) -> String {
+    let carried = || {
+        let p = crate::provenance::Provenance::of(map);
+        match key {
+            "ManufacID" => p.manufacturer,
+            "CreateDate" => p.sdf_date(),
+            _ => None,
+        }
+    };
     let v = map
         .metadata()
         .get(&format!("sdf.{key}"))
-        .map_or(default, String::as_str);
+        .cloned()
+        .or_else(carried)
+        .unwrap_or_else(|| default.to_string());
     v.chars()
         .filter(|c| c.is_ascii_graphic())
         .take(width)
@@ -492,7 +504,12 @@ pub fn write_sdf_text(map: &HeightMap, kind: ValueKind) -> String {
     let _ = writeln!(
         s,
         "ManufacID   = {}",
-        field(map, "ManufacID", "flakescat", 10)
+        field(
+            map,
+            "ManufacID",
+            crate::provenance::SDF_DEFAULT_MANUFACTURER,
+            10
+        )
     );
     let _ = writeln!(
         s,
@@ -553,7 +570,15 @@ pub fn write_sdf_binary(map: &HeightMap, kind: ValueKind) -> Result<Vec<u8>, Sdf
         v.resize(n, 0);
         v
     };
-    b.extend(fixed(field(map, "ManufacID", "flakescat", 10), 10));
+    b.extend(fixed(
+        field(
+            map,
+            "ManufacID",
+            crate::provenance::SDF_DEFAULT_MANUFACTURER,
+            10,
+        ),
+        10,
+    ));
     b.extend(fixed(field(map, "CreateDate", "010119700000", 12), 12));
     b.extend(fixed(field(map, "ModDate", "010119700000", 12), 12));
     b.extend_from_slice(&px.to_le_bytes());

@@ -889,11 +889,24 @@ fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8
         bits
     });
 
+    // The map's own X3P fields, else what its metadata says of another format's file
+    // (crate::provenance), else the placeholder.
+    let carried = crate::provenance::Provenance::of(map);
+    let comment = crate::provenance::Provenance::x3p_comment(map);
     let meta = |key: &str, default: &str| {
+        let from_source = match key {
+            "x3p.date" => carried.date.as_deref(),
+            "x3p.instrument.manufacturer" => carried.manufacturer.as_deref(),
+            "x3p.instrument.model" => carried.model.as_deref(),
+            "x3p.instrument.serial" => carried.serial.as_deref(),
+            "x3p.comment" => comment.as_deref(),
+            _ => None,
+        };
         xml_escape(
             map.metadata()
                 .get(key)
                 .map(String::as_str)
+                .or(from_source)
                 .unwrap_or(default),
         )
     };

@@ -1042,3 +1042,73 @@ fn channels_by_name_and_kind_mismatches_are_refused_with_the_list() {
         flakescatter_io::read_intensity(data("al3d-1.al3d"), &ReadOptions::default()).unwrap_err();
     assert!(e.to_string().contains("depth channel holds heights"), "{e}");
 }
+
+#[test]
+fn converted_files_keep_date_maker_and_serial() {
+    // What the ISO writers carry over from each instrument file (io::provenance). Every
+    // acquisition date, maker and serial here is SurfaceTopography 1.27.1's too
+    // (`open_topography(f).channels[0].info`: `acquisition_time`, `instrument`), seen on
+    // the raw bytes as well: `strings plu-1.plu` shows `Fri Mar 10 16:35:59 2023`,
+    // `strings opd-1.opd` `16:19:48` and `7/7/2015`; sur-3.sur's date words (u16 LE:
+    // 53 s, 8 min, 10 h, day 22, month 6, year 0x07e7); metropro-1.dat's big-endian time
+    // stamp at byte 76 is 1311439776, GNU `date -u -d @1311439776` 2011-07-23 16:49:36
+    // UTC; frt-2 starts at 1687796545 s (block 0x72), 2023-06-26 16:22:25 UTC. The
+    // SUR file names no maker (SurfaceTopography's "Digital Surf" is the software's).
+    use flakescatter_io::{read_map_bytes, sdf, x3p};
+    let cases = [
+        ("plu-1.plu", "2023-03-10T16:35:59", "Sensofar", "N/A"),
+        ("opd-1.opd", "2015-07-07T16:19:48", "Wyko", "N/A"),
+        ("sur-3.sur", "2023-06-22T10:08:53", "N/A", "N/A"),
+        ("metropro-1.dat", "2011-07-23T16:49:36Z", "Zygo", "N/A"),
+        ("frt-2.frt", "2023-06-26T16:22:25Z", "FRT", "SN_1036"),
+    ];
+    for (file, date, maker, serial) in cases {
+        let (map, _) = read_map(data(file), &ReadOptions::default()).unwrap();
+        let bytes = x3p::write_x3p_bytes(&map).unwrap();
+        let (back, _) = read_map_bytes(&bytes, &ReadOptions::default()).unwrap();
+        let m = back.metadata();
+        let get = |k: &str| m.get(k).map(String::as_str);
+        assert_eq!(get("x3p.date"), Some(date), "{file}");
+        assert_eq!(get("x3p.instrument.manufacturer"), Some(maker), "{file}");
+        assert_eq!(get("x3p.instrument.serial"), Some(serial), "{file}");
+        // The comment names the source format and holds its other fields.
+        let comment = get("x3p.comment").unwrap();
+        let format = map.metadata()["format"].clone();
+        assert!(
+            comment.contains(&format!("from a {format} file")),
+            "{comment}"
+        );
+        let (some_key, some_value) = map
+            .metadata()
+            .iter()
+            .find(|(k, _)| k.starts_with(&format!("{format}.")))
+            .unwrap();
+        assert!(
+            comment.contains(&format!("{some_key}={}", some_value.trim())),
+            "{comment}"
+        );
+        // SDF holds the date to the minute and ten characters of the maker.
+        let text = sdf::write_sdf_text(&map, flakescatter_io::ValueKind::Height);
+        let sdf_date = format!(
+            "{}{}{}{}{}",
+            &date[8..10],
+            &date[5..7],
+            &date[..4],
+            &date[11..13],
+            &date[14..16]
+        );
+        assert!(
+            text.contains(&format!("CreateDate  = {sdf_date}\n")),
+            "{file}"
+        );
+        let id = if maker == "N/A" { "flakescat" } else { maker };
+        assert!(text.contains(&format!("ManufacID   = {id}\n")), "{file}");
+    }
+    // Round trips within a format change nothing: an X3P's own fields win.
+    let (x, _) = read_map(data("../testing.x3p"), &ReadOptions::default()).unwrap();
+    let (back, _) =
+        read_map_bytes(&x3p::write_x3p_bytes(&x).unwrap(), &ReadOptions::default()).unwrap();
+    for k in ["x3p.date", "x3p.comment", "x3p.instrument.manufacturer"] {
+        assert_eq!(back.metadata().get(k), x.metadata().get(k), "{k}");
+    }
+}
