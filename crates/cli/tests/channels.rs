@@ -318,3 +318,38 @@ fn intensity_channel_of_another_size_is_refused_by_name() {
     );
     std::fs::remove_file(&path).unwrap();
 }
+
+#[test]
+fn a_directory_of_instrument_files_is_read_by_their_extensions() {
+    // A directory argument takes the instrument formats with an extension of their own
+    // (`.plu`, `.frt`, …) beside the ISO ones; `.dat` (MetroPro, but also text and
+    // other data) and other files are left to be named explicitly.
+    let dir = std::env::temp_dir().join(format!("flakescatter-dir-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in ["plu-1.plu", "frt-2.frt", "metropro-1.dat", "README.md"] {
+        std::fs::copy(data(f), dir.join(f)).unwrap();
+    }
+    let per = dir.join("per-map.csv");
+    let o = run(&[
+        "stats",
+        "--map",
+        &dir.display().to_string(),
+        "--per-map",
+        &per.display().to_string(),
+        "--json",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let table = std::fs::read_to_string(&per).unwrap();
+    let maps: Vec<&str> = table
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().rsplit('/').next().unwrap())
+        .collect();
+    assert_eq!(maps, ["frt-2.frt", "plu-1.plu"], "{table}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -5,7 +5,7 @@
 //! **Which files are maps** (docs/cli.md "Several maps"): every `MAP` argument is a
 //! file, a directory or a glob pattern (`maps/*.x3p`, quoted so that the shell leaves
 //! it alone). A directory stands for its files (not its subdirectories) with a map or
-//! stack extension (`.x3p`, `.sdf`, `.txt`, `.asc`, `.tif`, `.tiff`), in name order,
+//! stack extension ([`MAP_EXTENSIONS`]: ISO, text, TIFF and instrument formats but `.dat`), in name order,
 //! hidden files left out; with `--intensity-suffix` only those whose name carries the
 //! height suffix (`--height-suffix`, default `.height`) before the extension. A pattern
 //! stands for the files it matches, in name order. A directory or pattern that gives
@@ -34,8 +34,13 @@ use crate::output::Plan;
 pub use collect::{expand, pair};
 pub use load::{load_all, read_detectors};
 
-/// Extensions of files taken from a directory as maps or stacks.
-pub const MAP_EXTENSIONS: [&str; 6] = ["x3p", "sdf", "txt", "asc", "tif", "tiff"];
+/// Extensions of files taken from a directory as maps or stacks: the ISO formats, text
+/// matrices, TIFF stacks and the instrument formats with an extension of their own
+/// (MetroPro's `.dat` is also used for text and other data, so `.dat` files are named
+/// one by one or by a pattern such as `dir/*.dat`).
+pub const MAP_EXTENSIONS: [&str; 13] = [
+    "x3p", "sdf", "txt", "asc", "tif", "tiff", "gwy", "plu", "apx", "opd", "sur", "al3d", "frt",
+];
 
 /// Largest number of maps one command reads.
 pub const MAX_MAPS: usize = 100_000;
