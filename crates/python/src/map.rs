@@ -332,8 +332,9 @@ impl From<ReadMapError> for ReadFail {
 }
 
 /// Writes a map as X3P (`.x3p`: heights in metres, float64, `valid.bin` for invalid
-/// points) or plain text (`.txt`: µm with pitch header lines); `format` (`"x3p"` or
-/// `"text"`) overrides the extension.
+/// points), SDF (`.sdf`: ISO 25178-71 text, `aISO-1.0`, the shortest decimals that read
+/// back to the same heights, `BAD` for invalid points) or plain text (`.txt`: µm with
+/// pitch header lines); `format` (`"x3p"`, `"sdf"` or `"text"`) overrides the extension.
 #[pyfunction]
 #[pyo3(signature = (map, path, format = None))]
 pub fn write_map(
@@ -345,21 +346,23 @@ pub fn write_map(
     let path = path_of(py, "path", path)?;
     let fmt = match format {
         Some("x3p") => MapFormat::X3p,
+        Some("sdf") => MapFormat::Sdf,
         Some("text") => MapFormat::Text,
         Some(f) => {
             return Err(input(
                 py,
-                format!("format={f:?}: expected \"x3p\" or \"text\" (SDF is read, not written)"),
+                format!("format={f:?}: expected \"x3p\", \"sdf\" or \"text\""),
             ));
         }
         None => match path.extension().and_then(|e| e.to_str()) {
             Some(e) if e.eq_ignore_ascii_case("x3p") => MapFormat::X3p,
+            Some(e) if e.eq_ignore_ascii_case("sdf") => MapFormat::Sdf,
             Some(e) if e.eq_ignore_ascii_case("txt") => MapFormat::Text,
             _ => {
                 return Err(input(
                     py,
                     format!(
-                        "path {}: a map is written as .x3p or .txt (or give format=\"x3p\"/\"text\")",
+                        "path {}: a map is written as .x3p, .sdf or .txt (or give format=\"x3p\"/\"sdf\"/\"text\")",
                         path.display()
                     ),
                 ));

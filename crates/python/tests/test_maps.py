@@ -81,6 +81,24 @@ def test_write_map_round_trips_and_is_read_by_others(tmp_path, cli):
         np.testing.assert_array_equal(back.heights_um, m.heights_um)
         assert back.pitch_um == m.pitch_um
         assert cli.json("info", p)["valid_points"] == m.valid_count
+    # SDF (ISO 25178-71 text): read back exactly, and parsed here by hand — header
+    # lines `key = value` up to `*`, then one profile per line in metres (Zscale 1e-6
+    # applies to µm values), `BAD` for invalid points.
+    sdf = tmp_path / "out.sdf"
+    fs.write_map(m, sdf)
+    back = fs.read_map(sdf)
+    np.testing.assert_array_equal(back.valid, m.valid)
+    np.testing.assert_array_equal(back.heights_um[m.valid], m.heights_um[m.valid])
+    lines = sdf.read_text().splitlines()
+    star = lines.index("*")
+    header = dict(l.split("=", 1) for l in lines[1:star])
+    header = {k.strip(): v.strip() for k, v in header.items()}
+    assert lines[0] == "aISO-1.0"
+    assert (int(header["NumPoints"]), int(header["NumProfiles"])) == (m.nx, m.ny)
+    rows = [[np.nan if t == "BAD" else float(t) for t in l.split()] for l in lines[star + 1:] if l.strip() and l != "*"]
+    z = np.array(rows) * float(header["Zscale"]) * 1e6
+    np.testing.assert_allclose(z[m.valid], m.heights_um[m.valid], rtol=1e-15)
+    assert np.isnan(z[~m.valid]).all()
     # The text format read by numpy: µm, NaN for invalid points, '#' header lines.
     np.testing.assert_array_equal(np.loadtxt(txt, comments="#"), m.heights_um)
     # The X3P decoded by hand: heights in metres, NaN where invalid.
@@ -182,7 +200,7 @@ def test_bad_maps_are_input_errors(args):
 def test_write_map_errors(tmp_path):
     m = fs.read_map(HEIGHT)
     with pytest.raises(fs.InputError):
-        fs.write_map(m, tmp_path / "x.sdf")
+        fs.write_map(m, tmp_path / "x.png")
     with pytest.raises(fs.InputError):
         fs.write_map(m, tmp_path / "x.bin", format="png")
     with pytest.raises(fs.FileError):

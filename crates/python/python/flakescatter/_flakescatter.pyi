@@ -109,7 +109,7 @@ def read_map(
     Raises FileError (missing file), FileFormatError (bad content), InputError.
     """
 
-def write_map(map: Map, path: PathLike, format: Optional[Literal["x3p", "text"]] = None) -> None:
+def write_map(map: Map, path: PathLike, format: Optional[Literal["x3p", "sdf", "text"]] = None) -> None:
     """Write a map as X3P (``.x3p``; heights in metres) or plain text (``.txt``; µm)."""
 
 def segment(
