@@ -215,29 +215,29 @@ fn rows_pair_floors_compute_throughput_and_decide_targets() {
     assert!(lines[0].starts_with("| Operation | Size | Median time | Throughput | Target"));
     assert_eq!(
         lines[2],
-        "| op | n | 5.00 ms | 281 k detectors/s | < 20 ms | yes | — | — |"
+        "| op | n | 5.00 ms | 281 k detectors/s | < 20 ms | yes | — | — | — |"
     );
     // 1000 rays / 2 s = 500 rays/s.
     assert_eq!(
         lines[3],
-        "| op | n | 2.00 s | 500 rays/s | < 1.5 s | no | 40.0 ms | 50.0× |"
+        "| op | n | 2.00 s | 500 rays/s | < 1.5 s | no | 40.0 ms | 50.0× | — |"
     );
     assert_eq!(
         lines[4],
-        "| op | n | 50.0 µs | 20.0 M evaluations/s | > 10⁷ evaluations/s | yes | — | — |"
+        "| op | n | 50.0 µs | 20.0 M evaluations/s | > 10⁷ evaluations/s | yes | — | — | — |"
     );
     assert_eq!(
         lines[5],
-        "| op | n | 200 µs | 5.00 M evaluations/s | > 10⁷ evaluations/s | no | — | — |"
+        "| op | n | 200 µs | 5.00 M evaluations/s | > 10⁷ evaluations/s | no | — | — | — |"
     );
     // 134 217 728 B / 0.5 s = 268.4 MB/s.
     assert_eq!(
         lines[6],
-        "| op | n | 500 ms | 268 MB/s | — | — | not measured | — |"
+        "| op | n | 500 ms | 268 MB/s | — | — | not measured | — | — |"
     );
     assert_eq!(
         lines[7],
-        "| op | n | not measured | — | — | — | 40.0 ms | — |"
+        "| op | n | not measured | — | — | — | 40.0 ms | — | — |"
     );
     // The reasons are listed under the table, naming the ids.
     assert!(table.contains("\nNot measured:\n"));
@@ -310,7 +310,7 @@ fn the_real_table_is_consistent() {
     );
     assert_eq!(
         target("gaussian/default_set_5x281_exact_1thread"),
-        Some(Target::MaxSeconds(0.020))
+        Some(Target::MaxSeconds(0.002))
     );
     assert_eq!(
         target("gaussian/point_brdf_x1000"),
@@ -318,12 +318,20 @@ fn the_real_table_is_consistent() {
     );
     assert_eq!(
         target("topo/run_5inc_281det/4096"),
-        Some(Target::MaxSeconds(1.5))
+        Some(Target::MinPerSecond(2.5e8))
+    );
+    assert_eq!(
+        target("topo/normals/4096"),
+        Some(Target::MaxFloorRatio(15.0))
+    );
+    assert_eq!(
+        target("gaussian/point_brdf_batch_x1000"),
+        Some(Target::MinPerSecond(1.2e8))
     );
     assert_eq!(target("segment/2048x2048"), Some(Target::MaxSeconds(1.0)));
     assert_eq!(
         target("read_x3p/4096x4096_f64"),
-        Some(Target::MaxSeconds(1.0))
+        Some(Target::MinPerSecond(4e8))
     );
     assert_eq!(
         target("generate/2048_default"),
@@ -394,4 +402,97 @@ fn segments_are_read_from_criterions_throughput() {
     assert!(table.contains("12.0 M segments/s"), "{table}");
     assert!(table.contains("volume/c/new/benchmark.json"), "{table}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn floor_ratio_targets_and_compute_limits() {
+    let dir = temp_dir("limits");
+    write_estimate(&dir, "topo/normals/4096", 4e8); // 400 ms
+    write_estimate(&dir, "topo/floor_4096", 2e7); // 20 ms: ratio 20
+    write_estimate(&dir, "g/normals_fast", 2e8); // 200 ms: ratio 10
+    write_estimate(&dir, "gaussian/point_brdf_batch_x1000", 8e3); // 8 µs per 1000
+    let specs = [
+        RowSpec {
+            target: Some(Target::MaxFloorRatio(15.0)),
+            target_note: "≤ 15×",
+            ..spec(
+                "topo/normals/4096",
+                Some("topo/floor_4096"),
+                1.0,
+                Unit::Pixels,
+            )
+        },
+        RowSpec {
+            target: Some(Target::MaxFloorRatio(15.0)),
+            target_note: "≤ 15×",
+            ..spec("g/normals_fast", Some("topo/floor_4096"), 1.0, Unit::Pixels)
+        },
+        RowSpec {
+            target: Some(Target::MaxFloorRatio(15.0)),
+            target_note: "≤ 15×",
+            ..spec("g/normals_fast", Some("g/floor_missing"), 1.0, Unit::Pixels)
+        },
+        spec(
+            "gaussian/point_brdf_batch_x1000",
+            None,
+            1000.0,
+            Unit::Evaluations,
+        ),
+    ];
+    let rows = build_rows(&dir, &specs, None);
+    // 400 / 20 = 20 > 15: not met; 200 / 20 = 10 ≤ 15: met; no floor: no decision.
+    assert_eq!(rows[0].met(), Some(false));
+    assert_eq!(rows[1].met(), Some(true));
+    assert_eq!(rows[2].met(), None);
+    // 1000 / 8 µs = 125 M/s against the limit of 173 M/s: 125 / 173 = 72.3 %.
+    assert!(rows[3].limit().is_some() && rows[0].limit().is_none());
+    let table = render_table(&rows);
+    let last = table.lines().nth(5).unwrap();
+    assert_eq!(
+        last,
+        "| op | n | 8.00 µs | 125 M evaluations/s | — | — | — | — | 173 M evaluations/s (vectorised C, AVX2; we reach 72 %) |"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn peak_memory_from_gnu_time_and_its_target() {
+    use xtask::bench::memory::{MemoryRow, map_bytes, parse_time_v, render};
+    // The lines GNU time 1.9 `-v` prints (tab-indented), KiB.
+    let report = "\tCommand being timed: \"flakescatter info map.x3p\"\n\
+                  \tUser time (seconds): 0.61\n\
+                  \tMaximum resident set size (kbytes): 174048\n\
+                  \tAverage resident set size (kbytes): 0\n";
+    assert_eq!(parse_time_v(report), Some(174_048.0 * 1024.0));
+    assert_eq!(parse_time_v("no such line"), None);
+    // 4096² float64 = 134 217 728 B; the allowance 1.5 × that + 50 MB = 251.3 MB.
+    assert_eq!(map_bytes(), 134_217_728.0);
+    let rows = [
+        MemoryRow {
+            label: "info",
+            command: "flakescatter info map.x3p".into(),
+            peak_bytes: Ok(174_048.0 * 1024.0),
+        },
+        MemoryRow {
+            label: "segment",
+            command: "flakescatter segment map.x3p".into(),
+            peak_bytes: Ok(389_208.0 * 1024.0),
+        },
+        MemoryRow {
+            label: "topo",
+            command: "flakescatter topo map.x3p".into(),
+            peak_bytes: Err("/usr/bin/time (GNU time) not found".into()),
+        },
+    ];
+    let s = render(&rows);
+    // 174 048 KiB = 178.2 MB = 1.33× the map; 389 208 KiB = 398.5 MB = 2.97×.
+    assert!(
+        s.contains("| info (`flakescatter info map.x3p`) | 178 MB | 1.33× | ≤ 251 MB | yes |"),
+        "{s}"
+    );
+    assert!(s.contains("| 399 MB | 2.97× | ≤ 251 MB | no |"), "{s}");
+    assert!(
+        s.contains("not measured (/usr/bin/time (GNU time) not found) | — |"),
+        "{s}"
+    );
 }

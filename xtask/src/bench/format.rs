@@ -52,8 +52,8 @@ fn three_digits(v: f64) -> String {
 #[must_use]
 pub fn render_table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| Operation | Size | Median time | Throughput | Target | Met | Floor median | Time / floor |\n\
-         |---|---|---:|---:|---|:---:|---:|---:|\n",
+        "| Operation | Size | Median time | Throughput | Target | Met | Floor median | Time / floor | Compute limit |\n\
+         |---|---|---:|---:|---|:---:|---:|---:|---|\n",
     );
     let mut missing = Vec::new();
     for row in rows {
@@ -90,9 +90,22 @@ pub fn render_table(rows: &[Row]) -> String {
         let ratio = row
             .ratio()
             .map_or_else(|| "—".to_owned(), |r| format!("{}×", three_digits(r)));
+        // The known limit and the share of it reached.
+        let limit = row.limit().map_or_else(
+            || "—".to_owned(),
+            |l| match row.per_second() {
+                Some(r) => format!(
+                    "{} ({}; we reach {:.0} %)",
+                    format_rate(l.per_second, spec.unit),
+                    l.note,
+                    100.0 * r / l.per_second
+                ),
+                None => format!("{} ({})", format_rate(l.per_second, spec.unit), l.note),
+            },
+        );
         let _ = writeln!(
             s,
-            "| {} | {} | {median} | {rate} | {target} | {met} | {floor} | {ratio} |",
+            "| {} | {} | {median} | {rate} | {target} | {met} | {floor} | {ratio} | {limit} |",
             spec.operation, spec.size
         );
     }

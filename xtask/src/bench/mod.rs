@@ -22,8 +22,11 @@
 //! * A benchmark that did not produce an `estimates.json` in this run (bench renamed,
 //!   crate failing to build) shows as "not measured" with the path that was expected;
 //!   the task exits non-zero only when a `cargo bench` command itself failed.
+//! * The full run also measures the peak memory of whole CLI commands on a 4096² map
+//!   ([`memory`]) and adds that table to `docs/benchmarks.md`.
 
 mod format;
+pub mod memory;
 mod rows;
 mod runner;
 
@@ -32,7 +35,7 @@ use std::time::{Instant, SystemTime};
 use anyhow::{Context, bail};
 
 pub use format::{format_rate, format_time, render_document, render_table};
-pub use rows::{BenchTarget, ROWS, Row, RowSpec, TARGETS, Target, Unit};
+pub use rows::{BenchTarget, LIMITS, Limit, ROWS, Row, RowSpec, TARGETS, Target, Unit};
 pub use runner::{build_rows, machine_description, read_elements, read_median, utc_date};
 use runner::{parse, run_benches, target_dir};
 
@@ -63,7 +66,15 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     let since = (!opts.report_only).then_some(start);
     let rows = build_rows(&criterion_dir, &specs, since);
     let machine = machine_description(&root);
-    let doc = render_document(&rows, &machine, opts.quick);
+    let mut doc = render_document(&rows, &machine, opts.quick);
+    // Peak memory of whole commands: full runs only (it builds the release CLI and
+    // writes two 4096² maps).
+    if !opts.quick && !opts.report_only {
+        let mem = memory::measure(&cargo, &root, &target)?;
+        let section = memory::render(&mem);
+        println!("{section}");
+        doc.push_str(&section);
+    }
     let out = if opts.quick {
         target.join("benchmarks-quick.md")
     } else {
