@@ -4,7 +4,12 @@ from files in the repository: the real files in fixtures/real (those under 16 Ki
 that libFuzzer runs fast; csafe-logo.x3p is 29 KiB but inflates to 2.4 MiB per run), their X3P archives re-packed with stored members (so that
 mutations reach main.xml and data.bin, not only the deflate stream), small hand-made
 inputs for what the real files do not show (binary SDF, decimal commas, CRLF, valid.bin),
-and heads of the committed CSV outputs for the table readers.
+heads of the committed CSV outputs for the table readers, and for the instrument readers
+(the dispatcher and one target per format) the first 8 KiB of each real instrument file
+plus small valid files shrunk from them (see the instrument section below).
+
+Set FLAKESCATTER_SEEDS_SMALL=DIR to also write the small instrument files into DIR with
+their extensions, to check that each reads (`flakescatter info DIR/plu-0.plu`).
 
 Map targets take one options byte first (fuzz_targets/options.rs) and the dispatcher
 one extension byte after it; seeds are written with a few values of each.
@@ -144,16 +149,285 @@ extra = {
 for target, seeds in extra.items():
     for s in seeds:
         write(target, s)
-# Instrument files (fixtures/real/instruments): their first 8 KiB behind the dispatcher's
-# two option bytes, so detection and the header readers of each format are reached (a
-# head is a truncated file: refused with the byte offset, and mutated towards headers).
+# Instrument files (fixtures/real/instruments), for the dispatcher and for each reader's
+# own target (gwy, plu, metropro, opd, sur, al3d, frt):
+# * each real file's first 8 KiB: a truncated file, refused with the byte offset, from
+#   which mutation works on the header;
+# * small valid files (a few KiB) that the reader accepts, so that mutation also reaches
+#   the data decoding, the invalid-point rules and the scales. Each is the real file
+#   shrunk (its header kept, its size fields rewritten to a small window cut from the
+#   middle of its data), except GWY, built from scratch from the layout gwy.rs reads
+#   (the real GWY file is a tree of objects whose sizes would all need rewriting).
 INSTRUMENTS = os.path.join(REAL, "instruments")
-for name in sorted(os.listdir(INSTRUMENTS)):
-    if name.split(".")[-1] in ("gwy", "plu", "dat", "opd", "sur", "al3d", "frt"):
-        with open(os.path.join(INSTRUMENTS, name), "rb") as f:
-            head = f.read(8190)
-        write("map", bytes([0, 0]) + head)
-        write("map", bytes([0x03, 0]) + head)
+INSTRUMENT_FILES = {
+    "gwy": ["gwyfile-test.gwy"],
+    "plu": ["plu-1.plu"],
+    "metropro": ["metropro-1.dat"],
+    "opd": ["opd-1.opd"],
+    "sur": ["sur-2.sur", "sur-3.sur"],
+    "al3d": ["al3d-1.al3d"],
+    "frt": ["frt-1.frt", "frt-2.frt"],
+}
+# The dispatcher's extension byte naming each format (fuzz_targets/map.rs EXTENSIONS).
+MAP_EXTENSION = {"gwy": 6, "plu": 7, "metropro": 5, "opd": 8, "sur": 9, "al3d": 10, "frt": 11}
+
+
+def instrument(name):
+    with open(os.path.join(INSTRUMENTS, name), "rb") as f:
+        return f.read()
+
+
+def window(data, item, row_items, x0, y0, nx, ny, rows=None):
+    """The nx x ny window at (x0, y0) of a row-major array of `row_items` items a row
+    (or the nx items at x0 of each of the given rows)."""
+    return b"".join(
+        data[(y * row_items + x0) * item:(y * row_items + x0 + nx) * item]
+        for y in (rows if rows is not None else range(y0, y0 + ny))
+    )
+
+
+def gwy_object(name, components):
+    body = b"".join(components)
+    return name.encode() + b"\0" + struct.pack("<I", len(body)) + body
+
+
+def gwy_component(key, kind, value):
+    return key.encode() + b"\0" + kind.encode() + value
+
+
+def gwy_field(nx, ny, values, unit_xy="m", unit_z="m"):
+    def unit(u):
+        return gwy_object("GwySIUnit", [gwy_component("unitstr", "s", u.encode() + b"\0")])
+
+    return gwy_object("GwyDataField", [
+        gwy_component("xres", "i", struct.pack("<i", nx)),
+        gwy_component("yres", "i", struct.pack("<i", ny)),
+        gwy_component("xreal", "d", struct.pack("<d", nx * 0.5e-6)),
+        gwy_component("yreal", "d", struct.pack("<d", ny * 0.25e-6)),
+        gwy_component("xoff", "d", struct.pack("<d", 1e-6)),
+        gwy_component("si_unit_xy", "o", unit(unit_xy)),
+        gwy_component("si_unit_z", "o", unit(unit_z)),
+        gwy_component("data", "D", struct.pack("<I", len(values)) + struct.pack(f"<{len(values)}d", *values)),
+    ])
+
+
+def gwy_small():
+    """Channel 0: 4 x 3 heights in m with a NaN and a mask point; channel 1: no units
+    (needs --pixel-um and --z-unit); one object holding every other component type."""
+    z = [1e-7 * (k % 5) - 2e-7 for k in range(12)]
+    z[5] = float("nan")
+    mask = [0.0] * 12
+    mask[7] = 1.0
+    other = gwy_object("GwyGraphModel", [
+        gwy_component("curves", "O", struct.pack("<I", 1) + gwy_object("GwyGraphCurveModel", [
+            gwy_component("xdata", "D", struct.pack("<I", 2) + struct.pack("<2d", 0.0, 1.0)),
+        ])),
+        gwy_component("labels", "S", struct.pack("<I", 2) + b"a\0b\0"),
+        gwy_component("flags", "C", struct.pack("<I", 3) + b"\1\2\3"),
+        gwy_component("ids", "I", struct.pack("<I", 2) + struct.pack("<2i", 1, -2)),
+        gwy_component("big", "Q", struct.pack("<I", 1) + struct.pack("<q", 1 << 40)),
+        gwy_component("count", "q", struct.pack("<q", 5)),
+        gwy_component("visible", "b", b"\1"),
+        gwy_component("char", "c", b"x"),
+    ])
+    return b"GWYP" + gwy_object("GwyContainer", [
+        gwy_component("/0/data", "o", gwy_field(4, 3, z)),
+        gwy_component("/0/data/title", "s", b"Height\0"),
+        gwy_component("/0/mask", "o", gwy_field(4, 3, mask, "m", "")),
+        gwy_component("/1/data", "o", gwy_field(2, 2, [1.0, 2.0, 3.0, 4.0], "", "")),
+        gwy_component("/1/data/title", "s", b"Uncalibrated\0"),
+        gwy_component("/0/graph", "o", other),
+    ])
+
+
+def plu_small(nx=6, ny=4, layers=1):
+    """plu-1.plu's 500-byte header with an nx x ny window of its heights and grey image
+    (`layers` copies of that layer, each with its image)."""
+    b = instrument("plu-1.plu")
+    NY, NX = struct.unpack_from("<II", b, 500)
+    n = NX * NY
+    heights, image = 508, 508 + 4 * n + 8
+    x0, y0 = NX // 2, NY // 2
+    h = bytearray(b[:500])
+    struct.pack_into("<II", h, 388, ny, nx)
+    h[489] = layers
+    layer = struct.pack("<II", ny, nx) + window(b, 4, NX, x0, y0, nx, ny)
+    layer += b[heights + 4 * n:heights + 4 * n + 8] + window(b[image:], 3, NX, x0, y0, nx, ny)
+    return bytes(h) + layer * layers
+
+
+def metropro_small(nx=6, ny=4, intensity=True):
+    """metropro-1.dat's 834-byte header with an nx x ny window of its phase frame (and of
+    its intensity frame, or none)."""
+    b = instrument("metropro-1.dat")
+    aw, ah, buckets, ac_bytes = struct.unpack_from(">HHHxxI", b, 52)
+    cw, chh = struct.unpack_from(">HH", b, 68)
+    h = bytearray(b[:834])
+    x0, y0 = cw // 2, chh // 2
+    ac = window(b[834:], 2, aw, x0, y0, nx, ny) if intensity else b""
+    struct.pack_into(">HHHxxI", h, 52, nx if intensity else 0, ny if intensity else 0,
+                     1 if intensity else 0, len(ac))
+    struct.pack_into(">HHI", h, 68, nx, ny, 4 * nx * ny)
+    return bytes(h) + ac + window(b[834 + ac_bytes:], 4, cw, x0, y0, nx, ny)
+
+
+def opd_small(nx=6, ny=4):
+    """opd-1.opd's directory without its empty entries and its big skipped blocks, each
+    array cut to nx x ny (stored y fastest, y reversed)."""
+    b = instrument("opd-1.opd")
+    dir_len = struct.unpack_from("<i", b, 20)[0]
+    pos, entries = 2 + dir_len, []
+    for i in range(1, dir_len // 24):
+        e = 2 + i * 24
+        kind, length = struct.unpack_from("<hi", b, e + 16)
+        payload = b[pos:pos + length]
+        pos += length
+        if length == 0 or (kind not in (3, 5, 6, 7, 8, 12) and length > 256):
+            continue
+        if kind == 3:
+            NX, NY, item = struct.unpack_from("<HHH", payload)
+            cols = [payload[6 + (x * NY + NY - ny) * item:6 + (x * NY + NY) * item]
+                    for x in range(NX // 2, NX // 2 + nx)]
+            payload = struct.pack("<HHH", nx, ny, item) + b"".join(cols)
+        entries.append((b[e:e + 18] + struct.pack("<i", len(payload)) + b[e + 22:e + 24], payload))
+    d = b[2:18] + b[18:20] + struct.pack("<i", 24 * (len(entries) + 1)) + b[24:26]
+    return b[:2] + d + b"".join(e for e, _ in entries) + b"".join(p for _, p in entries)
+
+
+def sur_object(b, nx, ny, bits=32, objects=1):
+    """One object of a SUR file: the file's 512-byte header, an nx x ny window of its
+    (32-bit) data, one point at min - 2 (non-measured); 16-bit: rescaled into i16."""
+    h = bytearray(b[:512])
+    NX, NY = struct.unpack_from("<ii", h, 108)
+    zones = struct.unpack_from("<h", h, 334)[0] + struct.unpack_from("<h", h, 336)[0]
+    raw = list(struct.unpack(f"<{nx * ny}i", window(b[512 + zones:], 4, NX, NX // 2, NY // 2, nx, ny)))
+    lo, hi = min(raw), max(raw)
+    if bits == 16:
+        raw = [int((v - lo) * 60000 // max(hi - lo, 1)) - 30000 for v in raw]
+        lo, hi = -30000, 30000
+        scale = struct.unpack_from("<f", h, 128)[0] * max(hi - lo, 1) / 60000
+        struct.pack_into("<f", h, 128, scale)
+    raw[1] = lo - 2
+    struct.pack_into("<h", h, 14, objects)
+    struct.pack_into("<h", h, 86, 1)
+    struct.pack_into("<h", h, 98, bits)
+    struct.pack_into("<iiiii", h, 100, lo, hi, nx, ny, nx * ny)
+    struct.pack_into("<hh", h, 334, 0, 0)
+    return bytes(h) + struct.pack(f"<{nx * ny}{'i' if bits == 32 else 'h'}", *raw)
+
+
+def al3d_small(name="al3d-1.al3d", nx=5, ny=4):
+    """al3d-1.al3d's tags (sizes and offsets rewritten) with an nx x ny window of its
+    depth image and of its four texture planes (R, G, B and repeatability); nx = 5 pads
+    every line (depth lines to 24 bytes, texture lines to 8), and one depth is set above
+    InvalidPixelValue."""
+    b = instrument(name)
+    count = int(b[17 + 52 + 20:17 + 52 + 50].split(b"\0")[0])
+    tags = [b[17 + 52 * i:17 + 52 * (i + 1)] for i in range(count + 2)]
+    values = {t[:20].split(b"\0")[0].decode(): t[20:50].split(b"\0")[0] for t in tags}
+    NX, NY = int(values["Cols"]), int(values["Rows"])
+    depth_at, texture_at = int(values["DepthImageOffset"]), int(values["TextureImageOffset"])
+    planes = int(values["NumberOfPlanes"])
+    stride, line = -(-nx * 4 // 8) * 8, -(-nx // 8) * 8
+    depth = 17 + 52 * len(tags)
+    texture = depth + stride * ny
+    new = {"Cols": nx, "Rows": ny, "DepthImageOffset": depth, "TextureImageOffset": texture}
+    out = b"AliconaImaging\0\r\n"
+    for t in tags:
+        key = t[:20].split(b"\0")[0].decode()
+        if key in new:
+            t = t[:20] + str(new[key]).encode().ljust(30, b"\0") + b"\r\n"
+        out += t
+    x0, y0 = NX // 2, NY // 2
+    NSTRIDE = -(-NX * 4 // 8) * 8
+    rows = [bytearray(b[depth_at + (y0 + y) * NSTRIDE + 4 * x0:][:4 * nx]) for y in range(ny)]
+    rows[1][4:8] = struct.pack("<f", 3.1e15)
+    out += b"".join(bytes(r).ljust(stride, b"\0") for r in rows)
+    NLINE = -(-NX // 8) * 8
+    for p in range(planes):
+        at = texture_at + p * NLINE * NY
+        out += b"".join(b[at + (y0 + y) * NLINE + x0:][:nx].ljust(line, b"\0") for y in range(ny))
+    return out
+
+
+def frt_blocks(b):
+    version = b[12:16]
+    wide = version == b"1.01"
+    pos, blocks = 18, []
+    for _ in range(struct.unpack_from("<H", b, 16)[0]):
+        bid = struct.unpack_from("<H", b, pos)[0]
+        size = struct.unpack_from("<Q" if wide else "<I", b, pos + 2)[0]
+        pos += 10 if wide else 6
+        blocks.append((bid, b[pos:pos + size]))
+        pos += size
+    return blocks
+
+
+def frt_file(version, blocks):
+    out = b"FRTM_GLIDERV" + version + struct.pack("<H", len(blocks))
+    for bid, payload in blocks:
+        out += struct.pack("<H", bid) + struct.pack("<Q" if version == b"1.01" else "<I", len(payload)) + payload
+    return out
+
+
+def frt_small(name, nx=6, ny=4, version=b"1.00"):
+    """The file's blocks with its image(s) (0x000b, and every image of 0x007d) cut to nx
+    points from the middle column of ny - 1 middle rows and the last row (frt-1.frt's
+    interrupted last row of raw 0, frt-2.frt's undefined 1), 0x0066 rewritten to match;
+    other blocks kept as they are."""
+    b = instrument(name)
+    blocks = frt_blocks(b)
+    NX, NY, bits = struct.unpack("<III", dict(blocks)[0x0066])
+    x0 = NX // 2
+    out = []
+    for bid, p in blocks:
+        if bid == 0x0066:
+            p = struct.pack("<III", nx, ny, bits)
+        elif bid == 0x000b:
+            p = window(p, bits // 8, NX, x0, 0, nx, ny, [*range(NY // 2, NY // 2 + ny - 1), NY - 1])
+        elif bid == 0x007d:
+            q, at = p[:8], 8
+            while at + 16 <= len(p):
+                kind, inx, iny, ibits = struct.unpack_from("<IIII", p, at)
+                data = p[at + 16:at + 16 + inx * iny * ibits // 8]
+                q += struct.pack("<IIII", kind, nx, ny, ibits)
+                q += window(data, ibits // 8, inx, inx // 2, 0, nx, ny,
+                            [*range(iny // 2, iny // 2 + ny - 1), iny - 1])
+                at += 16 + len(data)
+            p = q
+        out.append((bid, p))
+    return frt_file(version, out)
+
+
+small = {
+    "gwy": [gwy_small()],
+    "plu": [plu_small(), plu_small(3, 2, layers=2)],
+    "metropro": [metropro_small(), metropro_small(3, 2, intensity=False)],
+    "opd": [opd_small()],
+    "sur": [sur_object(instrument("sur-2.sur"), 6, 4),
+            sur_object(instrument("sur-3.sur"), 3, 2, bits=16, objects=2)
+            + sur_object(instrument("sur-3.sur"), 2, 2)],
+    "al3d": [al3d_small()],
+    "frt": [frt_small("frt-1.frt"), frt_small("frt-2.frt", 5, 3, version=b"1.01")],
+}
+SMALL_OUT = os.environ.get("FLAKESCATTER_SEEDS_SMALL")  # write the small files here too
+for target, names in INSTRUMENT_FILES.items():
+    for name in names:
+        head = instrument(name)[:8192]
+        for o in (0x00, 0x80):
+            write(target, bytes([o]) + head)
+        write("map", bytes([0, 0]) + head[:8190])
+        write("map", bytes([0x03, 0]) + head[:8190])
+    for k, s in enumerate(small[target]):
+        assert len(s) < 16 << 10, (target, len(s))
+        if SMALL_OUT:
+            ext = "dat" if target == "metropro" else target
+            with open(os.path.join(SMALL_OUT, f"{target}-{k}.{ext}"), "wb") as f:
+                f.write(s)
+        for o in OPTION_BYTES:
+            write(target, bytes([o]) + s)
+        for o, e in ((0, MAP_EXTENSION[target]), (0, 0), (0x80, MAP_EXTENSION[target]), (0, 2)):
+            write("map", bytes([o, e]) + s)
 # Stacks: the io tests' three stack fixtures (tifffile ImageJ and OME-TIFF, a byte-built
 # LSM file), each behind every voxel-size/page-order option byte.
 STACKS = os.path.join(ROOT, "crates", "io", "tests", "data", "stack")

@@ -8,13 +8,19 @@ use libfuzzer_sys::fuzz_target;
 #[path = "options.rs"]
 mod options;
 
-const EXTENSIONS: [Option<&str>; 6] = [
+const EXTENSIONS: [Option<&str>; 12] = [
     None,
     Some("x3p"),
     Some("sdf"),
     Some("txt"),
     Some("CSV"),
     Some("dat"),
+    Some("gwy"),
+    Some("plu"),
+    Some("opd"),
+    Some("sur"),
+    Some("al3d"),
+    Some("FRT"),
 ];
 
 fuzz_target!(|data: &[u8]| {

@@ -123,8 +123,9 @@ fn tags(bytes: &[u8]) -> Result<Vec<(String, String)>, Al3dError> {
         tag: "TagCount".into(),
         what: format!("{:?} is not a count", count.1),
     })?;
-    // Each tag is 52 bytes of the file: check before reading them.
-    let need = (n as u64 + 2) * TAG as u64;
+    // Each tag is 52 bytes of the file: check before reading them (a count of 20 digits
+    // would overflow the product, so it saturates: no file holds that many bytes).
+    let need = (n as u64).saturating_add(2).saturating_mul(TAG as u64);
     if ((end - MAGIC.len()) as u64) < need {
         return Err(Al3dError::Truncated {
             what: format!("{n} tags"),
@@ -190,8 +191,12 @@ fn header(bytes: &[u8], t: &[(String, String)]) -> Result<Header, Al3dError> {
     let (dx, dy) = (pitch("PixelSizeXMeter")?, pitch("PixelSizeYMeter")?);
     let offset: usize = number(t, "DepthImageOffset")?;
     let stride = (nx * 4).div_ceil(8) * 8;
-    let need = (stride as u64) * (ny as u64 - 1) + nx as u64 * 4;
-    if (bytes.len() as u64) < offset as u64 + need {
+    // Cols and Rows up to 2³² each and any offset: the sums saturate instead of
+    // overflowing (a saturated size is larger than any file, so it is refused).
+    let need = (stride as u64)
+        .saturating_mul(ny as u64 - 1)
+        .saturating_add(nx as u64 * 4);
+    if (bytes.len() as u64) < (offset as u64).saturating_add(need) {
         return Err(Al3dError::Truncated {
             what: format!("the depth image ({nx} x {ny} f32, lines of {stride} bytes)"),
             offset: offset.min(bytes.len()),

@@ -335,10 +335,13 @@ fn fields<'a>(top: &'a Object<'a>) -> Result<Vec<Field<'a>>, GwyError> {
             let Some(Value::Doubles(data)) = o.get("data") else {
                 return Err(err("component data (an array of doubles) is missing".into()));
             };
-            let n = (nx as u64) * (ny as u64);
-            if data.len() as u64 != n * 8 {
+            // xres, yres up to 2⁶³ each (`q` components): the product is checked, not
+            // wrapped, so that no size but the true one matches the data.
+            let n = (nx as u64).checked_mul(ny as u64);
+            if n.and_then(|n| n.checked_mul(8)) != Some(data.len() as u64) {
+                let expected = n.map_or_else(|| "more than 2⁶⁴".to_string(), |n| n.to_string());
                 return Err(err(format!(
-                    "data holds {} values, expected xres {nx} x yres {ny} = {n}",
+                    "data holds {} values, expected xres {nx} x yres {ny} = {expected}",
                     data.len() / 8
                 )));
             }

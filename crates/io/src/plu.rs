@@ -239,8 +239,12 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
         }
         let n = u64::from(nx) * u64::from(ny);
         // Heights, min and max, RGB images: all must be in the file before anything
-        // is allocated (u32 × u32 × 3 × 255 fits in u64).
-        let need = n * 4 + 8 + 3 * n * images;
+        // is allocated. u32 × u32 points fit in u64, but 4 or 3 × 255 bytes each do not:
+        // the sum saturates (a saturated size is larger than any file, so refused).
+        let need = n
+            .saturating_mul(4)
+            .saturating_add(8)
+            .saturating_add(n.saturating_mul(3 * images));
         let left = (end - at - 8) as u64;
         if need > left {
             return Err(PluError::Truncated {

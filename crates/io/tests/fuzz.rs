@@ -3,7 +3,8 @@
 //! truncations, insertions, byte overwrites) never make a reader panic; they load or
 //! give an error, and every table error names the file. The coverage-guided fuzz targets
 //! in `fuzz/` explore further (docs/reliability.md); what they find is kept as a
-//! regression test in this directory (their 10⁶-execution runs found nothing so far).
+//! regression test in this directory, its input in `tests/data/fuzz/` (so far one: the
+//! `plu` target's overflowing layer size, `instruments.rs`).
 //!
 //! The X3P seeds are re-packed with stored (uncompressed) members as well as read as
 //! shipped, so that mutations reach `main.xml` and `data.bin` themselves and not only the

@@ -159,6 +159,63 @@ fn gwy_truncated_refused_with_offset() {
     );
 }
 
+/// `gwyfile-test.gwy` (one 128 x 128 data field) with its `xres` and `yres` components
+/// (`i`, at bytes 141 and 151) replaced by `kind` components holding `value`; the sizes of
+/// the data field and of the container grow by what the new components add.
+fn gwy_with_sizes(kind: u8, value: &[u8]) -> Vec<u8> {
+    let b = std::fs::read(data("gwyfile-test.gwy")).unwrap();
+    let find = |key: &[u8]| b.windows(key.len()).position(|w| w == key).unwrap();
+    let (x, y) = (find(b"xres\0i"), find(b"yres\0i"));
+    assert_eq!(y, x + 10, "xres, then yres");
+    let mut out = b[..x].to_vec();
+    for name in [&b"xres\0"[..], b"yres\0"] {
+        out.extend(name);
+        out.push(kind);
+        out.extend(value);
+    }
+    out.extend(&b[y + 10..]);
+    let grow = 2 * (value.len() as u32 - 4);
+    for at in [17, find(b"GwyDataField\0") + 13] {
+        let size = u32::from_le_bytes(out[at..at + 4].try_into().unwrap()) + grow;
+        out[at..at + 4].copy_from_slice(&size.to_le_bytes());
+    }
+    out
+}
+
+#[test]
+fn gwy_sizes_too_large_for_u64_are_refused() {
+    // Found by review while adding the per-reader fuzz targets: xres x yres x 8 bytes
+    // overflowed u64 (a panic in debug builds, a wrapped size in release that a crafted
+    // data array could match).
+    // The file stores no units: give them, so that only the sizes can be at fault.
+    let options = ReadOptions {
+        pixel_um: Some((1.0, 1.0)),
+        z_unit: Some(ZUnit::Nm),
+        ..ReadOptions::default()
+    };
+    let read =
+        |b: &[u8]| flakescatter_io::gwy::read(b, &options, flakescatter_io::ValueKind::Height);
+    let err = |b: &[u8]| read(b).unwrap_err().to_string();
+    // The rebuilding itself is right: with the file's own sizes, as 4-byte components it
+    // gives the file back, and as 8-byte `q` components a file that reads as 128 x 128.
+    let same = gwy_with_sizes(b'i', &128i32.to_le_bytes());
+    assert_eq!(same, std::fs::read(data("gwyfile-test.gwy")).unwrap());
+    let m = read(&gwy_with_sizes(b'q', &128i64.to_le_bytes())).unwrap();
+    assert_eq!((m.nx(), m.ny()), (128, 128));
+    // i32::MAX x i32::MAX = (2³¹ - 1)² = 2⁶² - 2³² + 1 points: 8 bytes each overflow u64.
+    let e = err(&gwy_with_sizes(b'i', &i32::MAX.to_le_bytes()));
+    assert!(
+        e.contains("data holds 16384 values, expected xres 2147483647 x yres 2147483647 = 4611686014132420609"),
+        "{e}"
+    );
+    // 8-byte `q` sizes of 2³³ each: the point count itself, 2⁶⁶, overflows.
+    let e = err(&gwy_with_sizes(b'q', &(1i64 << 33).to_le_bytes()));
+    assert!(
+        e.contains("expected xres 8589934592 x yres 8589934592 = more than 2⁶⁴"),
+        "{e}"
+    );
+}
+
 #[test]
 fn extension_contradicting_content_is_refused() {
     // A GWY file named .sdf: the magic decides, and the message says both.
@@ -212,6 +269,41 @@ fn sensofar_plu() {
     // One layer and, after it, its one image (`plu_grey_image_is_an_intensity_channel`).
     assert_eq!(channels.len(), 2);
     assert_eq!((channels[0].nx, channels[0].ny), (768, 576));
+}
+
+#[test]
+fn plu_layer_sizes_too_large_for_u64_are_refused() {
+    // Found by the `plu` fuzz target in its first minute (tests/data/fuzz/README.md): a
+    // layer of 2627509415 x 2812785073 points (x by y, stored as y, x at bytes 500..508)
+    // with 174 RGB images (byte 492) needs more than 2⁶⁴ bytes; the byte count overflowed
+    // u64 (a panic in debug builds, a wrapped size in release). It is refused as
+    // truncated, naming the layer and its byte, in the channel listing and the read alike.
+    let input = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/fuzz/plu-layer-size-overflow"
+    ))
+    .unwrap();
+    let (options, kind) = (ReadOptions::default(), flakescatter_io::ValueKind::Height);
+    let bytes = &input[1..]; // the options byte is 0: the default options, heights
+    let want = "truncated: layer 0 (2627509415 x 2812785073 heights, min/max, 174 RGB image(s)) at byte 508";
+    let e = flakescatter_io::plu::channels(bytes, &options)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(want), "{e}");
+    let e = flakescatter_io::plu::read(bytes, &options, kind)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(want), "{e}");
+    // The same with the real file's own single image and the largest sizes.
+    let mut b = std::fs::read(data("plu-1.plu")).unwrap();
+    b[500..508].copy_from_slice(&[0xff; 8]); // layer 0: y, x (u32 each)
+    let e = flakescatter_io::plu::read(&b, &options, kind)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("truncated: layer 0 (4294967295 x 4294967295 heights, min/max, 1 RGB image(s)) at byte 508"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -437,6 +529,58 @@ fn al3d_truncated_refused_with_offset() {
     // Inside a tag, before the depth image ends, inside the repeatability plane (plane 3
     // of 200 x 296 bytes from 238061: up to 238061 + 4 x 59200 = 474861, the file end).
     truncations_refused("al3d-1.al3d", &[30, 500, 100_000, 400_000, 474_860]);
+}
+
+/// `al3d-1.al3d` with the values of the tags `(key, value)` replaced (the 30-byte value
+/// field after the 20-byte key of each 52-byte tag from byte 17).
+fn al3d_with_tags(tags: &[(&str, &str)]) -> Vec<u8> {
+    let mut b = std::fs::read(data("al3d-1.al3d")).unwrap();
+    for (key, value) in tags {
+        let at = (17..b.len() - 52)
+            .step_by(52)
+            .find(|&a| b[a..a + 20].split(|&c| c == 0).next() == Some(key.as_bytes()))
+            .unwrap_or_else(|| panic!("no tag {key}"));
+        let mut field = [0u8; 30];
+        field[..value.len()].copy_from_slice(value.as_bytes());
+        b[at + 20..at + 50].copy_from_slice(&field);
+    }
+    b
+}
+
+#[test]
+fn al3d_counts_and_offsets_too_large_for_u64_are_refused() {
+    // Found by review while adding the per-reader fuzz targets: 20-digit tag values
+    // parse as usize and overflowed the size arithmetic (a panic in debug builds, a
+    // wrapped size in release). Each is now refused as truncated: no file holds 2⁶⁴ bytes.
+    let read = |tags: &[(&str, &str)]| {
+        let b = al3d_with_tags(tags);
+        flakescatter_io::al3d::read(
+            &b,
+            &ReadOptions::default(),
+            flakescatter_io::ValueKind::Height,
+        )
+        .unwrap_err()
+        .to_string()
+    };
+    let max = u64::MAX.to_string(); // 18446744073709551615, 20 digits
+    let e = read(&[("TagCount", &max)]);
+    assert!(
+        e.contains("truncated") && e.contains(&format!("{max} tags at byte 17")),
+        "{e}"
+    );
+    // 2³² - 1 columns and rows: lines of (2³² - 1) x 4 bytes rounded up to 8 = 2³⁴ bytes,
+    // and 2³⁴ x (2³² - 2) > 2⁶⁴.
+    let e = read(&[("Cols", "4294967295"), ("Rows", "4294967295")]);
+    assert!(
+        e.contains("the depth image (4294967295 x 4294967295 f32, lines of 17179869184 bytes)"),
+        "{e}"
+    );
+    // An offset of 2⁶⁴ - 1: the error names the file's end (474861 bytes) as the offset.
+    let e = read(&[("DepthImageOffset", &max)]);
+    assert!(
+        e.contains("the depth image (200 x 296 f32") && e.contains("at byte 474861"),
+        "{e}"
+    );
 }
 
 #[test]
