@@ -101,6 +101,21 @@ pub struct Collected {
     pub clearcoat_seen: bool,
 }
 
+impl Collected {
+    /// What a point detector reads: the point BRDF `f` (sr⁻¹) at an exit direction of
+    /// height `z = cos θr`.
+    #[must_use]
+    pub fn point(f: f64, z: f64) -> Self {
+        Self {
+            brdf: f,
+            reflectance: None,
+            power_per_sr: f * z,
+            error: 0.0,
+            clearcoat_seen: false,
+        }
+    }
+}
+
 impl DistributionModel {
     /// What the detector `cone` collects at incidence `inc`.
     #[must_use]
@@ -108,14 +123,7 @@ impl DistributionModel {
         let axis = cone.axis().into_inner();
         let alpha = cone.half_angle();
         if alpha == 0.0 {
-            let f = self.brdf(inc, &axis);
-            return Collected {
-                brdf: f,
-                reflectance: None,
-                power_per_sr: f * axis.z,
-                error: 0.0,
-                clearcoat_seen: false,
-            };
+            return Collected::point(self.brdf(inc, &axis), axis.z);
         }
         let solid = cone.solid_angle();
         let (mut rho, proj, error) = match method {

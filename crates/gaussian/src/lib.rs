@@ -52,6 +52,7 @@ pub mod montecarlo;
 pub mod mueller;
 pub mod quad;
 
+use flakescatter_optics::Vec3;
 use flakescatter_optics::detector::{Cone, in_plane_angle};
 use rayon::prelude::*;
 
@@ -123,9 +124,15 @@ impl CurvePoint {
     }
 }
 
+/// Point detectors per block of [`curve`]'s batch evaluation.
+const POINT_BLOCK: usize = 1024;
+
 /// The model at every incidence in `theta_i` (radians) for every detector in `cones`,
 /// rows ordered by incidence then detector. Detectors are evaluated in parallel; the
-/// result does not depend on the number of threads.
+/// result does not depend on the number of threads. When every detector is a point
+/// (`α = 0`), the point BRDF is evaluated in blocks by
+/// [`DistributionModel::brdf_batch`] (equal to [`DistributionModel::brdf`] to 1e-12
+/// relative), the specular reference too.
 ///
 /// # Errors
 /// [`ModelError::Incidence`] for an angle outside `[0, π/2)`, [`ModelError::Empty`]
@@ -151,17 +158,43 @@ pub fn curve(
             model.check_method(&inc, c.half_angle(), method)?;
         }
         let mut cache: Vec<(f64, f64)> = Vec::new();
-        let collected: Vec<Collected> = cones
-            .par_iter()
-            .map(|c| model.collect(&inc, c, method))
-            .collect();
+        let collected: Vec<Collected> = if cones.iter().all(|c| c.half_angle() == 0.0) {
+            // Point detectors: the vectorised point BRDF over blocks of directions (equal
+            // to `collect`'s scalar value to 1e-12 relative), the specular reference
+            // below from the same kernel.
+            let axes: Vec<Vec3> = cones.iter().map(|c| c.axis().into_inner()).collect();
+            let f: Vec<f64> = axes
+                .par_chunks(POINT_BLOCK)
+                .flat_map_iter(|block| {
+                    let mut out = Vec::with_capacity(block.len());
+                    model.brdf_batch(&inc, block, &mut out);
+                    out
+                })
+                .collect();
+            axes.iter()
+                .zip(f)
+                .map(|(r, f)| Collected::point(f, r.z))
+                .collect()
+        } else {
+            cones
+                .par_iter()
+                .map(|c| model.collect(&inc, c, method))
+                .collect()
+        };
         for (cone, col) in cones.iter().zip(collected) {
             let alpha = cone.half_angle();
             let spec = if let Some(&(_, v)) = cache.iter().find(|(a, _)| *a == alpha) {
                 v
             } else {
                 let sc = Cone::in_plane(-ti, alpha).map_err(ModelError::Detector)?;
-                let v = model.collect(&inc, &sc, method).power_per_sr;
+                let v = if alpha == 0.0 {
+                    let axis = sc.axis().into_inner();
+                    let mut out = Vec::with_capacity(1);
+                    model.brdf_batch(&inc, &[axis], &mut out);
+                    out[0] * axis.z
+                } else {
+                    model.collect(&inc, &sc, method).power_per_sr
+                };
                 cache.push((alpha, v));
                 v
             };

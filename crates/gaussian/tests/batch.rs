@@ -232,3 +232,66 @@ fn narrow_gaussian_tails_agree() {
         }
     }
 }
+
+#[test]
+fn a_curve_of_point_detectors_equals_the_scalar_point_brdf() {
+    // `curve` evaluates point detectors (α = 0) with the batch kernel; every row's BRDF,
+    // power per sr and relative value equal what the scalar `brdf` gives for the same
+    // direction (and the scalar specular reference) to 1e-12 relative, over random
+    // models, in and out of the plane of incidence, out to 89° from the zenith.
+    use flakescatter_gaussian::{ConeMethod, curve};
+    use flakescatter_optics::UnitVec3;
+    use flakescatter_optics::detector::Cone;
+    let mut rng = ChaCha8Rng::seed_from_u64(22);
+    let mut compared = 0;
+    for _ in 0..40 {
+        let n = rng.random_range(1.0..2.0);
+        let m = random_model(&mut rng, n);
+        let cones: Vec<Cone> = (0..1500)
+            .map(|k| {
+                let ts = f64::to_radians(-89.0 + 0.1187 * f64::from(k));
+                let phi = if k % 3 == 0 {
+                    0.0
+                } else {
+                    rng.random_range(-0.5..0.5)
+                };
+                let axis = Vec3::new(
+                    -ts.sin() * f64::cos(phi),
+                    f64::sin(phi),
+                    ts.cos() * f64::cos(phi),
+                );
+                Cone::new(UnitVec3::new_normalize(axis), 0.0).unwrap()
+            })
+            .collect();
+        let ti = [0.0, rng.random_range(0.0..1.5)];
+        let rows = curve(&m, &ti, &cones, ConeMethod::Exact).unwrap();
+        for row in &rows {
+            let inc = m.incidence(row.theta_i).unwrap();
+            let axis = row.cone.axis().into_inner();
+            let f = m.brdf(&inc, &axis);
+            let spec = {
+                let p = Cone::in_plane(-row.theta_i, 0.0)
+                    .unwrap()
+                    .axis()
+                    .into_inner();
+                m.brdf(&inc, &p) * p.z
+            };
+            let close =
+                |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs() || (a.is_nan() && b.is_nan());
+            assert!(
+                close(row.collected.brdf, f),
+                "{} vs {f}",
+                row.collected.brdf
+            );
+            assert!(close(row.collected.power_per_sr, f * axis.z));
+            let want = if spec > 0.0 {
+                f * axis.z / spec
+            } else {
+                f64::NAN
+            };
+            assert!(close(row.relative, want), "{} vs {want}", row.relative);
+            compared += usize::from(f > 0.0);
+        }
+    }
+    assert!(compared > 10_000, "{compared}");
+}
