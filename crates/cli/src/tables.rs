@@ -12,7 +12,14 @@ use flakescatter::stats::segment::SegmentedFlake;
 use flakescatter::{Curves, DetectorSet, Instrument};
 use serde_json::{Value, json};
 
+use rayon::prelude::*;
+
 use crate::parse::{deg, deg_num, shortest};
+
+/// Rows per block of the curve CSV, formatted on one thread.
+const CSV_BLOCK: usize = 4096;
+/// Rows formatted before they are written (so that a large table is never held whole).
+const CSV_WAVE: usize = 16 * CSV_BLOCK;
 
 pub use crate::number::num;
 use crate::number::push_num_bytes;
@@ -51,7 +58,7 @@ pub fn write_curves_with(
     curves: &Curves,
     topo_columns: bool,
     extra_header: &[String],
-    extra: impl Fn(usize) -> Vec<String>,
+    extra: impl Fn(usize) -> Vec<String> + Sync,
 ) -> anyhow::Result<()> {
     let mut header = vec![
         "theta_i_deg",
@@ -86,41 +93,53 @@ pub fn write_curves_with(
             format!("{},{},{aperture},", deg(ts), deg(ps))
         })
         .collect();
-    let mut incidence = (f64::NAN, String::new());
-    for (k, row) in curves.rows.iter().enumerate() {
-        if row.theta_i.to_bits() != incidence.0.to_bits() {
-            incidence = (row.theta_i, deg(row.theta_i) + ",");
-        }
-        buf.extend_from_slice(incidence.1.as_bytes());
-        buf.extend_from_slice(detectors[row.detector].as_bytes());
-        push_num_bytes(&mut buf, row.brdf);
-        buf.push(b',');
-        if let Some(v) = row.reflectance {
-            push_num_bytes(&mut buf, v);
-        }
-        buf.push(b',');
-        push_num_bytes(&mut buf, row.relative);
-        if topo_columns {
+    // Rows are formatted in blocks on all threads, a few blocks at a time, and written
+    // in order: the bytes are those of one sequential pass.
+    let format_block = |first: usize, rows: &[flakescatter::CurveRow]| -> Vec<u8> {
+        let mut buf = Vec::with_capacity(rows.len() * 80);
+        let mut incidence = (f64::NAN, String::new());
+        for (i, row) in rows.iter().enumerate() {
+            if row.theta_i.to_bits() != incidence.0.to_bits() {
+                incidence = (row.theta_i, deg(row.theta_i) + ",");
+            }
+            buf.extend_from_slice(incidence.1.as_bytes());
+            buf.extend_from_slice(detectors[row.detector].as_bytes());
+            push_num_bytes(&mut buf, row.brdf);
             buf.push(b',');
-            if let Some(r) = row.rays {
-                let _ = write!(buf, "{r}");
+            if let Some(v) = row.reflectance {
+                push_num_bytes(&mut buf, v);
             }
             buf.push(b',');
-            if let Some(e) = row.std_err {
-                push_num_bytes(&mut buf, e);
+            push_num_bytes(&mut buf, row.relative);
+            if topo_columns {
+                buf.push(b',');
+                if let Some(r) = row.rays {
+                    let _ = write!(buf, "{r}");
+                }
+                buf.push(b',');
+                if let Some(e) = row.std_err {
+                    push_num_bytes(&mut buf, e);
+                }
             }
+            for text in extra(first + i) {
+                buf.push(b',');
+                push_field(&mut buf, &text);
+            }
+            buf.push(b'\n');
         }
-        for text in extra(k) {
-            buf.push(b',');
-            push_field(&mut buf, &text);
-        }
-        buf.push(b'\n');
-        if buf.len() >= 1 << 16 {
-            out.write_all(&buf)?;
-            buf.clear();
+        buf
+    };
+    out.write_all(&buf)?;
+    for (w, wave) in curves.rows.chunks(CSV_WAVE).enumerate() {
+        let blocks: Vec<Vec<u8>> = wave
+            .par_chunks(CSV_BLOCK)
+            .enumerate()
+            .map(|(b, rows)| format_block(w * CSV_WAVE + b * CSV_BLOCK, rows))
+            .collect();
+        for b in blocks {
+            out.write_all(&b)?;
         }
     }
-    out.write_all(&buf)?;
     out.flush()?;
     Ok(())
 }
