@@ -229,3 +229,42 @@ fn out_of_plane_detectors_from_a_file() {
     assert!(err.contains("line 2"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_large_curve_table_is_the_same_bytes_on_any_number_of_threads() {
+    // 86 × 1781 = 153 166 rows: more than two waves of the parallel CSV formatter
+    // (16 blocks of 4096 rows each), rows split across blocks mid-incidence. One thread
+    // formats the blocks one after the other, as a sequential writer would.
+    let args = [
+        "model",
+        "--theta-i",
+        "0:85:1",
+        "--theta-s",
+        "-89:89:0.1",
+        "--aperture",
+        "0",
+    ];
+    let out = |threads: &str| {
+        let o = bin()
+            .args(args)
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        o.stdout
+    };
+    let one = out("1");
+    assert_eq!(one.iter().filter(|&&c| c == b'\n').count(), 1 + 86 * 1781);
+    assert!(one == out("2") && one == out("3"));
+    // Rows in order: incidence, then detector.
+    let text = String::from_utf8(one).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[1].starts_with("0,-89,0,0,"), "{}", lines[1]);
+    assert!(lines[1781].starts_with("0,89,0,0,"), "{}", lines[1781]);
+    assert!(lines[1782].starts_with("1,-89,0,0,"), "{}", lines[1782]);
+    assert!(
+        lines[86 * 1781].starts_with("85,89,0,0,"),
+        "{}",
+        lines[86 * 1781]
+    );
+}
