@@ -213,7 +213,13 @@ fn opd_date(date: &str, time: &str) -> Option<String> {
 /// `(year, month, day)` of a count of days since 1970-01-01 (proleptic Gregorian), by
 /// 400-year eras of 146097 days starting on 0000-03-01, so that the leap day is the
 /// last day of a year.
-pub(crate) fn civil_from_days(days: i64) -> (i64, i64, i64) {
+///
+/// ```
+/// // GNU `date -u -d @951782400`: 2000-02-29 (day 11016 since 1970-01-01).
+/// assert_eq!(flakescatter_io::provenance::civil_from_days(11_016), (2000, 2, 29));
+/// ```
+#[must_use]
+pub fn civil_from_days(days: i64) -> (i64, i64, i64) {
     let z = days + 719_468;
     let era = z.div_euclid(146_097);
     let doe = z - era * 146_097;
