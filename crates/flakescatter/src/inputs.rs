@@ -295,6 +295,37 @@ pub fn load_map(
                     channel: c.clone(),
                 });
             }
+            // A partner intensity file is read first and kept only as its keep-mask (one
+            // byte per point), so that the intensities and the heights are never held
+            // together; its errors are reported after the height file's own.
+            let partner_mask = match (&source.intensity, &source.intensity_channel, options.cutoff)
+            {
+                (Some(ipath), None, Some(cutoff)) => {
+                    // The channel choice is the height map's; the partner file's first.
+                    let partner = ReadOptions {
+                        channel: None,
+                        ..options.read
+                    };
+                    Some(
+                        read_intensity(ipath, &partner)
+                            .map_err(|source| LoadError::Intensity {
+                                map: path.clone(),
+                                source: Box::new(source),
+                            })
+                            .and_then(|(intensity, _)| {
+                                intensity.intensity_mask(cutoff).map_err(|source| {
+                                    LoadError::Cutoff {
+                                        map: path.clone(),
+                                        intensity: ipath.display().to_string(),
+                                        cutoff,
+                                        source,
+                                    }
+                                })
+                            }),
+                    )
+                }
+                _ => None,
+            };
             let read = read_selected(
                 path,
                 &options.read,
@@ -321,17 +352,18 @@ pub fn load_map(
                     cut(&mut map, mask, cutoff, what)?;
                 }
                 (Some(ipath), None, Some(cutoff)) => {
-                    // The channel choice is the height map's; the partner file's first.
-                    let partner = ReadOptions {
-                        channel: None,
-                        ..options.read
-                    };
-                    let (mask, _) =
-                        read_intensity(ipath, &partner).map_err(|source| LoadError::Intensity {
+                    // Read above for this very case (a partner file and a cutoff).
+                    let keep = partner_mask.ok_or_else(|| LoadError::NoIntensity {
+                        map: path.clone(),
+                        cutoff,
+                    })??;
+                    map.apply_intensity_mask(&keep)
+                        .map_err(|source| LoadError::Cutoff {
                             map: path.clone(),
-                            source: Box::new(source),
+                            intensity: ipath.display().to_string(),
+                            cutoff,
+                            source,
                         })?;
-                    cut(&mut map, &mask, cutoff, ipath.display().to_string())?;
                 }
                 (None, None, Some(cutoff)) => {
                     return Err(LoadError::NoIntensity {

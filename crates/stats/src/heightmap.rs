@@ -108,6 +108,25 @@ pub struct HeightSummary {
     pub count: usize,
 }
 
+/// Which points of an intensity map pass a cutoff, with the map's shape and pitch
+/// ([`HeightMap::intensity_mask`]): one byte per point, for masking a height map without
+/// keeping the intensities.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IntensityMask {
+    /// The cutoff, in the intensity map's own values.
+    pub cutoff: f64,
+    /// Columns.
+    pub nx: usize,
+    /// Rows.
+    pub ny: usize,
+    /// Pitch in x, µm.
+    pub dx: f64,
+    /// Pitch in y, µm.
+    pub dy: f64,
+    /// Row-major, `true` where the intensity is valid and at least the cutoff.
+    pub keep: Vec<bool>,
+}
+
 /// A regular grid of heights (µm) with pixel pitch `dx × dy` (µm) and a validity mask.
 ///
 /// See the module documentation for the storage order and axis conventions.
@@ -288,36 +307,83 @@ impl HeightMap {
         intensity: &HeightMap,
         cutoff: f64,
     ) -> Result<usize, HeightMapError> {
-        if (intensity.nx, intensity.ny) != (self.nx, self.ny) {
-            return Err(HeightMapError::DimensionMismatch {
-                expected: (self.nx, self.ny),
-                found: (intensity.nx, intensity.ny),
-            });
-        }
-        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
-        if !(same(intensity.dx, self.dx) && same(intensity.dy, self.dy)) {
-            return Err(HeightMapError::PitchMismatch {
-                expected: (self.dx, self.dy),
-                found: (intensity.dx, intensity.dy),
-            });
-        }
+        self.check_same_grid(intensity)?;
+        self.apply_intensity_mask(&intensity.intensity_mask(cutoff)?)
+    }
+
+    /// The points of this intensity map at or above `cutoff` (valid and finite), with
+    /// the map's shape and pitch: what [`HeightMap::apply_intensity_mask`] applies to a
+    /// height map, one byte per point, so that the intensity values need not be kept.
+    ///
+    /// # Errors
+    /// [`HeightMapError::BadCutoff`] if `cutoff` is NaN.
+    pub fn intensity_mask(&self, cutoff: f64) -> Result<IntensityMask, HeightMapError> {
         if cutoff.is_nan() {
             return Err(HeightMapError::BadCutoff);
         }
-        let keep = |i: usize| intensity.valid[i] && intensity.z[i] >= cutoff;
-        let remaining = (0..self.len())
-            .filter(|&i| self.valid[i] && keep(i))
+        Ok(IntensityMask {
+            cutoff,
+            nx: self.nx,
+            ny: self.ny,
+            dx: self.dx,
+            dy: self.dy,
+            keep: self
+                .valid
+                .iter()
+                .zip(&self.z)
+                .map(|(&v, &z)| v && z >= cutoff)
+                .collect(),
+        })
+    }
+
+    /// Marks the points that `mask` does not keep invalid ([`HeightMap::intensity_mask`]);
+    /// the shape and pitch must agree as for [`HeightMap::apply_intensity_cutoff`].
+    /// Returns the number of points still valid.
+    ///
+    /// # Errors
+    /// [`HeightMapError::DimensionMismatch`], [`HeightMapError::PitchMismatch`], and
+    /// [`HeightMapError::NothingUsable`] if no point would remain valid (the map is then
+    /// left unchanged).
+    pub fn apply_intensity_mask(&mut self, mask: &IntensityMask) -> Result<usize, HeightMapError> {
+        self.check_grid(mask.nx, mask.ny, mask.dx, mask.dy)?;
+        let remaining = self
+            .valid
+            .iter()
+            .zip(&mask.keep)
+            .filter(|&(&v, &k)| v && k)
             .count();
         if remaining == 0 {
             return Err(HeightMapError::NothingUsable {
-                cutoff,
+                cutoff: mask.cutoff,
                 total: self.len(),
             });
         }
-        for i in 0..self.len() {
-            self.valid[i] = self.valid[i] && keep(i);
+        for (v, &k) in self.valid.iter_mut().zip(&mask.keep) {
+            *v = *v && k;
         }
         Ok(remaining)
+    }
+
+    fn check_same_grid(&self, other: &HeightMap) -> Result<(), HeightMapError> {
+        self.check_grid(other.nx, other.ny, other.dx, other.dy)
+    }
+
+    /// Same shape, and the same pitch to a relative 1e-9.
+    fn check_grid(&self, nx: usize, ny: usize, dx: f64, dy: f64) -> Result<(), HeightMapError> {
+        if (nx, ny) != (self.nx, self.ny) {
+            return Err(HeightMapError::DimensionMismatch {
+                expected: (self.nx, self.ny),
+                found: (nx, ny),
+            });
+        }
+        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+        if !(same(dx, self.dx) && same(dy, self.dy)) {
+            return Err(HeightMapError::PitchMismatch {
+                expected: (self.dx, self.dy),
+                found: (dx, dy),
+            });
+        }
+        Ok(())
     }
 
     /// Minimum, maximum, mean and rms about the mean of the valid heights (µm);
@@ -454,6 +520,42 @@ mod tests {
         assert_eq!(m.apply_intensity_cutoff(&i, 0.5), Ok(1));
         assert_eq!(m.valid(), &[false, true, false, false]);
         assert_eq!(m.valid_count(), 1);
+    }
+
+    #[test]
+    fn an_intensity_mask_applied_later_masks_the_same_points() {
+        // The same four points as above, through the keep-mask (the intensity map can be
+        // dropped before the heights are read): keep = [false, true, false, true]
+        // (0.1 < 0.5, 0.5 ≥ 0.5, NaN invalid, 0.9 ≥ 0.5); with the NaN height only point 1.
+        let i = HeightMap::new(2, 2, 1.0, 1.0, vec![0.1, 0.5, f64::NAN, 0.9]).unwrap();
+        let keep = i.intensity_mask(0.5).unwrap();
+        drop(i);
+        assert_eq!(keep.keep, [false, true, false, true]);
+        let mut m = HeightMap::new(2, 2, 1.0, 1.0, vec![1.0, 2.0, 3.0, f64::NAN]).unwrap();
+        assert_eq!(m.apply_intensity_mask(&keep), Ok(1));
+        assert_eq!(m.valid(), &[false, true, false, false]);
+        // Shape and pitch are checked as for the cutoff itself.
+        let mut other = HeightMap::new(4, 1, 1.0, 1.0, vec![1.0; 4]).unwrap();
+        assert!(matches!(
+            other.apply_intensity_mask(&keep),
+            Err(HeightMapError::DimensionMismatch { .. })
+        ));
+        let mut coarse = HeightMap::new(2, 2, 1.0, 1.0 + 2e-9, vec![1.0; 4]).unwrap();
+        assert!(matches!(
+            coarse.apply_intensity_mask(&keep),
+            Err(HeightMapError::PitchMismatch { .. })
+        ));
+        let none = HeightMap::new(2, 2, 1.0, 1.0, vec![0.0; 4]).unwrap();
+        let mut m = HeightMap::new(2, 2, 1.0, 1.0, vec![0.0; 4]).unwrap();
+        let err = m
+            .apply_intensity_mask(&none.intensity_mask(0.5).unwrap())
+            .unwrap_err();
+        assert_eq!(err.to_string(), "cutoff 0.5 leaves 0 of 4 pixels usable");
+        assert_eq!(m.valid_count(), 4);
+        assert_eq!(
+            none.intensity_mask(f64::NAN),
+            Err(HeightMapError::BadCutoff)
+        );
     }
 
     #[test]
