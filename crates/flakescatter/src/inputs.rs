@@ -260,12 +260,7 @@ pub fn load_map(
             let valid_before_cutoff = map.valid_count();
             if let Some(cutoff) = options.cutoff {
                 map.apply_intensity_cutoff(&maps.intensity, cutoff)
-                    .map_err(|source| LoadError::Cutoff {
-                        map: path.clone(),
-                        intensity: "its own intensity".into(),
-                        cutoff,
-                        source,
-                    })?;
+                    .map_err(cutoff_error(path, "its own intensity", cutoff))?;
             }
             Ok(LoadedMap {
                 map,
@@ -313,14 +308,11 @@ pub fn load_map(
                                 source: Box::new(source),
                             })
                             .and_then(|(intensity, _)| {
-                                intensity.intensity_mask(cutoff).map_err(|source| {
-                                    LoadError::Cutoff {
-                                        map: path.clone(),
-                                        intensity: ipath.display().to_string(),
-                                        cutoff,
-                                        source,
-                                    }
-                                })
+                                intensity.intensity_mask(cutoff).map_err(cutoff_error(
+                                    path,
+                                    ipath.display().to_string(),
+                                    cutoff,
+                                ))
                             }),
                     )
                 }
@@ -335,21 +327,12 @@ pub fn load_map(
             .map_err(|e| LoadError::Height(Box::new(e)))?;
             let mut map = read.map;
             let valid_before_cutoff = map.valid_count();
-            let cut = |map: &mut HeightMap, mask: &HeightMap, cutoff: f64, intensity: String| {
-                map.apply_intensity_cutoff(mask, cutoff)
-                    .map(|_| ())
-                    .map_err(|source| LoadError::Cutoff {
-                        map: path.clone(),
-                        intensity,
-                        cutoff,
-                        source,
-                    })
-            };
             match (&source.intensity, &read.intensity, options.cutoff) {
                 (_, Some((mask, i)), Some(cutoff)) => {
                     let c = &read.channels[*i];
                     let what = format!("channel {i} ({}) of the same file", c.name);
-                    cut(&mut map, mask, cutoff, what)?;
+                    map.apply_intensity_cutoff(mask, cutoff)
+                        .map_err(cutoff_error(path, what, cutoff))?;
                 }
                 (Some(ipath), None, Some(cutoff)) => {
                     // Read above for this very case (a partner file and a cutoff).
@@ -357,13 +340,11 @@ pub fn load_map(
                         map: path.clone(),
                         cutoff,
                     })??;
-                    map.apply_intensity_mask(&keep)
-                        .map_err(|source| LoadError::Cutoff {
-                            map: path.clone(),
-                            intensity: ipath.display().to_string(),
-                            cutoff,
-                            source,
-                        })?;
+                    map.apply_intensity_mask(&keep).map_err(cutoff_error(
+                        path,
+                        ipath.display().to_string(),
+                        cutoff,
+                    ))?;
                 }
                 (None, None, Some(cutoff)) => {
                     return Err(LoadError::NoIntensity {
@@ -389,6 +370,22 @@ pub fn load_map(
                 intensity_channel: read.intensity.map(|(_, i)| i),
             })
         }
+    }
+}
+
+/// The error of an intensity cutoff on the map `map`, the intensity described by
+/// `intensity` (a file, a channel of the same file, a stack's own).
+fn cutoff_error(
+    map: &Path,
+    intensity: impl Into<String>,
+    cutoff: f64,
+) -> impl FnOnce(HeightMapError) -> LoadError {
+    let (map, intensity) = (map.to_path_buf(), intensity.into());
+    move |source| LoadError::Cutoff {
+        map,
+        intensity,
+        cutoff,
+        source,
     }
 }
 
