@@ -528,19 +528,32 @@ impl TopoModel {
                 ny: map.ny(),
             });
         }
+        // The tiles are row-major, so the tiles of one band of rows are consecutive and
+        // write only that band's rows: each band fills its own slice of the output in
+        // place (no per-pixel records gathered and copied afterwards). The tiles, and so
+        // the running sums and their rounding, are those of `run`.
         let tiles = self.tiles(map);
-        let per_tile: Vec<Vec<(usize, usize, f64, f64)>> = tiles
-            .par_iter()
-            .map_init(Scratch::default, |scratch, &rect| {
-                let mut v = Vec::new();
-                tile_slopes(map, k / 2, rect, scratch, |r, c, a, b| v.push((r, c, a, b)));
-                v
+        let nx = map.nx();
+        let band_rows = tiles.first().map_or(map.ny(), |t| t.r1 - t.r0);
+        let bands: Vec<&[Rect]> = tiles.chunk_by(|a, b| a.r0 == b.r0).collect();
+        // Zeroed memory comes from the allocator untouched; each band writes its pages.
+        let mut slopes = vec![[0.0_f64; 2]; nx * map.ny()];
+        let usable: usize = slopes
+            .par_chunks_mut(band_rows * nx)
+            .zip(bands.par_iter())
+            .map_init(Scratch::default, |scratch, (band, band_tiles)| {
+                band.fill([f64::NAN; 2]);
+                let r0 = band_tiles[0].r0;
+                let mut usable = 0;
+                for &rect in *band_tiles {
+                    usable += tile_slopes(map, k / 2, rect, scratch, |r, c, a, b| {
+                        band[(r - r0) * nx + c] = [a, b];
+                    });
+                }
+                usable
             })
-            .collect();
-        let mut normals = Normals::new(map.nx(), map.ny(), k);
-        for (r, c, a, b) in per_tile.into_iter().flatten() {
-            normals.set(r, c, a, b);
-        }
+            .sum();
+        let normals = Normals::from_slopes(map.nx(), map.ny(), k, slopes, usable);
         Ok(normals)
     }
 

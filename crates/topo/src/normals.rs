@@ -38,19 +38,23 @@ pub struct Normals {
 }
 
 impl Normals {
-    pub(crate) fn new(nx: usize, ny: usize, window: usize) -> Self {
+    /// Normals from slopes already computed (`slopes` row-major, NaN where skipped;
+    /// `usable` the number of pixels that are not).
+    pub(crate) fn from_slopes(
+        nx: usize,
+        ny: usize,
+        window: usize,
+        slopes: Vec<[f64; 2]>,
+        usable: usize,
+    ) -> Self {
+        debug_assert_eq!(slopes.len(), nx * ny);
         Self {
             nx,
             ny,
             window,
-            slopes: vec![[f64::NAN; 2]; nx * ny],
-            usable: 0,
+            slopes,
+            usable,
         }
-    }
-
-    pub(crate) fn set(&mut self, row: usize, col: usize, a: f64, b: f64) {
-        self.slopes[row * self.nx + col] = [a, b];
-        self.usable += 1;
     }
 
     /// Number of columns of the map.
@@ -163,24 +167,24 @@ pub(crate) fn direct_slopes(map: &HeightMap, h: usize, row: usize, col: usize) -
     )
 }
 
-/// Calls `emit(row, col, a, b)` for every usable pixel of `rect`, in row-major order.
-/// `k = 2h + 1` is the window side.
+/// Calls `emit(row, col, a, b)` for every usable pixel of `rect`, in row-major order,
+/// and returns how many there were. `k = 2h + 1` is the window side.
 pub(crate) fn tile_slopes(
     map: &HeightMap,
     h: usize,
     rect: Rect,
     scratch: &mut Scratch,
     mut emit: impl FnMut(usize, usize, f64, f64),
-) {
+) -> usize {
     let (nx, ny) = (map.nx(), map.ny());
     if nx < 2 * h + 1 || ny < 2 * h + 1 {
-        return;
+        return 0;
     }
     // Output pixels whose whole window lies inside the map.
     let (or0, or1) = (rect.r0.max(h), rect.r1.min(ny - h));
     let (oc0, oc1) = (rect.c0.max(h), rect.c1.min(nx - h));
     if or0 >= or1 || oc0 >= oc1 {
-        return;
+        return 0;
     }
     let k = 2 * h + 1;
     let hf = h as f64;
@@ -266,6 +270,7 @@ pub(crate) fn tile_slopes(
     let mut col_s = vec![0.0; ow];
     let mut col_js = vec![0.0; ow];
     let mut col_bad = vec![0u32; ow];
+    let mut emitted = 0;
     for t in 0..k {
         let row = t * ow;
         let jt = t as f64 - hf;
@@ -292,7 +297,9 @@ pub(crate) fn tile_slopes(
         for oc in 0..ow {
             if col_bad[oc] == 0 {
                 emit(r, oc0 + oc, col_m[oc] * inv_x, col_js[oc] * inv_y);
+                emitted += 1;
             }
         }
     }
+    emitted
 }
