@@ -497,27 +497,44 @@ impl DistributionModel {
         };
         // (sin ψ, cos ψ, weight in units of dψ) for the nodes evaluated.
         let trig = psi_trig(n_psi);
-        let psi: Vec<(f64, f64, f64, bool)> = (0..n_psi)
-            .filter_map(|j| {
-                let (sp, cp) = trig[j];
-                let even = j % 2 == 0;
-                if !in_plane || j == 0 || 2 * j == n_psi {
-                    Some((sp, cp, 1.0, even))
-                } else if 2 * j < n_psi {
-                    Some((sp, cp, 2.0, even))
-                } else {
-                    None
-                }
-            })
-            .collect();
         // Every node's exit direction above the horizon, ring by ring, evaluated in one
         // batch: `ring_end[i]` ends ring i in `dirs` (with its sin β), `slot` says which
-        // ψ node each direction is.
-        let mut dirs: Vec<Vec3> = Vec::with_capacity(nodes.len() * psi.len());
-        let mut slot: Vec<usize> = Vec::with_capacity(nodes.len() * psi.len());
-        let mut ring_end: Vec<(usize, f64)> = Vec::with_capacity(nodes.len());
-        for &(beta, _, _) in nodes {
-            let (sb, cb) = beta.sin_cos();
+        // ψ node each direction is. The buffers are reused from call to call on each
+        // thread (a curve evaluates thousands of cones), and so are the `sin β`, `cos β`
+        // of the nodes while the cones keep one aperture.
+        // Taken out of the cell for the call (a nested call would find it empty and
+        // allocate), put back after.
+        let mut scratch = RULE_SCRATCH.with_borrow_mut(std::mem::take);
+        let RuleScratch {
+            key,
+            beta_trig,
+            psi,
+            dirs,
+            slot,
+            ring_end,
+        } = &mut scratch;
+        psi.clear();
+        psi.extend((0..n_psi).filter_map(|j| {
+            let (sp, cp) = trig[j];
+            let even = j % 2 == 0;
+            if !in_plane || j == 0 || 2 * j == n_psi {
+                Some((sp, cp, 1.0, even))
+            } else if 2 * j < n_psi {
+                Some((sp, cp, 2.0, even))
+            } else {
+                None
+            }
+        }));
+        let this_key = (nodes.len(), nodes.last().map_or(0, |n| n.0.to_bits()));
+        if *key != Some(this_key) || beta_trig.len() != nodes.len() {
+            beta_trig.clear();
+            beta_trig.extend(nodes.iter().map(|&(beta, _, _)| beta.sin_cos()));
+            *key = Some(this_key);
+        }
+        dirs.clear();
+        slot.clear();
+        ring_end.clear();
+        for &(sb, cb) in beta_trig.iter() {
             for (k, &(sp, cp, _, _)) in psi.iter().enumerate() {
                 let r: Vec3 = axis * cb + (u * cp + v * sp) * sb;
                 if r.z > 0.0 {
@@ -529,12 +546,29 @@ impl DistributionModel {
         }
         let mut values: Vec<V> = Vec::new();
         if let Some(points) = points {
-            points(&dirs, &mut values);
+            points(dirs, &mut values);
         }
+        let result = self.sum_rule(nodes, n_psi, psi, dirs, slot, ring_end, &values);
+        RULE_SCRATCH.with_borrow_mut(|s| *s = scratch);
+        result
+    }
+
+    /// The sums of [`DistributionModel::cone_rule_of`] over the evaluated nodes.
+    #[allow(clippy::too_many_arguments)]
+    fn sum_rule<V: QuadValue>(
+        &self,
+        nodes: &[(f64, f64, f64)],
+        n_psi: usize,
+        psi: &[(f64, f64, f64, bool)],
+        dirs: &[Vec3],
+        slot: &[usize],
+        ring_end: &[(usize, f64)],
+        values: &[V],
+    ) -> (V, f64, f64) {
         let dpsi = 2.0 * PI / n_psi as f64;
         let (mut k_rho, mut g_rho, mut half_rho, mut proj) = (V::zero(), V::zero(), V::zero(), 0.0);
         let mut start = 0;
-        for (&(_, wk, wg), &(end, sb)) in nodes.iter().zip(&ring_end) {
+        for (&(_, wk, wg), &(end, sb)) in nodes.iter().zip(ring_end) {
             let (mut ring, mut ring_half, mut ring_proj) = (V::zero(), V::zero(), 0.0);
             for i in start..end {
                 let (_, _, w, even) = psi[slot[i]];
@@ -564,6 +598,25 @@ impl DistributionModel {
         let error = k_rho.distance(&g_rho) + k_rho.distance(&half_rho);
         (k_rho, proj, error)
     }
+}
+
+/// Per-thread buffers of [`DistributionModel::cone_rule_of`]: the `(sin β, cos β)` of
+/// the last β nodes (keyed by their number and the last node's bits), the ψ nodes, the exit
+/// directions, their ψ slots and the ring ends.
+#[derive(Default)]
+struct RuleScratch {
+    key: Option<(usize, u64)>,
+    beta_trig: Vec<(f64, f64)>,
+    /// `(sin ψ, cos ψ, weight in units of dψ, even)` of the ψ nodes evaluated.
+    psi: Vec<(f64, f64, f64, bool)>,
+    dirs: Vec<Vec3>,
+    slot: Vec<usize>,
+    ring_end: Vec<(usize, f64)>,
+}
+
+thread_local! {
+    static RULE_SCRATCH: std::cell::RefCell<RuleScratch> =
+        std::cell::RefCell::new(RuleScratch::default());
 }
 
 /// `(sin ψ_j, cos ψ_j)`, `ψ_j = 2πj/n`, for the trapezoid rules in `ψ` of the axis rule
