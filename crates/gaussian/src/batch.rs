@@ -321,6 +321,7 @@ struct Batch<'a> {
     setup: &'a Setup,
     dirs: &'a [Vec3],
     out: &'a mut [f64],
+    buf: &'a mut Buffers,
 }
 
 impl pulp::WithSimd for Batch<'_> {
@@ -329,7 +330,7 @@ impl pulp::WithSimd for Batch<'_> {
     #[inline(always)]
     fn with_simd<S: Simd>(self, simd: S) {
         self.model
-            .batch_blocks(simd, self.inc, self.setup, self.dirs, self.out);
+            .batch_blocks(simd, self.inc, self.setup, self.dirs, self.out, self.buf);
     }
 }
 
@@ -347,12 +348,26 @@ impl DistributionModel {
         out.clear();
         out.resize(dirs.len(), 0.0);
         let setup = self.batch_setup(inc);
-        pulp::Arch::new().dispatch(Batch {
-            model: self,
-            inc,
-            setup: &setup,
-            dirs,
-            out,
+        // The block arrays (9 KiB) are kept per thread rather than zeroed on every call:
+        // every lane a block reads was written earlier in that block (`batch_block`).
+        BUFFERS.with(|cell| {
+            let mut fresh;
+            let mut held;
+            let buf: &mut Buffers = if let Ok(b) = cell.try_borrow_mut() {
+                held = b;
+                &mut held
+            } else {
+                fresh = Buffers::default();
+                &mut fresh
+            };
+            pulp::Arch::new().dispatch(Batch {
+                model: self,
+                inc,
+                setup: &setup,
+                dirs,
+                out,
+                buf,
+            });
         });
     }
 
@@ -425,8 +440,8 @@ impl DistributionModel {
         s: &Setup,
         dirs: &[Vec3],
         out: &mut [f64],
+        buf: &mut Buffers,
     ) {
-        let mut buf = Buffers::default();
         for (d, o) in dirs.chunks(LANES).zip(out.chunks_mut(LANES)) {
             // Structure of arrays, padded with the zenith (a direction every lane can
             // compute).
@@ -434,7 +449,7 @@ impl DistributionModel {
                 let r = d.get(i).copied().unwrap_or_else(Vec3::z);
                 (buf.x[i], buf.y[i], buf.z[i]) = (r.x, r.y, r.z);
             }
-            self.batch_block(simd, inc, s, d, &mut buf);
+            self.batch_block(simd, inc, s, d, buf);
             o.copy_from_slice(&buf.out[..d.len()]);
         }
     }
@@ -521,6 +536,8 @@ impl DistributionModel {
                         if buf.p2[i] == 0.0 {
                             buf.zero[i] = 1.0;
                         }
+                    } else {
+                        buf.p2[i] = 0.0;
                     }
                 }
             }
@@ -649,6 +666,11 @@ impl DistributionModel {
             }
         }
     }
+}
+
+thread_local! {
+    /// Each thread's block arrays for [`DistributionModel::brdf_batch`].
+    static BUFFERS: std::cell::RefCell<Buffers> = std::cell::RefCell::new(Buffers::default());
 }
 
 /// The per-block arrays of the kernel (structure of arrays, [`LANES`] each).

@@ -509,6 +509,7 @@ impl DistributionModel {
             key,
             beta_trig,
             psi,
+            psi_w,
             dirs,
             slot,
             ring_end,
@@ -534,9 +535,13 @@ impl DistributionModel {
         dirs.clear();
         slot.clear();
         ring_end.clear();
+        // u cos ψ + v sin ψ once per ψ node (the same expression, so the same bits).
+        psi_w.clear();
+        psi_w.extend(psi.iter().map(|&(sp, cp, _, _)| u * cp + v * sp));
         for &(sb, cb) in beta_trig.iter() {
-            for (k, &(sp, cp, _, _)) in psi.iter().enumerate() {
-                let r: Vec3 = axis * cb + (u * cp + v * sp) * sb;
+            let along = axis * cb;
+            for (k, &w) in psi_w.iter().enumerate() {
+                let r: Vec3 = along + w * sb;
                 if r.z > 0.0 {
                     dirs.push(r);
                     slot.push(k);
@@ -609,6 +614,8 @@ struct RuleScratch {
     beta_trig: Vec<(f64, f64)>,
     /// `(sin ψ, cos ψ, weight in units of dψ, even)` of the ψ nodes evaluated.
     psi: Vec<(f64, f64, f64, bool)>,
+    /// `u cos ψ + v sin ψ` of those nodes.
+    psi_w: Vec<Vec3>,
     dirs: Vec<Vec3>,
     slot: Vec<usize>,
     ring_end: Vec<(usize, f64)>,
