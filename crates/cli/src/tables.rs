@@ -95,8 +95,8 @@ pub fn write_curves_with(
         .collect();
     // Rows are formatted in blocks on all threads, a few blocks at a time, and written
     // in order: the bytes are those of one sequential pass.
-    let format_block = |first: usize, rows: &[flakescatter::CurveRow]| -> Vec<u8> {
-        let mut buf = Vec::with_capacity(rows.len() * 80);
+    let format_block = |first: usize, rows: &[flakescatter::CurveRow], buf: &mut Vec<u8>| {
+        buf.clear();
         let mut incidence = (f64::NAN, String::new());
         for (i, row) in rows.iter().enumerate() {
             if row.theta_i.to_bits() != incidence.0.to_bits() {
@@ -104,13 +104,13 @@ pub fn write_curves_with(
             }
             buf.extend_from_slice(incidence.1.as_bytes());
             buf.extend_from_slice(detectors[row.detector].as_bytes());
-            push_num_bytes(&mut buf, row.brdf);
+            push_num_bytes(buf, row.brdf);
             buf.push(b',');
             if let Some(v) = row.reflectance {
-                push_num_bytes(&mut buf, v);
+                push_num_bytes(buf, v);
             }
             buf.push(b',');
-            push_num_bytes(&mut buf, row.relative);
+            push_num_bytes(buf, row.relative);
             if topo_columns {
                 buf.push(b',');
                 if let Some(r) = row.rays {
@@ -118,26 +118,28 @@ pub fn write_curves_with(
                 }
                 buf.push(b',');
                 if let Some(e) = row.std_err {
-                    push_num_bytes(&mut buf, e);
+                    push_num_bytes(buf, e);
                 }
             }
             for text in extra(first + i) {
                 buf.push(b',');
-                push_field(&mut buf, &text);
+                push_field(buf, &text);
             }
             buf.push(b'\n');
         }
-        buf
     };
     out.write_all(&buf)?;
+    // One buffer per block of a wave, kept from wave to wave: each is allocated (and its
+    // pages touched) once, not once per block.
+    let mut blocks: Vec<Vec<u8>> = vec![Vec::new(); CSV_WAVE / CSV_BLOCK];
     for (w, wave) in curves.rows.chunks(CSV_WAVE).enumerate() {
-        let blocks: Vec<Vec<u8>> = wave
-            .par_chunks(CSV_BLOCK)
+        let used = wave.len().div_ceil(CSV_BLOCK);
+        wave.par_chunks(CSV_BLOCK)
+            .zip(blocks[..used].par_iter_mut())
             .enumerate()
-            .map(|(b, rows)| format_block(w * CSV_WAVE + b * CSV_BLOCK, rows))
-            .collect();
-        for b in blocks {
-            out.write_all(&b)?;
+            .for_each(|(b, (rows, buf))| format_block(w * CSV_WAVE + b * CSV_BLOCK, rows, buf));
+        for b in &blocks[..used] {
+            out.write_all(b)?;
         }
     }
     out.flush()?;
