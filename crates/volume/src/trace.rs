@@ -717,7 +717,10 @@ impl Run<'_> {
         while r < end {
             let stop = end.min(r + WARM_GROUP as u64);
             for (rng, q) in rngs.iter_mut().zip(r..stop) {
-                rng.clone_from(&self.base_rng);
+                // Back to the start of the stream, then the ray's stream: the state of a
+                // fresh copy of `base_rng` given that stream (same key, block 0, empty
+                // buffer), without copying the generator's buffer.
+                rng.set_word_pos(0);
                 rng.set_stream(ii * self.rays + q);
                 let x = l * rng.random::<f64>();
                 let y = l * rng.random::<f64>();
