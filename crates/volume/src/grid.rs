@@ -91,8 +91,9 @@ pub(crate) struct FlakeGrid {
     inv_cell: f64,
     offsets: Vec<u32>,
     entries: Vec<u32>,
-    /// The shift `(sx L, sy L)` of each image code.
-    images: [(f64, f64); 9],
+    /// The shift `(sx L, sy L)` of each image code (16 slots, codes 9 to 15 unused, so
+    /// that indexing with the entry's low four bits needs no bounds check).
+    images: [(f64, f64); 16],
 }
 
 impl FlakeGrid {
@@ -152,7 +153,11 @@ impl FlakeGrid {
             offsets,
             entries,
             images: std::array::from_fn(|c| {
-                (((c % 3) as f64 - 1.0) * tile, ((c / 3) as f64 - 1.0) * tile)
+                if c < 9 {
+                    (((c % 3) as f64 - 1.0) * tile, ((c / 3) as f64 - 1.0) * tile)
+                } else {
+                    (0.0, 0.0)
+                }
             }),
         }
     }
