@@ -22,6 +22,21 @@
 //! with a conservative test) were measured and were slower: they spare the flake load
 //! of most rejected entries, but those flakes lie close in memory (the layer keeps them
 //! in Morton order), and the larger grid costs more cache misses than that saves.
+//!
+//! Where the time goes (paper's coating, columns one diameter wide, counted with
+//! callgrind on a 1240 µm tile so that the numbers do not depend on the machine's load):
+//! a query walks 1.9 columns and tests 8.5 entries, 1.7 of them pass the sphere reject
+//! and 0.5 become the hit; `nearest` spends about 870 instructions and 9.5 (simulated)
+//! mispredicted branches per query, and on the full 10⁵-flake tile a quarter of its time
+//! waits on memory (it runs about 1.3× faster when the flakes fit in the cache). These
+//! were measured and were slower, so they are not used: an `f32` centre and radius per
+//! flake in a separate array, rejecting before the flake is loaded (one more dependent
+//! load on the way to the flake); per-column blocks of four entries' `f32` centres and
+//! radii with a vectorised reject (fewer mispredictions, 1.84 M against 2.47 M per run,
+//! but more instructions, 269 M against 227 M, and a grid about six times larger); columns
+//! sorted by height, stopping once the remaining entries lie beyond the best hit or the
+//! column (20 % fewer entries tested, slower on the full tile); the sphere reject made
+//! branch-free over blocks of entries (fewer mispredictions, more instructions).
 
 use flakescatter_optics::Vec3;
 
@@ -76,8 +91,9 @@ pub(crate) struct FlakeGrid {
     inv_cell: f64,
     offsets: Vec<u32>,
     entries: Vec<u32>,
-    /// The shift `(sx L, sy L)` of each image code.
-    images: [(f64, f64); 9],
+    /// The shift `(sx L, sy L)` of each image code (16 slots, codes 9 to 15 unused, so
+    /// that indexing with the entry's low four bits needs no bounds check).
+    images: [(f64, f64); 16],
 }
 
 impl FlakeGrid {
@@ -137,7 +153,11 @@ impl FlakeGrid {
             offsets,
             entries,
             images: std::array::from_fn(|c| {
-                (((c % 3) as f64 - 1.0) * tile, ((c / 3) as f64 - 1.0) * tile)
+                if c < 9 {
+                    (((c % 3) as f64 - 1.0) * tile, ((c / 3) as f64 - 1.0) * tile)
+                } else {
+                    (0.0, 0.0)
+                }
             }),
         }
     }

@@ -15,10 +15,10 @@
 //! and its cone-averaged BRDF `ρ / (cos θj π sin²α)` (sr⁻¹). The rays are cut into
 //! [`BATCHES`] batches of equal size (ray `r` in batch `r / (N / BATCHES)`): with `s_b`
 //! a batch's sum, `se(ρ) = sqrt(B/(B−1) Σ_b (s_b − s̄)²) / N`. Batches are traced in
-//! parallel, each sequentially, and reduced in batch order, so results are
-//! bit-identical for any number of threads. The standard errors are those of the ray
-//! sampling **for this layer**: the scatter between layers drawn with other seeds is
-//! not included (run several seeds to see it).
+//! parallel (handed out one at a time, each traced sequentially) and reduced in batch
+//! order, so results are bit-identical for any number of threads. The standard errors
+//! are those of the ray sampling **for this layer**: the scatter between layers drawn
+//! with other seeds is not included (run several seeds to see it).
 
 use flakescatter_optics::detector::{self, Cone, orthonormal_frame};
 use flakescatter_optics::flake::FlakeReflectance;
@@ -26,7 +26,8 @@ use flakescatter_optics::fresnel::{self, FresnelPower};
 use flakescatter_optics::{UnitVec3, Vec3, refraction};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc;
 
 use crate::VolumeError;
 use crate::grid::{FlakeGrid, Next, Surface};
@@ -48,9 +49,6 @@ pub const MAX_RAYS: u64 = 1 << 40;
 
 /// Rays whose first columns are loaded together (see `Run::batch`).
 const WARM_GROUP: usize = 16;
-
-/// Batches traced between two progress reports.
-const PROGRESS_CHUNK: usize = 16;
 
 /// What the substrate under the film does.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -504,18 +502,70 @@ impl<'a> Tracer<'a> {
         let mut acc: Vec<Acc> = (0..ni).map(|_| Acc::new(nd)).collect();
         let mut segments = 0u64;
         let mut done = 0u64;
-        for chunk in jobs.chunks(PROGRESS_CHUNK) {
-            let partials: Vec<Partial> = chunk
-                .par_iter()
-                .map(|&(ii, b)| run.batch(theta_i[ii], ii as u64, b))
-                .collect();
-            for (p, &(ii, _)) in partials.iter().zip(chunk) {
-                acc[ii].add(p);
+        // Batches are handed out one at a time from a shared counter, so no thread waits
+        // for another until the last batch (no barrier per group of batches); this
+        // thread reduces them in job order as they arrive (module docs), keeping any
+        // that come early, and reports progress.
+        let next = AtomicUsize::new(0);
+        let (tx, rx) = mpsc::channel::<(usize, Partial)>();
+        let mut early: Vec<Option<Partial>> = (0..jobs.len()).map(|_| None).collect();
+        let mut reduced = 0usize;
+        let mut take = |j: usize, p: Partial| {
+            early[j] = Some(p);
+            while let Some(p) = early.get_mut(reduced).and_then(Option::take) {
+                acc[jobs[reduced].0].add(&p);
                 segments += p.segments;
+                reduced += 1;
+                done += 1;
+                progress(done, total_jobs);
             }
-            done += chunk.len() as u64;
-            progress(done, total_jobs);
+        };
+        let work = |tx: &mpsc::Sender<(usize, Partial)>| loop {
+            let j = next.fetch_add(1, Ordering::Relaxed);
+            let Some(&(ii, b)) = jobs.get(j) else {
+                break;
+            };
+            if tx.send((j, run.batch(theta_i[ii], ii as u64, b))).is_err() {
+                break;
+            }
+        };
+        // Outside a rayon pool this thread only reduces, and the pool's threads trace;
+        // inside one (a caller's `install`), this thread is one of them and traces too,
+        // reducing between its batches, so that it never waits on the others while
+        // holding work they might need (a pool of one thread would otherwise stall).
+        let inside = rayon::current_thread_index().is_some();
+        let helpers = rayon::current_num_threads() - usize::from(inside);
+        rayon::in_place_scope(|s| {
+            for _ in 0..helpers.min(jobs.len()) {
+                let tx = tx.clone();
+                let work = &work;
+                s.spawn(move |_| work(&tx));
+            }
+            if inside {
+                loop {
+                    let j = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&(ii, b)) = jobs.get(j) else {
+                        break;
+                    };
+                    take(j, run.batch(theta_i[ii], ii as u64, b));
+                    for (j, p) in rx.try_iter() {
+                        take(j, p);
+                    }
+                }
+            } else {
+                drop(tx);
+                // Ends when every helper has finished (a helper's panic then propagates
+                // from the scope).
+                for (j, p) in &rx {
+                    take(j, p);
+                }
+            }
+        });
+        // What the helpers sent after this thread's last batch (inside a pool).
+        for (j, p) in rx.try_iter() {
+            take(j, p);
         }
+        debug_assert_eq!(reduced, jobs.len());
 
         let nf = rays as f64;
         let b = BATCHES as f64;
@@ -717,7 +767,10 @@ impl Run<'_> {
         while r < end {
             let stop = end.min(r + WARM_GROUP as u64);
             for (rng, q) in rngs.iter_mut().zip(r..stop) {
-                rng.clone_from(&self.base_rng);
+                // Back to the start of the stream, then the ray's stream: the state of a
+                // fresh copy of `base_rng` given that stream (same key, block 0, empty
+                // buffer), without copying the generator's buffer.
+                rng.set_word_pos(0);
                 rng.set_stream(ii * self.rays + q);
                 let x = l * rng.random::<f64>();
                 let y = l * rng.random::<f64>();

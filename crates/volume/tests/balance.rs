@@ -132,9 +132,14 @@ fn results_are_bit_identical_for_any_thread_count() {
             .unwrap()
             .install(|| tracer.run(&angles, &cones()).unwrap())
     };
+    // Inside a pool (`install`) the calling thread traces batches itself, alongside
+    // the pool's other threads (none for a pool of one).
     let one = run(1);
     assert_eq!(one, run(2));
     assert_eq!(one, run(3));
+    // Outside any pool (this test's own thread) the calling thread only reduces, and
+    // the global pool traces (its size is RAYON_NUM_THREADS, or one per core).
+    assert_eq!(one, tracer.run(&angles, &cones()).unwrap());
     // A different seed gives different numbers (the seed is used).
     let other = Tracer::new(
         &layer,
