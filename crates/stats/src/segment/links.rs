@@ -92,34 +92,39 @@ impl Local {
     }
 
     /// Connected components (4-neighbours, linked heights) among the pixels with
-    /// `keep[k]`; returns one list of positions `k` per component, in order of their
-    /// first member.
+    /// `keep[k]`; returns one list of positions `k` per component (ascending), in order
+    /// of their first member.
     pub(super) fn components(
         &self,
         grid: &Grid<'_>,
         pixels: &[u32],
         keep: &[bool],
     ) -> Vec<Vec<usize>> {
-        let mut seen = vec![false; pixels.len()];
-        let mut out = Vec::new();
+        // Component number of each position (NOT_SEEN outside), found by depth-first
+        // search from each unseen kept position in ascending order; the lists are then
+        // filled in one ascending pass, so each comes out sorted without a sort.
+        const NOT_SEEN: u32 = u32::MAX;
+        let mut comp_of = vec![NOT_SEEN; pixels.len()];
+        let mut sizes: Vec<usize> = Vec::new();
         let mut stack = Vec::new();
         for start in 0..pixels.len() {
-            if seen[start] || !keep[start] {
+            if comp_of[start] != NOT_SEEN || !keep[start] {
                 continue;
             }
-            seen[start] = true;
+            let id = sizes.len() as u32;
+            comp_of[start] = id;
             stack.push(start);
-            let mut comp = Vec::new();
+            let mut size = 0;
             while let Some(k) = stack.pop() {
-                comp.push(k);
+                size += 1;
                 let g = pixels[k] as usize;
                 let (r, c) = (g / grid.nx - self.row0, g % grid.nx - self.col0);
                 let mut visit = |rr: usize, cc: usize| {
                     let s = self.slot[rr * self.w + cc];
                     if s != 0 {
                         let j = (s - 1) as usize;
-                        if !seen[j] && keep[j] && grid.linked(g, pixels[j] as usize) {
-                            seen[j] = true;
+                        if comp_of[j] == NOT_SEEN && keep[j] && grid.linked(g, pixels[j] as usize) {
+                            comp_of[j] = id;
                             stack.push(j);
                         }
                     }
@@ -137,8 +142,13 @@ impl Local {
                     visit(r + 1, c);
                 }
             }
-            comp.sort_unstable();
-            out.push(comp);
+            sizes.push(size);
+        }
+        let mut out: Vec<Vec<usize>> = sizes.iter().map(|&s| Vec::with_capacity(s)).collect();
+        for (k, &id) in comp_of.iter().enumerate() {
+            if id != NOT_SEEN {
+                out[id as usize].push(k);
+            }
         }
         out
     }

@@ -160,7 +160,8 @@ pub(super) fn split_region(
             member[k] = true;
         }
         let rest: Vec<bool> = member.iter().map(|m| !m).collect();
-        let mut piece_pos = main.clone();
+        // The piece: the main component and the small leftovers touching it.
+        let mut in_piece = member.clone();
         let inliers = main.len();
         let sums = fit_sums(&pts, |k| member[k]);
         // Leftovers: big ones are new regions, small ones touching the piece join it
@@ -194,11 +195,17 @@ pub(super) fn split_region(
                 hit
             });
             if touches {
-                piece_pos.extend_from_slice(&comp);
+                for &k in &comp {
+                    in_piece[k] = true;
+                }
             }
         }
-        piece_pos.sort_unstable();
-        let piece_pixels: Vec<u32> = piece_pos.iter().map(|&k| pixels[k]).collect();
+        let piece_pixels: Vec<u32> = pixels
+            .iter()
+            .zip(&in_piece)
+            .filter(|(_, t)| **t)
+            .map(|(&p, _)| p)
+            .collect();
         let bbox = BBox::of(grid, &piece_pixels);
         out.push((
             piece_pixels,
