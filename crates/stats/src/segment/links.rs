@@ -1,10 +1,11 @@
 //! Stage 1 of segmentation: pixel links (module docs of [`segment`](super), steps 1–2).
 //!
 //! Contract: two 4-neighbouring **valid** pixels are linked when their heights differ by
-//! at most `max_step_um`; [`linked_regions`] returns the connected components of the
+//! at most `max_step_um`; [`linked_regions`] labels the connected components of the
 //! links (union–find in raster order, the smaller index as root) that have at least
-//! `min_pixels` pixels, each as ascending global pixel indices, ordered by their first
-//! pixel. [`Local`] redoes connected components inside one region (for the split stage)
+//! `min_pixels` pixels in one per-pixel label map, numbered in order of their first
+//! pixel, and [`region_pixels`] lists the pixels of consecutive regions (ascending global
+//! indices). [`Local`] redoes connected components inside one region (for the split stage)
 //! with the same link rule. Deterministic and sequential.
 
 use super::params::SegmentParams;
@@ -91,34 +92,39 @@ impl Local {
     }
 
     /// Connected components (4-neighbours, linked heights) among the pixels with
-    /// `keep[k]`; returns one list of positions `k` per component, in order of their
-    /// first member.
+    /// `keep[k]`; returns one list of positions `k` per component (ascending), in order
+    /// of their first member.
     pub(super) fn components(
         &self,
         grid: &Grid<'_>,
         pixels: &[u32],
         keep: &[bool],
     ) -> Vec<Vec<usize>> {
-        let mut seen = vec![false; pixels.len()];
-        let mut out = Vec::new();
+        // Component number of each position (NOT_SEEN outside), found by depth-first
+        // search from each unseen kept position in ascending order; the lists are then
+        // filled in one ascending pass, so each comes out sorted without a sort.
+        const NOT_SEEN: u32 = u32::MAX;
+        let mut comp_of = vec![NOT_SEEN; pixels.len()];
+        let mut sizes: Vec<usize> = Vec::new();
         let mut stack = Vec::new();
         for start in 0..pixels.len() {
-            if seen[start] || !keep[start] {
+            if comp_of[start] != NOT_SEEN || !keep[start] {
                 continue;
             }
-            seen[start] = true;
+            let id = sizes.len() as u32;
+            comp_of[start] = id;
             stack.push(start);
-            let mut comp = Vec::new();
+            let mut size = 0;
             while let Some(k) = stack.pop() {
-                comp.push(k);
+                size += 1;
                 let g = pixels[k] as usize;
                 let (r, c) = (g / grid.nx - self.row0, g % grid.nx - self.col0);
                 let mut visit = |rr: usize, cc: usize| {
                     let s = self.slot[rr * self.w + cc];
                     if s != 0 {
                         let j = (s - 1) as usize;
-                        if !seen[j] && keep[j] && grid.linked(g, pixels[j] as usize) {
-                            seen[j] = true;
+                        if comp_of[j] == NOT_SEEN && keep[j] && grid.linked(g, pixels[j] as usize) {
+                            comp_of[j] = id;
                             stack.push(j);
                         }
                     }
@@ -136,19 +142,88 @@ impl Local {
                     visit(r + 1, c);
                 }
             }
-            comp.sort_unstable();
-            out.push(comp);
+            sizes.push(size);
+        }
+        let mut out: Vec<Vec<usize>> = sizes.iter().map(|&s| Vec::with_capacity(s)).collect();
+        for (k, &id) in comp_of.iter().enumerate() {
+            if id != NOT_SEEN {
+                out[id as usize].push(k);
+            }
         }
         out
     }
 }
 
+/// Label of a pixel in no region: invalid, or in a linked region below `min_pixels`.
+pub(super) const NONE: u32 = u32::MAX;
+
+/// Tag of a region label `REGION | k` in the label map until region `k` is split; the
+/// split stage overwrites its pixels with piece numbers, which stay below the tag (a
+/// map has fewer than 2³² pixels and every region and piece at least 3, so both counts
+/// are below 2³¹).
+pub(super) const REGION: u32 = 1 << 31;
+
+/// A linked region of the label map: its size and bounding box (rows and columns,
+/// inclusive).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Region {
+    pub(super) size: usize,
+    row0: usize,
+    row1: usize,
+    col0: usize,
+    col1: usize,
+}
+
+/// The pixels of the regions `first, first + 1, …` of [`linked_regions`] given in
+/// `regions` (consecutive, not split yet): one list per region, ascending global
+/// indices, read in one raster scan of the rows and columns their boxes span (regions
+/// are numbered by their first pixel, so consecutive ones lie in a band of rows).
+pub(super) fn region_pixels(
+    nx: usize,
+    labels: &[u32],
+    regions: &[Region],
+    first: usize,
+) -> Vec<Vec<u32>> {
+    let mut out: Vec<Vec<u32>> = regions.iter().map(|r| Vec::with_capacity(r.size)).collect();
+    let (Some(row0), Some(row1), Some(col0), Some(col1)) = (
+        regions.iter().map(|r| r.row0).min(),
+        regions.iter().map(|r| r.row1).max(),
+        regions.iter().map(|r| r.col0).min(),
+        regions.iter().map(|r| r.col1).max(),
+    ) else {
+        return out;
+    };
+    // Labels of these regions: REGION | first ..= REGION | (first + len - 1); every
+    // other label (NONE, other regions, piece numbers) lies outside.
+    let lo = REGION | first as u32;
+    let count = regions.len() as u32;
+    for row in row0..=row1 {
+        let (a, b) = (row * nx + col0, row * nx + col1 + 1);
+        for (i, &l) in (a..b).zip(&labels[a..b]) {
+            let k = l.wrapping_sub(lo);
+            if k < count {
+                out[k as usize].push(i as u32);
+            }
+        }
+    }
+    out
+}
+
 /// The linked regions of the map with at least `params.min_pixels` pixels (module
-/// docs): ascending global pixel indices per region, regions ordered by first pixel.
-pub(super) fn linked_regions(grid: &Grid<'_>, n: usize, params: &SegmentParams) -> Vec<Vec<u32>> {
+/// docs), as one label map and the regions' sizes and boxes: `labels[i] = REGION | k`
+/// for the pixels of region `k`, [`NONE`] for the others; regions are numbered in
+/// order of their first pixel (raster order).
+///
+/// Memory: the label map (one `u32` per pixel) is the union–find parent array relabelled
+/// in place, plus one bit per pixel while it is relabelled and one [`Region`] per
+/// region kept.
+pub(super) fn linked_regions(grid: &Grid<'_>, params: &SegmentParams) -> (Vec<u32>, Vec<Region>) {
     let (nx, ny, valid) = (grid.nx, grid.ny, grid.valid);
-    // Union-find over linked 4-neighbours, in raster order.
-    let mut parent: Vec<u32> = (0..n as u32).collect();
+    let n = nx * ny;
+    // Union-find over linked 4-neighbours, in raster order. Afterwards every pixel that
+    // is not a root points to a smaller index (the smaller root wins a union and path
+    // halving only moves a pixel to its grandparent).
+    let mut lab: Vec<u32> = (0..n as u32).collect();
     for row in 0..ny {
         for col in 0..nx {
             let i = row * nx + col;
@@ -156,46 +231,71 @@ pub(super) fn linked_regions(grid: &Grid<'_>, n: usize, params: &SegmentParams) 
                 continue;
             }
             if col > 0 && valid[i - 1] && grid.linked(i, i - 1) {
-                union(&mut parent, i as u32, (i - 1) as u32);
+                union(&mut lab, i as u32, (i - 1) as u32);
             }
             if row > 0 && valid[i - nx] && grid.linked(i, i - nx) {
-                union(&mut parent, i as u32, (i - nx) as u32);
+                union(&mut lab, i as u32, (i - nx) as u32);
             }
         }
     }
-    // Group pixels by root (roots are the first pixel of each region).
-    let mut region_of = vec![u32::MAX; n];
-    let mut sizes: Vec<u32> = Vec::new();
+    // In raster order (all smaller indices are done): a root's entry becomes its
+    // component's size, any other valid pixel's entry its root (its parent if that is
+    // a root, else the parent's entry, already its root). `root` marks the roots.
+    let mut root = vec![0u64; n.div_ceil(64)];
+    let is_root = |root: &[u64], i: usize| (root[i / 64] >> (i % 64)) & 1 == 1;
     for i in 0..n {
         if !valid[i] {
             continue;
         }
-        let r = find(&mut parent, i as u32) as usize;
-        if r == i {
-            region_of[i] = sizes.len() as u32;
-            sizes.push(0);
-        }
-        let k = region_of[r];
-        region_of[i] = k;
-        sizes[k as usize] += 1;
-    }
-    drop(parent);
-    let mut regions: Vec<Vec<u32>> = sizes
-        .iter()
-        .map(|&s| {
-            if s as usize >= params.min_pixels {
-                Vec::with_capacity(s as usize)
+        let p = lab[i] as usize;
+        if p == i {
+            root[i / 64] |= 1 << (i % 64);
+            lab[i] = 1;
+        } else {
+            let r = if is_root(&root, p) {
+                p
             } else {
-                Vec::new()
-            }
-        })
-        .collect();
-    for (i, &k) in region_of.iter().enumerate() {
-        if k != u32::MAX && sizes[k as usize] as usize >= params.min_pixels {
-            regions[k as usize].push(i as u32);
+                lab[p] as usize
+            };
+            lab[i] = r as u32;
+            lab[r] += 1;
         }
     }
-    drop(region_of);
-    regions.retain(|r| !r.is_empty());
-    regions
+    // Again in raster order: a root's entry becomes its region's label (regions below
+    // `min_pixels` get NONE), any other valid pixel takes its root's.
+    let mut regions: Vec<Region> = Vec::new();
+    for row in 0..ny {
+        for col in 0..nx {
+            let i = row * nx + col;
+            if !valid[i] {
+                lab[i] = NONE;
+                continue;
+            }
+            let l = if is_root(&root, i) {
+                let size = lab[i] as usize;
+                if size >= params.min_pixels {
+                    regions.push(Region {
+                        size,
+                        row0: row,
+                        row1: row,
+                        col0: col,
+                        col1: col,
+                    });
+                    REGION | (regions.len() - 1) as u32
+                } else {
+                    NONE
+                }
+            } else {
+                lab[lab[i] as usize]
+            };
+            lab[i] = l;
+            if l != NONE {
+                let r = &mut regions[(l & !REGION) as usize];
+                r.row1 = row;
+                r.col0 = r.col0.min(col);
+                r.col1 = r.col1.max(col);
+            }
+        }
+    }
+    (lab, regions)
 }

@@ -18,39 +18,6 @@ use super::params::SegmentParams;
 use super::plane::{Sums, normal_of};
 use super::split::Piece;
 
-#[derive(Debug, Clone, Copy)]
-struct BBox {
-    x0: f64,
-    x1: f64,
-    y0: f64,
-    y1: f64,
-}
-
-impl BBox {
-    fn of(grid: &Grid<'_>, pixels: &[u32]) -> Self {
-        let mut b = Self {
-            x0: f64::MAX,
-            x1: f64::MIN,
-            y0: f64::MAX,
-            y1: f64::MIN,
-        };
-        for &p in pixels {
-            let q = grid.point(p);
-            b.x0 = b.x0.min(q[0]);
-            b.x1 = b.x1.max(q[0]);
-            b.y0 = b.y0.min(q[1]);
-            b.y1 = b.y1.max(q[1]);
-        }
-        b
-    }
-
-    fn gap(&self, o: &Self) -> f64 {
-        let gx = (o.x0 - self.x1).max(self.x0 - o.x1).max(0.0);
-        let gy = (o.y0 - self.y1).max(self.y0 - o.y1).max(0.0);
-        gx.hypot(gy)
-    }
-}
-
 /// Whether two groups with inlier sums `s1`, `s2` fit one plane: the joint
 /// least-squares plane must fit **each** group with a mean square residual at most
 /// `merge_ms_ratio` times the group's own (plus `inlier_band_um² / 16`). Returns the
@@ -115,14 +82,12 @@ pub(super) fn merge_pieces(
     pieces: &[Piece],
     params: &SegmentParams,
 ) -> Vec<Vec<usize>> {
-    let boxes: Vec<BBox> = pieces.iter().map(|p| BBox::of(grid, &p.pixels)).collect();
     let n = pieces.len();
     let mut cands: Vec<(f64, usize, usize)> = (0..n)
         .into_par_iter()
         .flat_map_iter(|i| {
-            let boxes = &boxes;
             (i + 1..n).filter_map(move |j| {
-                if boxes[i].gap(&boxes[j]) > params.merge_gap_um {
+                if pieces[i].bbox.gap(&pieces[j].bbox) > params.merge_gap_um {
                     return None;
                 }
                 let score = merge_score(&pieces[i].sums, &pieces[j].sums, params)?;

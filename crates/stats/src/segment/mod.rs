@@ -43,6 +43,14 @@
 //! processed in parallel but collected in order, and merging is sequential; results do
 //! not depend on the number of threads.
 //!
+//! Memory: one `u32` per pixel is alive throughout, the label map. It starts as the
+//! union–find parent array, is relabelled in place to region numbers (with one bit per
+//! pixel while it is), the split stage writes piece numbers over each region's pixels
+//! and the last pass turns them into the flake labels of [`Segmentation::labels`].
+//! Pixel lists exist only for the regions being split in one batch (at most
+//! `SPLIT_BATCH_PIXELS` pixels, or one larger region) and their pieces; everything else
+//! is per region, piece or flake.
+//!
 //! Code map: `params` (parameters and errors), `links` (steps 1–2), `split` (step 3),
 //! `merge` (step 4), `plane` (least-squares sums shared by both), and this file (the
 //! entry point and step 5).
@@ -60,10 +68,15 @@ use rayon::prelude::*;
 use crate::flake::{Flake, UnitVec3, polar_from_normal};
 use crate::heightmap::HeightMap;
 
-use links::{Grid, linked_regions};
+use links::{Grid, NONE, REGION, linked_regions, region_pixels};
 use merge::merge_pieces;
 pub use params::{SegmentError, SegmentParams};
-use plane::{Sums, normal_of};
+
+/// Most pixels of the regions split in one parallel batch (a single larger region is a
+/// batch of its own): bounds the pixel lists alive at once (the batch's regions and
+/// pieces, 4 bytes per pixel each) while leaving the threads enough regions to share.
+const SPLIT_BATCH_PIXELS: usize = 1 << 20;
+use plane::{Plane, Sums, normal_of};
 use split::{Piece, split_region};
 
 /// Why a segmentation found nothing (the result is then empty, not an error).
@@ -209,54 +222,122 @@ pub fn segment(map: &HeightMap, params: &SegmentParams) -> Result<Segmentation, 
         max_step: params.max_step_um,
     };
 
-    // Step 2: linked regions of at least `min_pixels` pixels.
-    let regions = linked_regions(&grid, n, params);
+    // Step 2: the label map, `REGION | k` on linked region k (of at least `min_pixels`).
+    let (mut labels, regions) = linked_regions(&grid, params);
 
-    // Step 3: planar pieces, in parallel, collected in region order.
-    let pieces: Vec<Piece> = regions
-        .into_par_iter()
-        .flat_map_iter(|r| split_region(&grid, r, params))
-        .collect();
+    // Step 3: planar pieces, in parallel within batches of regions, numbered in region
+    // order; each batch's pieces are written into the label map as piece numbers, so
+    // only one batch's pixel lists are alive at a time.
+    let mut pieces: Vec<Piece> = Vec::new();
+    let mut start = 0;
+    while start < regions.len() {
+        let mut end = start + 1;
+        let mut batch = regions[start].size;
+        while end < regions.len() && batch + regions[end].size <= SPLIT_BATCH_PIXELS {
+            batch += regions[end].size;
+            end += 1;
+        }
+        let split: Vec<(Vec<u32>, Piece)> = region_pixels(nx, &labels, &regions[start..end], start)
+            .into_par_iter()
+            .flat_map_iter(|pixels| split_region(&grid, pixels, params))
+            .collect();
+        for (pixels, piece) in split {
+            let q = pieces.len() as u32;
+            for p in pixels {
+                labels[p as usize] = q;
+            }
+            pieces.push(piece);
+        }
+        start = end;
+    }
+    drop(regions);
 
     // Step 4: merge pieces of one flake.
     let groups = merge_pieces(&grid, &pieces, params);
 
-    // Step 5: per flake outputs.
+    // Step 5: per flake outputs. The plane of each group, then one raster pass over the
+    // label map: a group's pixels are visited in ascending order (as the sums below
+    // require), flakes are numbered in order of their first pixel and the label map
+    // becomes the output's (`k + 1` on flake k, 0 elsewhere).
     let (dx, dy) = (map.dx(), map.dy());
-    let mut found: Vec<(Vec<u32>, SegmentedFlake)> = groups
+    // Groups with a plane: (inlier sums, inlier count, plane); `fit_of[piece]` indexes
+    // them, NONE for pieces of a group without one.
+    let mut fits: Vec<(Sums, usize, Plane)> = Vec::with_capacity(groups.len());
+    let mut fit_of = vec![NONE; pieces.len()];
+    let planes: Vec<Option<(Sums, usize, Plane)>> = groups
         .par_iter()
-        .filter_map(|g| {
-            let mut pixels: Vec<u32> = g
-                .iter()
-                .flat_map(|&i| pieces[i].pixels.iter().copied())
-                .collect();
-            pixels.sort_unstable();
+        .map(|g| {
             let sums = g
                 .iter()
                 .fold(Sums::default(), |s, &i| s.plus(&pieces[i].sums));
             let inliers: usize = g.iter().map(|&i| pieces[i].inliers).sum();
-            let plane = sums.plane()?;
+            sums.plane().map(|plane| (sums, inliers, plane))
+        })
+        .collect();
+    for (g, fit) in groups.iter().zip(planes) {
+        if let Some(fit) = fit {
+            for &i in g {
+                fit_of[i] = fits.len() as u32;
+            }
+            fits.push(fit);
+        }
+    }
+    // Per flake in output order: its fit, pixel count, sums of x and y, border flag.
+    struct Tally {
+        fit: usize,
+        count: usize,
+        cx: f64,
+        cy: f64,
+        touches_border: bool,
+    }
+    let mut flake_of = vec![NONE; fits.len()];
+    let mut tallies: Vec<Tally> = Vec::new();
+    for row in 0..ny {
+        for col in 0..nx {
+            let i = row * nx + col;
+            let l = labels[i];
+            let g = if l < REGION { fit_of[l as usize] } else { NONE };
+            if g == NONE {
+                labels[i] = 0;
+                continue;
+            }
+            let f = &mut flake_of[g as usize];
+            if *f == NONE {
+                *f = tallies.len() as u32;
+                tallies.push(Tally {
+                    fit: g as usize,
+                    count: 0,
+                    cx: 0.0,
+                    cy: 0.0,
+                    touches_border: false,
+                });
+            }
+            let t = &mut tallies[*f as usize];
+            t.count += 1;
+            t.cx += col as f64 * dx;
+            t.cy += row as f64 * dy;
+            t.touches_border |= row == 0 || col == 0 || row + 1 == ny || col + 1 == nx;
+            labels[i] = *f + 1;
+        }
+    }
+    let assigned: usize = tallies.iter().map(|t| t.count).sum();
+    let flakes: Vec<SegmentedFlake> = tallies
+        .iter()
+        .map(|t| {
+            let (sums, inliers, plane) = fits[t.fit];
             let normal = normal_of(&plane);
             let (theta_n, phi_n) = polar_from_normal(&normal);
-            let count = pixels.len();
-            let (mut cx, mut cy) = (0.0, 0.0);
-            let mut touches_border = false;
-            for &p in &pixels {
-                let (r, c) = (p as usize / nx, p as usize % nx);
-                cx += c as f64 * dx;
-                cy += r as f64 * dy;
-                touches_border |= r == 0 || c == 0 || r + 1 == ny || c + 1 == nx;
-            }
+            let count = t.count;
             let projected = count as f64 * dx * dy;
             let area = projected / normal.z;
             let rms = (plane.sse / sums.n).sqrt();
             let tilt_se = rms * plane.se_factor.sqrt();
             let quality = inliers as f64 / count as f64 * (-tilt_se / 0.1f64.to_radians()).exp();
-            let flake = SegmentedFlake {
+            SegmentedFlake {
                 normal,
                 theta_n,
                 phi_n,
-                centre_um: [cx / count as f64, cy / count as f64],
+                centre_um: [t.cx / count as f64, t.cy / count as f64],
                 pixels: count,
                 inliers,
                 projected_area_um2: projected,
@@ -264,22 +345,11 @@ pub fn segment(map: &HeightMap, params: &SegmentParams) -> Result<Segmentation, 
                 equivalent_diameter_um: (4.0 * area / PI).sqrt(),
                 rms_um: rms,
                 tilt_se,
-                touches_border,
+                touches_border: t.touches_border,
                 quality,
-            };
-            Some((pixels, flake))
+            }
         })
         .collect();
-    found.sort_by_key(|(p, _)| p[0]);
-    let mut labels = vec![0u32; n];
-    let mut assigned = 0usize;
-    for (k, (pixels, _)) in found.iter().enumerate() {
-        assigned += pixels.len();
-        for &p in pixels {
-            labels[p as usize] = k as u32 + 1;
-        }
-    }
-    let flakes: Vec<SegmentedFlake> = found.into_iter().map(|(_, f)| f).collect();
     let warning = flakes.is_empty().then_some(SegmentWarning::NoFlakes);
     Ok(Segmentation {
         flakes,

@@ -5,20 +5,55 @@
 //! whole-region and 4 × 4 sub-block least-squares candidates by inlier count, refined
 //! by iterated least squares with MAD rejection); leftovers of at least `min_pixels`
 //! are split again, smaller leftovers touching the piece join it as rejected points,
-//! the rest are dropped. A piece carries its pixels (ascending), its inlier count and the
-//! sums of its inliers. Pure function of the region: regions can be split in parallel.
+//! the rest are dropped. A piece comes with its pixels (ascending) and carries its inlier
+//! count, the sums of its inliers and its bounding box. Pure function of the region: regions can be split in parallel.
 
 use super::links::{Grid, Local};
 use super::params::SegmentParams;
 use super::plane::{Plane, Sums, fit_sums};
 
-/// A planar piece: its pixels (global indices, ascending), which of them are inliers,
-/// and the inlier sums.
+/// Bounding box of a set of pixels, µm in map coordinates (`x = col · dx`, `y = row · dy`).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct BBox {
+    pub(super) x0: f64,
+    pub(super) x1: f64,
+    pub(super) y0: f64,
+    pub(super) y1: f64,
+}
+
+impl BBox {
+    fn of(grid: &Grid<'_>, pixels: &[u32]) -> Self {
+        let mut b = Self {
+            x0: f64::MAX,
+            x1: f64::MIN,
+            y0: f64::MAX,
+            y1: f64::MIN,
+        };
+        for &p in pixels {
+            let q = grid.point(p);
+            b.x0 = b.x0.min(q[0]);
+            b.x1 = b.x1.max(q[0]);
+            b.y0 = b.y0.min(q[1]);
+            b.y1 = b.y1.max(q[1]);
+        }
+        b
+    }
+
+    /// Distance between the two boxes (0 when they overlap or touch), µm.
+    pub(super) fn gap(&self, o: &Self) -> f64 {
+        let gx = (o.x0 - self.x1).max(self.x0 - o.x1).max(0.0);
+        let gy = (o.y0 - self.y1).max(self.y0 - o.y1).max(0.0);
+        gx.hypot(gy)
+    }
+}
+
+/// A planar piece: how many of its pixels are inliers, the inlier sums and the
+/// bounding box of all its pixels. [`split_region`] returns the pixels beside it.
 #[derive(Debug, Clone)]
 pub(super) struct Piece {
-    pub(super) pixels: Vec<u32>,
     pub(super) inliers: usize,
     pub(super) sums: Sums,
+    pub(super) bbox: BBox,
 }
 
 fn residual(p: &Plane, q: &[f64; 3]) -> f64 {
@@ -90,12 +125,13 @@ fn robust_plane(pts: &[[f64; 3]], params: &SegmentParams) -> Option<Vec<bool>> {
     (inl.iter().filter(|&&b| b).count() >= 3).then_some(inl)
 }
 
-/// Splits one linked region into planar pieces (module docs, step 3).
+/// Splits one linked region (its pixels, ascending global indices) into planar pieces
+/// (module docs, step 3): each piece with its pixels (global indices, ascending).
 pub(super) fn split_region(
     grid: &Grid<'_>,
     region: Vec<u32>,
     params: &SegmentParams,
-) -> Vec<Piece> {
+) -> Vec<(Vec<u32>, Piece)> {
     let mut out = Vec::new();
     let mut queue = vec![region];
     while let Some(pixels) = queue.pop() {
@@ -124,7 +160,8 @@ pub(super) fn split_region(
             member[k] = true;
         }
         let rest: Vec<bool> = member.iter().map(|m| !m).collect();
-        let mut piece_pos = main.clone();
+        // The piece: the main component and the small leftovers touching it.
+        let mut in_piece = member.clone();
         let inliers = main.len();
         let sums = fit_sums(&pts, |k| member[k]);
         // Leftovers: big ones are new regions, small ones touching the piece join it
@@ -158,15 +195,26 @@ pub(super) fn split_region(
                 hit
             });
             if touches {
-                piece_pos.extend_from_slice(&comp);
+                for &k in &comp {
+                    in_piece[k] = true;
+                }
             }
         }
-        piece_pos.sort_unstable();
-        out.push(Piece {
-            pixels: piece_pos.iter().map(|&k| pixels[k]).collect(),
-            inliers,
-            sums,
-        });
+        let piece_pixels: Vec<u32> = pixels
+            .iter()
+            .zip(&in_piece)
+            .filter(|(_, t)| **t)
+            .map(|(&p, _)| p)
+            .collect();
+        let bbox = BBox::of(grid, &piece_pixels);
+        out.push((
+            piece_pixels,
+            Piece {
+                inliers,
+                sums,
+                bbox,
+            },
+        ));
     }
     out
 }
