@@ -50,18 +50,17 @@ fn num_bytes(buf: &mut [u8; 32], x: f64) -> usize {
     // magnitudes), `e+N` loses its `+` below.
     let (mantissa, exp10) = match body.iter().position(|&c| c == b'e') {
         Some(k) => {
-            let (sign, digits) = match &body[k + 1..] {
+            let digits = match &body[k + 1..] {
                 [b'-', ..] => {
                     buf[..text.len()].copy_from_slice(text);
                     return text.len();
                 }
-                [b'+', rest @ ..] => (1, rest),
-                rest => (1, rest),
+                [b'+', rest @ ..] | rest => rest,
             };
             let e = digits
                 .iter()
                 .fold(0i32, |e, &d| e * 10 + i32::from(d - b'0'));
-            (&body[..k], sign * e)
+            (&body[..k], e)
         }
         None => (body, 0),
     };

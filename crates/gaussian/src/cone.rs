@@ -495,7 +495,6 @@ impl DistributionModel {
             let (u, v) = orthonormal_frame(cone.axis());
             (u.into_inner(), v.into_inner())
         };
-        // (sin ψ, cos ψ, weight in units of dψ) for the nodes evaluated.
         let trig = psi_trig(n_psi);
         // Every node's exit direction above the horizon, ring by ring, evaluated in one
         // batch: `ring_end[i]` ends ring i in `dirs` (with its sin β), `slot` says which
@@ -514,6 +513,7 @@ impl DistributionModel {
             slot,
             ring_end,
         } = &mut scratch;
+        // (sin ψ, cos ψ, weight in units of dψ, even) for the ψ nodes evaluated.
         psi.clear();
         psi.extend((0..n_psi).filter_map(|j| {
             let (sp, cp) = trig[j];
