@@ -37,7 +37,9 @@ fn facade_returns_split_curves_energy_and_layer_statistics() {
         &|d, t| *last.lock().unwrap() = (d, t),
     )
     .unwrap();
-    assert_eq!(*last.lock().unwrap(), (128, 128));
+    // Progress reaches its total (at least one piece of work per incidence).
+    let (done, total) = *last.lock().unwrap();
+    assert!(done == total && total >= 2, "{done} of {total}");
     assert_eq!(curves.rows.len(), theta_i.len() * ts.len());
     assert_eq!(curves.rays_per_incidence, 32_000);
     assert!(curves.segments >= 2 * 32_000);

@@ -14,10 +14,12 @@
 //! crosses only a few columns, and the periodic wrap is free (column indices modulo
 //! `G`); the benchmark `volume` measures segments per second.
 //!
-//! The time goes mostly to waiting on memory: rays start at independent random points,
-//! so a ray's first query finds its column's offsets, entries and flakes out of the
-//! cache, three loads that depend on one another. `FlakeGrid::warm` makes those loads
-//! for a group of starting points at once, so they overlap. Per-entry records carrying
+//! Memory: a query reads its columns' offsets, entries and flakes, three loads that
+//! depend on one another. Rays that start at independent random points find them out
+//! of the cache; the tracer orders the entry points along a Z-order curve (module
+//! `trace`), so that a ray finds most of them where its neighbour left them, which
+//! made an explicit early load of the first columns of groups of rays (once 12 % of
+//! the time) worth nothing, and it was removed. Per-entry records carrying
 //! each listed image's centre and bounding radius (exact `f64`, or rounded to 16 bits
 //! with a conservative test) were measured and were slower: they spare the flake load
 //! of most rejected entries, but those flakes lie close in memory (the layer keeps them
@@ -27,8 +29,9 @@
 //! callgrind on a 1240 µm tile so that the numbers do not depend on the machine's load):
 //! a query walks 1.9 columns and tests 8.5 entries, 1.7 of them pass the sphere reject
 //! and 0.5 become the hit; `nearest` spends about 870 instructions and 9.5 (simulated)
-//! mispredicted branches per query, and on the full 10⁵-flake tile a quarter of its time
-//! waits on memory (it runs about 1.3× faster when the flakes fit in the cache). These
+//! mispredicted branches per query, and on the full 10⁵-flake tile with independent
+//! entry points a quarter of its time waited on memory (it ran about 1.3× faster when
+//! the flakes fit in the cache). These
 //! were measured and were slower, so they are not used: an `f32` centre and radius per
 //! flake in a separate array, rejecting before the flake is loaded (one more dependent
 //! load on the way to the flake); per-column blocks of four entries' `f32` centres and
@@ -77,12 +80,25 @@ pub(crate) enum Next {
     TooLong,
 }
 
+/// Bits of an entry's `sides`: its flake's bounding box (this image) also covers the
+/// column at `i − 1`, `i + 1`, `j − 1`, `j + 1`.
+const LEFT: u32 = 1;
+const RIGHT: u32 = 2;
+const BELOW: u32 = 4;
+const ABOVE: u32 = 8;
+
+/// Most flakes a grid can list (entries keep the index in 24 bits).
+pub(crate) const MAX_GRID_FLAKES: usize = 1 << 24;
+
 /// Distance below which a ray leaving a flake ignores that same flake (µm): a ray that
 /// leaves a convex body outward cannot meet it again, and this absorbs rounding.
 const SELF_EPS: f64 = 1e-9;
 
-/// The column grid (CSR layout). Entries are `flake << 4 | image`, `image = (sx + 1) +
-/// 3 (sy + 1)` for the periodic shift `(sx L, sy L)`, `sx, sy ∈ {−1, 0, 1}`.
+/// The column grid (CSR layout). Entries are `flake << 8 | sides << 4 | image`:
+/// `image = (sx + 1) + 3 (sy + 1)` for the periodic shift `(sx L, sy L)`,
+/// `sx, sy ∈ {−1, 0, 1}`, and `sides` the neighbouring columns that the same image's
+/// bounding box also covers ([`LEFT`], [`RIGHT`], [`BELOW`], [`ABOVE`]), so that the
+/// walk can pass over a flake it has tested in the column it came from.
 #[derive(Debug, Clone)]
 pub(crate) struct FlakeGrid {
     tile: f64,
@@ -140,7 +156,12 @@ impl FlakeGrid {
                     let sx = -i.div_euclid(g);
                     let sy = -j.div_euclid(g);
                     let image = (sx + 1) + 3 * (sy + 1);
-                    entries[fill[c] as usize] = ((f as u32) << 4) | image as u32;
+                    let side_bit = |covers: bool, bit: u32| if covers { bit } else { 0 };
+                    let sides = side_bit(i > i0, LEFT)
+                        | side_bit(i < i1, RIGHT)
+                        | side_bit(j > j0, BELOW)
+                        | side_bit(j < j1, ABOVE);
+                    entries[fill[c] as usize] = ((f as u32) << 8) | sides << 4 | image as u32;
                     fill[c] += 1;
                 }
             }
@@ -162,44 +183,6 @@ impl FlakeGrid {
         }
     }
 
-    /// The column holding `(o.x, o.y)` (in the tile), as [`FlakeGrid::nearest`] finds it.
-    fn column(&self, o: &Vec3) -> usize {
-        let wi = ((o.x * self.inv_cell) as usize).min(self.side - 1);
-        let wj = ((o.y * self.inv_cell) as usize).min(self.side - 1);
-        wj * self.side + wi
-    }
-
-    /// Reads the data that queries from the points `starts` read first (their columns'
-    /// offsets, entries and flakes), all points at each stage together, so that the
-    /// memory loads of different points overlap and the queries then find the data in
-    /// the cache. Rays start at independent random points, so without this each first
-    /// query waits on three dependent loads from memory in turn. Changes no result.
-    pub fn warm(&self, flakes: &[Flake], starts: &[Vec3]) {
-        let mut any = 0u32;
-        for o in starts {
-            let c = self.column(o);
-            any ^= self.offsets[c] ^ self.offsets[c + 1];
-        }
-        std::hint::black_box(any);
-        for o in starts {
-            let c = self.column(o);
-            let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
-            if a < b {
-                any ^= self.entries[a] ^ self.entries[b - 1];
-            }
-        }
-        std::hint::black_box(any);
-        let mut sum = 0.0;
-        for o in starts {
-            let c = self.column(o);
-            let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
-            for &e in &self.entries[a..b] {
-                sum += flakes[(e >> 4) as usize].radius_um;
-            }
-        }
-        std::hint::black_box(sum);
-    }
-
     /// Columns per side.
     pub fn side(&self) -> usize {
         self.side
@@ -217,6 +200,7 @@ impl FlakeGrid {
     // One query with the ray, its limits and the two per-path flags: a struct would only
     // rename them.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn nearest(
         &self,
         flakes: &[Flake],
@@ -240,13 +224,21 @@ impl FlakeGrid {
         let mut best = tau_max;
         let mut hit: Option<Hit> = None;
         let mut visited = 0u64;
+        // The entries to pass over: `sides` (shifted into place) pointing back at the
+        // previous column; none in the first.
+        let mut skip = 0u32;
         loop {
             let c = wj * side + wi;
             let cell = &self.entries[self.offsets[c] as usize..self.offsets[c + 1] as usize];
             // The origin relative to this column's copy of the tile.
             let (ox, oy) = (o.x - bx, o.y - by);
             for &e in cell {
-                let f = e >> 4;
+                // Listed in the column the walk came from too: tested there, with the
+                // same image and the same numbers, so testing it again changes nothing.
+                if e & skip != 0 {
+                    continue;
+                }
+                let f = e >> 8;
                 let (sx, sy) = images[(e & 15) as usize];
                 let flake = &flakes[f as usize];
                 let d = Vec3::new(
@@ -285,6 +277,7 @@ impl FlakeGrid {
             }
             if next_x < next_y {
                 next_x += delta_x;
+                skip = if step_i > 0 { LEFT << 4 } else { RIGHT << 4 };
                 if step_i > 0 {
                     wi += 1;
                     if wi == side {
@@ -299,6 +292,7 @@ impl FlakeGrid {
                 }
             } else {
                 next_y += delta_y;
+                skip = if step_j > 0 { BELOW << 4 } else { ABOVE << 4 };
                 if step_j > 0 {
                     wj += 1;
                     if wj == side {
@@ -419,8 +413,7 @@ mod tests {
     //! The grid walk against a search without a grid: every flake, every one of its
     //! nine periodic images, the same exact cylinder test, the nearest accepted hit.
     //! This checks the listing of flakes in columns, the periodic images, the walk's
-    //! stopping rule and the written-out sphere reject of `nearest`; `warm` must leave
-    //! every answer as it was.
+    //! stopping rule and the written-out sphere reject of `nearest`.
 
     use flakescatter_optics::Vec3;
     use flakescatter_stats::{GaussianWidth, Orientation};
@@ -498,7 +491,6 @@ mod tests {
             for &cell in cells {
                 let grid = FlakeGrid::new(flakes, tile, cell);
                 let mut rng = ChaCha8Rng::seed_from_u64(seed * 100 + cell as u64);
-                let mut starts = Vec::new();
                 for ray in 0..3000 {
                     let o = Vec3::new(
                         tile * rng.random::<f64>(),
@@ -525,11 +517,6 @@ mod tests {
                     };
                     let last = (ray % 3 == 0).then(|| rng.random_range(0..flakes.len() as u32));
                     let rims_transparent = ray % 4 == 0;
-                    starts.push(o);
-                    if starts.len() == 7 {
-                        grid.warm(flakes, &starts);
-                        starts.clear();
-                    }
                     let want = brute(flakes, tile, &o, &k, tau_max, last, rims_transparent);
                     let got =
                         grid.nearest(flakes, &o, &k, tau_max, last, rims_transparent, 1 << 20);

@@ -31,7 +31,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, LogNormal};
 
 use crate::VolumeError;
-use crate::params::{Amount, DepthBins, Diameter, LayerParams};
+use crate::params::{Amount, DepthBins, Diameter, LayerParams, MAX_FLAKES};
 
 /// ChaCha8 stream of the layer's draws (ray streams use indices below 2⁶³).
 pub(crate) const LAYER_STREAM: u64 = 1 << 63;
@@ -235,8 +235,9 @@ impl Layer {
     /// placement). For tests and for flakes measured elsewhere.
     ///
     /// # Errors
-    /// [`VolumeError::Parameter`] for an invalid film or tile, [`VolumeError::BadFlake`]
-    /// naming the first invalid flake, [`VolumeError::Overlap`] for the first overlapping
+    /// [`VolumeError::Parameter`] for an invalid film or tile,
+    /// [`VolumeError::TooManyFlakes`] for more than [`MAX_FLAKES`] flakes,
+    /// [`VolumeError::BadFlake`] naming the first invalid flake, [`VolumeError::Overlap`] for the first overlapping
     /// pair, [`VolumeError::TileTooSmall`] for a flake that does not fit in the tile.
     pub fn from_flakes(
         film_um: f64,
@@ -255,6 +256,12 @@ impl Layer {
                 name: "tile_um",
                 value: tile_um,
                 expected: "a finite tile side > 0 µm",
+            });
+        }
+        if flakes.len() > MAX_FLAKES {
+            return Err(VolumeError::TooManyFlakes {
+                requested: flakes.len() as f64,
+                max: MAX_FLAKES,
             });
         }
         let mut max_extent: f64 = 0.0;

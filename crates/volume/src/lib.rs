@@ -61,8 +61,9 @@
 //! energy balance ([`EnergyBalance`]) gives `coat_reflected`, `escaped_single`,
 //! `escaped_multiple`, `absorbed_substrate`, `absorbed_flakes` and `absorbed_other`
 //! (`absorbed_rims + cut_off`), summing to 1. Standard errors come from 64 fixed batches
-//! of rays (module [`trace`]); random numbers are ChaCha8 streams per ray, so results
-//! are bit-identical for any thread count.
+//! of rays (module [`trace`]); every ray has its own generator (Xoshiro256++ from the
+//! seed and the ray's index), so results are bit-identical for any thread count and
+//! any order of work.
 //!
 //! # Acceleration
 //! A periodic uniform grid of columns (module [`grid`]): the film is a thin slab, so a

@@ -20,7 +20,8 @@ pub const TYPICAL_BINDER_DENSITY_G_CM3: f64 = 1.2;
 /// ([`LayerSpec::max_attempts`]).
 pub const DEFAULT_MAX_ATTEMPTS: u32 = 2000;
 
-/// Largest number of flakes a layer may hold (memory guard: about 100 bytes each).
+/// Largest number of flakes a layer may hold (memory guard: about 100 bytes each). The
+/// tracer takes at most `2²⁴ − 1` (its grid keeps a flake's index in 24 bits).
 pub const MAX_FLAKES: usize = 20_000_000;
 
 /// How flake diameters are drawn.

@@ -6,28 +6,41 @@
 //!
 //! # Estimators
 //! For each incidence, `N` rays enter at points drawn uniformly over the tile; ray `r`
-//! of incidence `i` draws its random numbers from the ChaCha8 stream `i·N + r` of the
-//! run's seed, so every ray is reproducible by itself. A ray carries one weight per
+//! of incidence `i` draws its random numbers from its own generator, Xoshiro256++
+//! started from the run's seed and the ray's index `i·N + r` (`ray_rng`), so every ray
+//! is reproducible by itself. A ray carries one weight per
 //! polarisation channel, starting at `½ Ts(θi)` and `½ Tp(θi)` (fractions of the
 //! incident power `1/N` per ray). The clear coat's first-surface reflection
 //! `R_av(θi) = ½(Rs + Rp)` is added exactly to each cone that contains the specular
 //! direction. A detector's reflectance is `ρ = Σ w / N` over the escapes into its cone
 //! and its cone-averaged BRDF `ρ / (cos θj π sin²α)` (sr⁻¹). The rays are cut into
 //! [`BATCHES`] batches of equal size (ray `r` in batch `r / (N / BATCHES)`): with `s_b`
-//! a batch's sum, `se(ρ) = sqrt(B/(B−1) Σ_b (s_b − s̄)²) / N`. Batches are traced in
-//! parallel (handed out one at a time, each traced sequentially) and reduced in batch
-//! order, so results are bit-identical for any number of threads. The standard errors
+//! a batch's sum, `se(ρ) = sqrt(B/(B−1) Σ_b (s_b − s̄)²) / N`. The standard errors
 //! are those of the ray sampling **for this layer**: the scatter between layers drawn
 //! with other seeds is not included (run several seeds to see it).
+//!
+//! # Order of work
+//! The rays of an incidence (in sweeps of at most 2²⁰) are traced in the order of
+//! their entry points along a Z-order curve (`Run::sorted`), so that rays entering side
+//! by side run one after another and find the grid columns and flakes their
+//! neighbours loaded still in the cache; the order changes no ray. The sorted rays are
+//! cut into chunks of 4096, handed out to the threads one at a time; each ray adds to
+//! its own batch's sums within its chunk, and the chunks are added into the batches in
+//! chunk order, so results are bit-identical for any number of threads. A chunk's
+//! rays run in the instruction-set build (SSE2, AVX2 or AVX-512 encodings) that
+//! `pulp` picks for the processor; the arithmetic is the same operations in the same
+//! order (no fused multiply–add), so the results do not depend on it.
 
 use flakescatter_optics::detector::{self, Cone, orthonormal_frame};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel::{self, FresnelPower};
 use flakescatter_optics::{UnitVec3, Vec3, refraction};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::{Rng, RngExt, SeedableRng};
+use rand_xoshiro::{SplitMix64, Xoshiro256PlusPlus};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
+
+use rayon::prelude::*;
 
 use crate::VolumeError;
 use crate::grid::{FlakeGrid, Next, Surface};
@@ -46,9 +59,6 @@ pub const DEFAULT_MIN_WEIGHT: f64 = 1e-6;
 
 /// Largest number of rays per incidence.
 pub const MAX_RAYS: u64 = 1 << 40;
-
-/// Rays whose first columns are loaded together (see `Run::batch`).
-const WARM_GROUP: usize = 16;
 
 /// What the substrate under the film does.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -234,7 +244,7 @@ const E_RIMS: usize = 5;
 const E_CUT: usize = 6;
 const E_SLOTS: usize = 7;
 
-/// Sums of one batch.
+/// Sums of one batch (or of a batch's rays within one chunk).
 struct Partial {
     /// `[single, multiple]` per internal detector.
     cones: Vec<[f64; 2]>,
@@ -242,6 +252,38 @@ struct Partial {
     energy: [f64; E_SLOTS],
     segments: u64,
 }
+
+impl Partial {
+    fn new(ndet: usize) -> Self {
+        Self {
+            cones: vec![[0.0; 2]; ndet],
+            counts: vec![0; ndet],
+            energy: [0.0; E_SLOTS],
+            segments: 0,
+        }
+    }
+
+    /// Adds `other`'s sums to these.
+    fn merge(&mut self, other: &Partial) {
+        for (a, b) in self.cones.iter_mut().zip(&other.cones) {
+            a[0] += b[0];
+            a[1] += b[1];
+        }
+        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
+            *a += b;
+        }
+        for (a, b) in self.energy.iter_mut().zip(other.energy) {
+            *a += b;
+        }
+        self.segments += other.segments;
+    }
+}
+
+/// Most rays whose entry points are sorted together (a sweep).
+const SWEEP_RAYS: u64 = 1 << 20;
+
+/// Rays per chunk of a sorted sweep (the unit of work handed to a thread).
+const CHUNK_RAYS: usize = 4096;
 
 /// One cone as the escape test needs it.
 #[derive(Debug, Clone, Copy)]
@@ -317,7 +359,8 @@ struct Run<'r> {
     rays: u64,
     batch_rays: u64,
     max_cells: u64,
-    base_rng: ChaCha8Rng,
+    /// The rays' key, from the seed (see [`ray_rng`]).
+    key: [u64; 2],
 }
 
 impl<'a> Tracer<'a> {
@@ -327,7 +370,8 @@ impl<'a> Tracer<'a> {
     /// # Errors
     /// [`VolumeError::Parameter`] naming the invalid option (`n`,
     /// `substrate_reflectance`, `rays`, `max_events`, `min_weight`);
-    /// [`VolumeError::FlakeIndex`] for an invalid complex flake index.
+    /// [`VolumeError::FlakeIndex`] for an invalid complex flake index;
+    /// [`VolumeError::TooManyFlakes`] for a layer of `2²⁴` flakes or more.
     pub fn new(layer: &'a Layer, options: TraceOptions) -> Result<Self, VolumeError> {
         let cell = if layer.mean_diameter_um() > 0.0 {
             layer.mean_diameter_um()
@@ -356,6 +400,14 @@ impl<'a> Tracer<'a> {
             });
         }
         Self::check(&options)?;
+        // The grid keeps a flake's index in 24 bits.
+        let flakes = layer.flakes().len();
+        if flakes >= crate::grid::MAX_GRID_FLAKES {
+            return Err(VolumeError::TooManyFlakes {
+                requested: flakes as f64,
+                max: crate::grid::MAX_GRID_FLAKES - 1,
+            });
+        }
         Ok(Self {
             layer,
             grid: FlakeGrid::new(layer.flakes(), layer.tile_um(), cell_um),
@@ -434,8 +486,8 @@ impl<'a> Tracer<'a> {
         self.run_with_progress(theta_i, cones, &|_, _| {})
     }
 
-    /// As [`Tracer::run`], calling `progress(done, total)` (in batches, over all
-    /// incidences) from the calling thread as batches finish.
+    /// As [`Tracer::run`], calling `progress(done, total)` (in chunks of rays, over all
+    /// incidences) from the calling thread as chunks finish.
     ///
     /// # Errors
     /// [`VolumeError::Empty`] for an empty list, [`VolumeError::Incidence`] for an angle
@@ -490,82 +542,46 @@ impl<'a> Tracer<'a> {
             batch_rays,
             // A segment may wrap around the tile a few times; longer ones are cut.
             max_cells: 8 * g + 64,
-            base_rng: ChaCha8Rng::seed_from_u64(self.options.seed),
+            key: ray_key(self.options.seed),
         };
-        let jobs: Vec<(usize, u64)> = (0..theta_i.len())
-            .flat_map(|i| (0..BATCHES).map(move |b| (i, b)))
-            .collect();
-        let total_jobs = jobs.len() as u64;
         let ni = theta_i.len();
         let nd = run.ndet;
         // Ordered reduction (Welford over batches) per incidence and slot.
         let mut acc: Vec<Acc> = (0..ni).map(|_| Acc::new(nd)).collect();
         let mut segments = 0u64;
+        // Progress in chunks, over all incidences.
+        let sweeps: Vec<(u64, u64)> = (0..rays.div_ceil(SWEEP_RAYS))
+            .map(|s| (s * SWEEP_RAYS, ((s + 1) * SWEEP_RAYS).min(rays)))
+            .collect();
+        let chunks_per_incidence: u64 = sweeps
+            .iter()
+            .map(|&(a, b)| (b - a).div_ceil(CHUNK_RAYS as u64))
+            .sum();
+        let total = chunks_per_incidence * ni as u64;
         let mut done = 0u64;
-        // Batches are handed out one at a time from a shared counter, so no thread waits
-        // for another until the last batch (no barrier per group of batches); this
-        // thread reduces them in job order as they arrive (module docs), keeping any
-        // that come early, and reports progress.
-        let next = AtomicUsize::new(0);
-        let (tx, rx) = mpsc::channel::<(usize, Partial)>();
-        let mut early: Vec<Option<Partial>> = (0..jobs.len()).map(|_| None).collect();
-        let mut reduced = 0usize;
-        let mut take = |j: usize, p: Partial| {
-            early[j] = Some(p);
-            while let Some(p) = early.get_mut(reduced).and_then(Option::take) {
-                acc[jobs[reduced].0].add(&p);
-                segments += p.segments;
-                reduced += 1;
-                done += 1;
-                progress(done, total_jobs);
+        for (ii, &ti) in theta_i.iter().enumerate() {
+            // Each batch's sums over the chunks, added in chunk order.
+            let mut totals: Vec<Partial> = (0..BATCHES).map(|_| Partial::new(nd)).collect();
+            for &(first, end) in &sweeps {
+                let keys = run.sorted(ii as u64, first, end);
+                let chunks: Vec<&[u32]> = keys.chunks(CHUNK_RAYS).collect();
+                ordered_jobs(
+                    chunks.len(),
+                    |j| run.chunk(ti, ii as u64, first, chunks[j]),
+                    |_, parts| {
+                        for (t, p) in totals.iter_mut().zip(&parts) {
+                            t.merge(p);
+                        }
+                        done += 1;
+                        progress(done, total);
+                    },
+                );
             }
-        };
-        let work = |tx: &mpsc::Sender<(usize, Partial)>| loop {
-            let j = next.fetch_add(1, Ordering::Relaxed);
-            let Some(&(ii, b)) = jobs.get(j) else {
-                break;
-            };
-            if tx.send((j, run.batch(theta_i[ii], ii as u64, b))).is_err() {
-                break;
+            for t in &totals {
+                acc[ii].add(t);
+                segments += t.segments;
             }
-        };
-        // Outside a rayon pool this thread only reduces, and the pool's threads trace;
-        // inside one (a caller's `install`), this thread is one of them and traces too,
-        // reducing between its batches, so that it never waits on the others while
-        // holding work they might need (a pool of one thread would otherwise stall).
-        let inside = rayon::current_thread_index().is_some();
-        let helpers = rayon::current_num_threads() - usize::from(inside);
-        rayon::in_place_scope(|s| {
-            for _ in 0..helpers.min(jobs.len()) {
-                let tx = tx.clone();
-                let work = &work;
-                s.spawn(move |_| work(&tx));
-            }
-            if inside {
-                loop {
-                    let j = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&(ii, b)) = jobs.get(j) else {
-                        break;
-                    };
-                    take(j, run.batch(theta_i[ii], ii as u64, b));
-                    for (j, p) in rx.try_iter() {
-                        take(j, p);
-                    }
-                }
-            } else {
-                drop(tx);
-                // Ends when every helper has finished (a helper's panic then propagates
-                // from the scope).
-                for (j, p) in &rx {
-                    take(j, p);
-                }
-            }
-        });
-        // What the helpers sent after this thread's last batch (inside a pool).
-        for (j, p) in rx.try_iter() {
-            take(j, p);
         }
-        debug_assert_eq!(reduced, jobs.len());
 
         let nf = rays as f64;
         let b = BATCHES as f64;
@@ -650,6 +666,94 @@ impl<'a> Tracer<'a> {
     }
 }
 
+/// One chunk's rays, handed to [`pulp::Arch::dispatch`] (a closure would be kept out of
+/// line, without the target features).
+struct ChunkRays<'a, 'r> {
+    run: &'a Run<'r>,
+    ii: u64,
+    first: u64,
+    order: &'a [u32],
+    k1: &'a Vec3,
+    entry: &'a FresnelPower,
+    parts: &'a mut [Partial],
+}
+
+impl pulp::WithSimd for ChunkRays<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        self.run.chunk_rays(
+            self.ii, self.first, self.order, self.k1, self.entry, self.parts,
+        );
+    }
+}
+
+/// Runs `work(0..n)` on the threads of the current rayon pool and hands each result to
+/// `take` on the calling thread, in job order. Jobs are handed out one at a time from a
+/// shared counter, so no thread waits for another until the last job; results that
+/// come early are kept until their turn. Outside a rayon pool the calling thread only
+/// reduces, and the pool's threads work; inside one (a caller's `install`) it is one
+/// of them and works too, reducing between its jobs, so that it never waits on the
+/// others while holding work they might need (a pool of one thread would otherwise
+/// stall).
+fn ordered_jobs<T: Send>(
+    n: usize,
+    work: impl Fn(usize) -> T + Sync,
+    mut take: impl FnMut(usize, T),
+) {
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = mpsc::channel::<(usize, T)>();
+    let mut early: Vec<Option<T>> = (0..n).map(|_| None).collect();
+    let mut reduced = 0usize;
+    let mut keep = |j: usize, t: T| {
+        early[j] = Some(t);
+        while let Some(t) = early.get_mut(reduced).and_then(Option::take) {
+            take(reduced, t);
+            reduced += 1;
+        }
+    };
+    let work_loop = |tx: &mpsc::Sender<(usize, T)>| loop {
+        let j = next.fetch_add(1, Ordering::Relaxed);
+        if j >= n || tx.send((j, work(j))).is_err() {
+            break;
+        }
+    };
+    let inside = rayon::current_thread_index().is_some();
+    let helpers = rayon::current_num_threads() - usize::from(inside);
+    rayon::in_place_scope(|s| {
+        for _ in 0..helpers.min(n) {
+            let tx = tx.clone();
+            let work_loop = &work_loop;
+            s.spawn(move |_| work_loop(&tx));
+        }
+        if inside {
+            loop {
+                let j = next.fetch_add(1, Ordering::Relaxed);
+                if j >= n {
+                    break;
+                }
+                keep(j, work(j));
+                for (j, t) in rx.try_iter() {
+                    keep(j, t);
+                }
+            }
+        } else {
+            drop(tx);
+            // Ends when every helper has finished (a helper's panic then propagates
+            // from the scope).
+            for (j, t) in &rx {
+                keep(j, t);
+            }
+        }
+    });
+    // What the helpers sent after this thread's last job (inside a pool).
+    for (j, t) in rx.try_iter() {
+        keep(j, t);
+    }
+    debug_assert_eq!(reduced, n);
+}
+
 /// Ordered accumulation over batches: sums and Welford `M2` of the batch sums.
 struct Acc {
     seen: f64,
@@ -718,6 +822,53 @@ impl Acc {
     }
 }
 
+/// The two words every ray's generator starts from: SplitMix64 of the seed.
+fn ray_key(seed: u64) -> [u64; 2] {
+    let mut sm = SplitMix64::seed_from_u64(seed);
+    [sm.next_u64(), sm.next_u64()]
+}
+
+/// The generator of the ray with index `stream` (`i·N + r`: incidence `i`, ray `r` of
+/// `N`): Xoshiro256++ started from the state `(k₀ ⊕ s₀, k₁ ⊕ s₁, s₂, s₃)`, the key `k`
+/// of the seed ([`ray_key`]) and `s` the first four outputs of SplitMix64 seeded with
+/// `stream`. Each ray's numbers depend only on the seed and its index (any thread, any
+/// order); distinct `(seed, stream)` give distinct states (SplitMix64's outputs are a
+/// bijection of its seed), points far apart in a period of `2²⁵⁶ − 1`.
+fn ray_rng(key: [u64; 2], stream: u64) -> Xoshiro256PlusPlus {
+    let mut sm = SplitMix64::seed_from_u64(stream);
+    let words = [
+        key[0] ^ sm.next_u64(),
+        key[1] ^ sm.next_u64(),
+        sm.next_u64(),
+        sm.next_u64(),
+    ];
+    let mut bytes = [0u8; 32];
+    for (b, w) in bytes.chunks_exact_mut(8).zip(words) {
+        b.copy_from_slice(&w.to_le_bytes());
+    }
+    Xoshiro256PlusPlus::from_seed(bytes)
+}
+
+/// The entry point `(x, y)` (µm, uniform on `[0, l)²`) of a ray, from its first two
+/// random numbers.
+fn entry_point(l: f64, rng: &mut Xoshiro256PlusPlus) -> (f64, f64) {
+    let x = l * rng.random::<f64>();
+    let y = l * rng.random::<f64>();
+    (x, y)
+}
+
+/// The bits of `v` moved to the even positions (bit `k` to bit `2k`): one coordinate of
+/// a Morton index.
+fn spread_bits(v: u32) -> u64 {
+    let mut x = u64::from(v);
+    x = (x | (x << 16)) & 0x0000_ffff_0000_ffff;
+    x = (x | (x << 8)) & 0x00ff_00ff_00ff_00ff;
+    x = (x | (x << 4)) & 0x0f0f_0f0f_0f0f_0f0f;
+    x = (x | (x << 2)) & 0x3333_3333_3333_3333;
+    x = (x | (x << 1)) & 0x5555_5555_5555_5555;
+    x
+}
+
 /// `x` moved into `[0, l)` by whole tiles.
 #[inline]
 fn wrap(x: f64, l: f64) -> f64 {
@@ -729,7 +880,7 @@ fn wrap(x: f64, l: f64) -> f64 {
 }
 
 /// A cosine-law direction about the unit normal `nrm`.
-fn cosine_direction(nrm: &Vec3, rng: &mut ChaCha8Rng) -> Vec3 {
+fn cosine_direction(nrm: &Vec3, rng: &mut Xoshiro256PlusPlus) -> Vec3 {
     let u1: f64 = rng.random();
     let u2: f64 = rng.random();
     let (s, c) = (std::f64::consts::TAU * u2).sin_cos();
@@ -741,59 +892,100 @@ fn cosine_direction(nrm: &Vec3, rng: &mut ChaCha8Rng) -> Vec3 {
 }
 
 impl Run<'_> {
-    /// Traces batch `b` of incidence number `ii` at angle `theta_i`.
-    fn batch(&self, theta_i: f64, ii: u64, b: u64) -> Partial {
+    /// The rays `first..end` of incidence number `ii` in the order they are traced, as
+    /// offsets from `first`: sorted (stably, by counting) by the Z-order (Morton) index
+    /// of the cell of their entry point in a `2^b × 2^b` grid over the tile, with
+    /// `4^b` about the number of rays. Rays that enter side by side then run one after
+    /// another and find the grid columns and flakes their neighbours loaded still in the
+    /// cache (with independent random entry points in ray order each ray's first query
+    /// waited on memory; on the paper's coating with 10⁵ flakes this order is about
+    /// 1.4× faster). The order changes no ray, only the order of the sums.
+    fn sorted(&self, ii: u64, first: u64, end: u64) -> Vec<u32> {
+        let l = self.tile;
+        let n = end - first;
+        // Bits per axis: 4^b ≥ n / 4, at most 2^20 cells.
+        let mut b = 1u32;
+        while b < 10 && (1u64 << (2 * b)) < n.div_ceil(4) {
+            b += 1;
+        }
+        let side = f64::from(1u32 << b);
+        let codes: Vec<u32> = (first..end)
+            .into_par_iter()
+            .map(|q| {
+                let mut rng = ray_rng(self.key, ii * self.rays + q);
+                let (x, y) = entry_point(l, &mut rng);
+                let cell = |v: f64| ((v / l * side) as u32).min((1 << b) - 1);
+                (spread_bits(cell(x)) | spread_bits(cell(y)) << 1) as u32
+            })
+            .collect();
+        let mut starts = vec![0u32; (1 << (2 * b)) + 1];
+        for &c in &codes {
+            starts[c as usize + 1] += 1;
+        }
+        for c in 1..starts.len() {
+            starts[c] += starts[c - 1];
+        }
+        let mut order = vec![0u32; codes.len()];
+        for (q, &c) in codes.iter().enumerate() {
+            order[starts[c as usize] as usize] = q as u32;
+            starts[c as usize] += 1;
+        }
+        order
+    }
+
+    /// Traces the rays `first + o` for the offsets `o` of `order` (from [`Run::sorted`])
+    /// of incidence number `ii` at angle `theta_i`, in that order; each ray adds to the
+    /// sums of its batch (`q / batch_rays`).
+    fn chunk(&self, theta_i: f64, ii: u64, first: u64, order: &[u32]) -> Vec<Partial> {
         let n = self.options.n;
         let k_in = detector::incident_direction(theta_i);
         let k1 = refraction::into_coating(&k_in, n).into_inner();
         let entry = fresnel::air_to_coating(theta_i, n);
-        let mut p = Partial {
-            cones: vec![[0.0; 2]; self.ndet],
-            counts: vec![0; self.ndet],
-            energy: [0.0; E_SLOTS],
-            segments: 0,
-        };
+        let mut parts: Vec<Partial> = (0..BATCHES).map(|_| Partial::new(self.ndet)).collect();
+        pulp::Arch::new().dispatch(ChunkRays {
+            run: self,
+            ii,
+            first,
+            order,
+            k1: &k1,
+            entry: &entry,
+            parts: &mut parts,
+        });
+        parts
+    }
+
+    /// The loop of [`Run::chunk`], inlined into the instruction-set build that
+    /// [`pulp::Arch::dispatch`] chose (with everything below it).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn chunk_rays(
+        &self,
+        ii: u64,
+        first: u64,
+        order: &[u32],
+        k1: &Vec3,
+        entry: &FresnelPower,
+        parts: &mut [Partial],
+    ) {
         let l = self.tile;
-        let first = b * self.batch_rays;
-        let end = first + self.batch_rays;
-        // Rays go in groups: each ray's generator and entry point (its first two
-        // numbers) are drawn for the whole group, the grid loads the data of their first
-        // columns together (the loads overlap instead of each ray waiting on its own),
-        // then the rays are traced one by one, in order, as before.
-        // The generators stay in place (each is a few hundred bytes).
-        let mut rngs: Vec<ChaCha8Rng> = vec![self.base_rng.clone(); WARM_GROUP];
-        let mut starts: Vec<Vec3> = Vec::with_capacity(WARM_GROUP);
-        let mut r = first;
-        while r < end {
-            let stop = end.min(r + WARM_GROUP as u64);
-            for (rng, q) in rngs.iter_mut().zip(r..stop) {
-                // Back to the start of the stream, then the ray's stream: the state of a
-                // fresh copy of `base_rng` given that stream (same key, block 0, empty
-                // buffer), without copying the generator's buffer.
-                rng.set_word_pos(0);
-                rng.set_stream(ii * self.rays + q);
-                let x = l * rng.random::<f64>();
-                let y = l * rng.random::<f64>();
-                starts.push(Vec3::new(x, y, 0.0));
-            }
-            self.grid.warm(self.flakes, &starts);
-            for (rng, &pos) in rngs.iter_mut().zip(&starts) {
-                self.ray(pos, &k1, &entry, rng, &mut p);
-            }
-            starts.clear();
-            r = stop;
+        for &o in order {
+            let q = first + u64::from(o);
+            let mut rng = ray_rng(self.key, ii * self.rays + q);
+            let (x, y) = entry_point(l, &mut rng);
+            let b = (q / self.batch_rays) as usize;
+            self.ray(Vec3::new(x, y, 0.0), k1, entry, &mut rng, &mut parts[b]);
         }
-        p
     }
 
     /// One path from the entry point `pos` (on the top interface) until it has no
     /// weight left.
+    #[inline(always)]
     fn ray(
         &self,
         mut pos: Vec3,
         k1: &Vec3,
         entry: &FresnelPower,
-        rng: &mut ChaCha8Rng,
+        rng: &mut Xoshiro256PlusPlus,
         p: &mut Partial,
     ) {
         let opts = self.options;
@@ -919,6 +1111,7 @@ impl Run<'_> {
     }
 
     /// Adds an escape with weight `w` along `out` to every cone that contains it.
+    #[inline(always)]
     fn tally(&self, out: &Vec3, w: f64, single: bool, via_substrate: bool, p: &mut Partial) {
         let cat = usize::from(!single);
         p.energy[if single { E_SINGLE } else { E_MULTI }] += w;
