@@ -905,7 +905,7 @@ impl Run<'_> {
         let n = end - first;
         // Bits per axis: 4^b ≥ n / 4, at most 2^20 cells.
         let mut b = 1u32;
-        while b < 10 && (1u64 << (2 * b)) < n.div_ceil(4) {
+        while b < 10 && (1u64 << (2 * b)) < n {
             b += 1;
         }
         let side = f64::from(1u32 << b);
