@@ -429,7 +429,7 @@ pub const ROWS: &[RowSpec] = &[
         quick: false,
     },
     RowSpec {
-        operation: "Volume model, paper's coating, 64 000 rays at 45° × 281 cones (columns one diameter wide)",
+        operation: "Volume model, paper's coating, 10⁶ rays at 45° × 281 cones (columns one diameter wide)",
         size: "10⁵ flakes",
         id: "volume/trace_1e5_flakes_cell_one_diameter",
         floor: None,
