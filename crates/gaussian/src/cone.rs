@@ -540,13 +540,21 @@ impl DistributionModel {
         psi_w.extend(psi.iter().map(|&(sp, cp, _, _)| u * cp + v * sp));
         for &(sb, cb) in beta_trig.iter() {
             let along = axis * cb;
+            // Every ψ node written in place, the next one over it unless it is above the
+            // horizon (no branch per node: nearly all are above it).
+            let base = dirs.len();
+            dirs.resize(base + psi_w.len(), Vec3::zeros());
+            slot.resize(base + psi_w.len(), 0);
+            let (ring_dirs, ring_slots) = (&mut dirs[base..], &mut slot[base..]);
+            let mut n = 0;
             for (k, &w) in psi_w.iter().enumerate() {
                 let r: Vec3 = along + w * sb;
-                if r.z > 0.0 {
-                    dirs.push(r);
-                    slot.push(k);
-                }
+                ring_dirs[n] = r;
+                ring_slots[n] = k;
+                n += usize::from(r.z > 0.0);
             }
+            dirs.truncate(base + n);
+            slot.truncate(base + n);
             ring_end.push((dirs.len(), sb));
         }
         let mut values: Vec<V> = Vec::new();
@@ -575,10 +583,11 @@ impl DistributionModel {
         let mut start = 0;
         for (&(_, wk, wg), &(end, sb)) in nodes.iter().zip(ring_end) {
             let (mut ring, mut ring_half, mut ring_proj) = (V::zero(), V::zero(), 0.0);
-            for i in start..end {
-                let (_, _, w, even) = psi[slot[i]];
-                let rz = dirs[i].z;
-                if let Some(&value) = values.get(i) {
+            let (slots, ring_dirs) = (&slot[start..end], &dirs[start..end]);
+            if let Some(ring_values) = values.get(start..end) {
+                for ((&k, d), &value) in slots.iter().zip(ring_dirs).zip(ring_values) {
+                    let (_, _, w, even) = psi[k];
+                    let rz = d.z;
                     // Weight 2: this node and its mirror image y → −y.
                     let g = if w == 2.0 {
                         value.plus(value.mirrored())
@@ -590,8 +599,28 @@ impl DistributionModel {
                     if even {
                         ring_half = ring_half.plus(g);
                     }
+                    ring_proj += w * rz;
                 }
-                ring_proj += w * rz;
+            } else {
+                // No integrand (or not for every node): the nodes that have a value
+                // still count, and every node counts in the projected solid angle.
+                for (i, (&k, d)) in slots.iter().zip(ring_dirs).enumerate() {
+                    let (_, _, w, even) = psi[k];
+                    let rz = d.z;
+                    if let Some(&value) = values.get(start + i) {
+                        let g = if w == 2.0 {
+                            value.plus(value.mirrored())
+                        } else {
+                            value
+                        }
+                        .times(rz);
+                        ring = ring.plus(g);
+                        if even {
+                            ring_half = ring_half.plus(g);
+                        }
+                    }
+                    ring_proj += w * rz;
+                }
             }
             start = end;
             let s = sb * dpsi;
