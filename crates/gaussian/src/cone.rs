@@ -557,11 +557,12 @@ impl DistributionModel {
             slot.truncate(base + n);
             ring_end.push((dirs.len(), sb));
         }
-        let mut values: Vec<V> = Vec::new();
-        if let Some(points) = points {
-            points(dirs, &mut values);
-        }
-        let result = self.sum_rule(nodes, n_psi, psi, dirs, slot, ring_end, &values);
+        let result = V::with_values(|values| {
+            if let Some(points) = points {
+                points(dirs, values);
+            }
+            self.sum_rule(nodes, n_psi, psi, dirs, slot, ring_end, values)
+        });
         RULE_SCRATCH.with_borrow_mut(|s| *s = scratch);
         result
     }

@@ -26,6 +26,16 @@ pub trait QuadValue: Copy {
     /// the `(s, p)` bases becomes `D M D`, `D = diag(1, 1, −1, −1)`.
     #[must_use]
     fn mirrored(self) -> Self;
+    /// Runs `f` with an empty vector of values to fill: for `f64` one kept per thread
+    /// and reused from call to call (a curve fills one for each of thousands of
+    /// cones), otherwise a new one.
+    fn with_values<R>(f: impl FnOnce(&mut Vec<Self>) -> R) -> R {
+        f(&mut Vec::new())
+    }
+}
+
+thread_local! {
+    static F64_VALUES: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 impl QuadValue for f64 {
@@ -52,6 +62,15 @@ impl QuadValue for f64 {
     #[inline]
     fn mirrored(self) -> Self {
         self
+    }
+    fn with_values<R>(f: impl FnOnce(&mut Vec<Self>) -> R) -> R {
+        // Taken out for the call (a nested call finds it empty and allocates), put back
+        // after.
+        let mut values = F64_VALUES.with_borrow_mut(std::mem::take);
+        values.clear();
+        let result = f(&mut values);
+        F64_VALUES.with_borrow_mut(|v| *v = values);
+        result
     }
 }
 
