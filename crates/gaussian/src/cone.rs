@@ -585,10 +585,9 @@ impl DistributionModel {
         for (&(_, wk, wg), &(end, sb)) in nodes.iter().zip(ring_end) {
             let (mut ring, mut ring_half, mut ring_proj) = (V::zero(), V::zero(), 0.0);
             let (slots, ring_dirs) = (&slot[start..end], &dirs[start..end]);
-            if let Some(ring_values) = values.get(start..end) {
-                for ((&k, d), &value) in slots.iter().zip(ring_dirs).zip(ring_values) {
-                    let (_, _, w, even) = psi[k];
-                    let rz = d.z;
+            let mut node = |k: usize, rz: f64, value: Option<V>| {
+                let (_, _, w, even) = psi[k];
+                if let Some(value) = value {
                     // Weight 2: this node and its mirror image y → −y.
                     let g = if w == 2.0 {
                         value.plus(value.mirrored())
@@ -600,27 +599,18 @@ impl DistributionModel {
                     if even {
                         ring_half = ring_half.plus(g);
                     }
-                    ring_proj += w * rz;
+                }
+                ring_proj += w * rz;
+            };
+            if let Some(ring_values) = values.get(start..end) {
+                for ((&k, d), &value) in slots.iter().zip(ring_dirs).zip(ring_values) {
+                    node(k, d.z, Some(value));
                 }
             } else {
                 // No integrand (or not for every node): the nodes that have a value
                 // still count, and every node counts in the projected solid angle.
                 for (i, (&k, d)) in slots.iter().zip(ring_dirs).enumerate() {
-                    let (_, _, w, even) = psi[k];
-                    let rz = d.z;
-                    if let Some(&value) = values.get(start + i) {
-                        let g = if w == 2.0 {
-                            value.plus(value.mirrored())
-                        } else {
-                            value
-                        }
-                        .times(rz);
-                        ring = ring.plus(g);
-                        if even {
-                            ring_half = ring_half.plus(g);
-                        }
-                    }
-                    ring_proj += w * rz;
+                    node(k, d.z, values.get(start + i).copied());
                 }
             }
             start = end;
