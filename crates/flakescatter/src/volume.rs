@@ -6,7 +6,8 @@
 //! beam power, BRDFs per steradian averaged over each detector cone; `relative` is the
 //! collected power over that of the same aperture at the specular direction (coat
 //! reflection included, as a measurement sees it). One seed draws both the layer and the
-//! rays (separate ChaCha8 streams), so a run is reproducible from it alone.
+//! rays (the layer's ChaCha8 stream, a generator per ray), so a run is reproducible
+//! from it alone.
 
 use flakescatter_volume::{Layer, LayerParams, LayerSpec, TraceOptions, Tracer};
 
@@ -128,7 +129,7 @@ pub struct VolumeCurves {
 
 /// Places the layer and traces it (crate `flakescatter-volume`) for every incidence and
 /// detector of `instrument`. `progress(done, total)` is called from the calling thread as
-/// ray batches finish.
+/// chunks of rays finish.
 ///
 /// # Errors
 /// [`PipelineError::Instrument`] for point detectors (aperture 0);

@@ -244,9 +244,11 @@ impl FlakeGrid {
                 let mut n = 0;
                 for &e in block {
                     let (_, rb2, b, dd) = sphere_terms(flakes, images, e, ox, oy, o.z, k);
-                    // Listed in the column the walk came from too: tested there, with the
-                    // same image and the same numbers, so testing it again changes
-                    // nothing.
+                    // Listed in the column the walk came from too: this image was tested
+                    // there (or in a column before that), and its tests only get stricter
+                    // as the best hit shrinks, so testing it again cannot give a nearer
+                    // hit. (Across a wrap of the tile the origin is relative to another
+                    // copy of the tile, so a second test would differ by rounding.)
                     let fresh = e & skip == 0;
                     let near = !(dd - b * b > rb2) & !((b > 0.0) & (dd > rb2));
                     kept[n] = e;

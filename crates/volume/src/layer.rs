@@ -33,7 +33,8 @@ use rand_distr::{Distribution, LogNormal};
 use crate::VolumeError;
 use crate::params::{Amount, DepthBins, Diameter, LayerParams, MAX_FLAKES};
 
-/// ChaCha8 stream of the layer's draws (ray streams use indices below 2⁶³).
+/// ChaCha8 stream of the layer's draws (the rays have generators of their own, module
+/// `trace`).
 pub(crate) const LAYER_STREAM: u64 = 1 << 63;
 
 /// One flake: a solid thin cylinder (64 bytes, aligned to a cache line).

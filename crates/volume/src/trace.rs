@@ -24,7 +24,8 @@
 //! their entry points along a Z-order curve (`Run::sorted`), so that rays entering side
 //! by side run one after another and find the grid columns and flakes their
 //! neighbours loaded still in the cache; the order changes no ray. The sorted rays are
-//! cut into chunks of 4096, handed out to the threads one at a time; each ray adds to
+//! cut into chunks of 4096; the chunks of consecutive sweeps (several incidences when
+//! each has few rays) are handed out to the threads one at a time; each ray adds to
 //! its own batch's sums within its chunk, and the chunks are added into the batches in
 //! chunk order, so results are bit-identical for any number of threads. A chunk's
 //! rays run in the instruction-set build (SSE2, AVX2 or AVX-512 encodings) that
@@ -248,7 +249,7 @@ const E_SLOTS: usize = 7;
 struct Partial {
     /// `[single, multiple]` per internal detector.
     cones: Vec<[f64; 2]>,
-    counts: Vec<u32>,
+    counts: Vec<u64>,
     energy: [f64; E_SLOTS],
     segments: u64,
 }
@@ -559,29 +560,75 @@ impl<'a> Tracer<'a> {
             .sum();
         let total = chunks_per_incidence * ni as u64;
         let mut done = 0u64;
-        for (ii, &ti) in theta_i.iter().enumerate() {
-            // Each batch's sums over the chunks, added in chunk order.
-            let mut totals: Vec<Partial> = (0..BATCHES).map(|_| Partial::new(nd)).collect();
-            for &(first, end) in &sweeps {
-                let keys = run.sorted(ii as u64, first, end);
-                let chunks: Vec<&[u32]> = keys.chunks(CHUNK_RAYS).collect();
-                ordered_jobs(
-                    chunks.len(),
-                    |j| run.chunk(ti, ii as u64, first, chunks[j]),
-                    |_, parts| {
-                        for (t, p) in totals.iter_mut().zip(&parts) {
-                            t.merge(p);
+        // Every sweep of every incidence, in order; they are traced in rounds of
+        // consecutive sweeps, enough for several chunks per thread (so that runs of many
+        // incidences with few rays each keep every thread busy), at most 2²⁰ rays after
+        // the first. Each round: its sweeps sorted, then all their chunks handed out
+        // together and reduced in order. An incidence's batch sums (`totals`) are added
+        // up in chunk order whatever the rounds, and go into its `Acc` when its last
+        // chunk is in.
+        let work: Vec<(usize, u64, u64)> = (0..ni)
+            .flat_map(|ii| sweeps.iter().map(move |&(a, b)| (ii, a, b)))
+            .collect();
+        let chunks_of = |(_, a, b): (usize, u64, u64)| (b - a).div_ceil(CHUNK_RAYS as u64);
+        let enough = 8 * rayon::current_num_threads() as u64;
+        let mut totals: Vec<Option<Vec<Partial>>> = (0..ni).map(|_| None).collect();
+        let mut chunks_left: Vec<u64> = vec![chunks_per_incidence; ni];
+        let mut k = 0;
+        while k < work.len() {
+            let (mut round_rays, mut round_chunks) = (0u64, 0u64);
+            let mut end = k;
+            while end < work.len()
+                && (end == k || (round_chunks < enough && round_rays < SWEEP_RAYS))
+            {
+                round_rays += work[end].2 - work[end].1;
+                round_chunks += chunks_of(work[end]);
+                end += 1;
+            }
+            let round = &work[k..end];
+            let orders: Vec<Vec<u32>> = round
+                .par_iter()
+                .map(|&(ii, first, stop)| run.sorted(ii as u64, first, stop))
+                .collect();
+            // (sweep of the round, its chunk) per job.
+            let jobs: Vec<(usize, usize)> = orders
+                .iter()
+                .enumerate()
+                .flat_map(|(s, o)| (0..o.len().div_ceil(CHUNK_RAYS)).map(move |c| (s, c)))
+                .collect();
+            let chunk = |(s, c): (usize, usize)| {
+                let o = &orders[s];
+                &o[c * CHUNK_RAYS..o.len().min((c + 1) * CHUNK_RAYS)]
+            };
+            ordered_jobs(
+                jobs.len(),
+                |j| {
+                    let (ii, first, _) = round[jobs[j].0];
+                    run.chunk(theta_i[ii], ii as u64, first, chunk(jobs[j]))
+                },
+                |j, parts| {
+                    let ii = round[jobs[j].0].0;
+                    let t = totals[ii]
+                        .get_or_insert_with(|| (0..BATCHES).map(|_| Partial::new(nd)).collect());
+                    for (t, p) in t.iter_mut().zip(&parts) {
+                        t.merge(p);
+                    }
+                    done += 1;
+                    progress(done, total);
+                    chunks_left[ii] -= 1;
+                    if chunks_left[ii] == 0
+                        && let Some(t) = totals[ii].take()
+                    {
+                        for t in &t {
+                            acc[ii].add(t);
+                            segments += t.segments;
                         }
-                        done += 1;
-                        progress(done, total);
-                    },
-                );
-            }
-            for t in &totals {
-                acc[ii].add(t);
-                segments += t.segments;
-            }
+                    }
+                },
+            );
+            k = end;
         }
+        debug_assert!(chunks_left.iter().all(|&c| c == 0));
 
         let nf = rays as f64;
         let b = BATCHES as f64;
@@ -802,7 +849,7 @@ impl Acc {
             for (k, v) in [s, m, s + m].into_iter().enumerate() {
                 welford(&mut mean[k], &mut m2[k], v, inv);
             }
-            self.counts[d] += u64::from(p.counts[d]);
+            self.counts[d] += p.counts[d];
         }
         for k in 0..E_SLOTS {
             self.energy[k] += p.energy[k];
@@ -833,7 +880,7 @@ fn ray_key(seed: u64) -> [u64; 2] {
 /// of the seed ([`ray_key`]) and `s` the first four outputs of SplitMix64 seeded with
 /// `stream`. Each ray's numbers depend only on the seed and its index (any thread, any
 /// order); distinct `(seed, stream)` give distinct states (SplitMix64's outputs are a
-/// bijection of its seed), points far apart in a period of `2²⁵⁶ − 1`.
+/// bijection of its seed); the period is `2²⁵⁶ − 1`.
 fn ray_rng(key: [u64; 2], stream: u64) -> Xoshiro256PlusPlus {
     let mut sm = SplitMix64::seed_from_u64(stream);
     let words = [
@@ -903,7 +950,7 @@ impl Run<'_> {
     fn sorted(&self, ii: u64, first: u64, end: u64) -> Vec<u32> {
         let l = self.tile;
         let n = end - first;
-        // Bits per axis: 4^b ≥ n / 4, at most 2^20 cells.
+        // Bits per axis: 4^b ≥ n (about one ray per cell), at most 2^20 cells.
         let mut b = 1u32;
         while b < 10 && (1u64 << (2 * b)) < n {
             b += 1;
@@ -955,7 +1002,8 @@ impl Run<'_> {
     }
 
     /// The loop of [`Run::chunk`], inlined into the instruction-set build that
-    /// [`pulp::Arch::dispatch`] chose (with everything below it).
+    /// [`pulp::Arch::dispatch`] chose (with what is inlined into it: the ray loop and
+    /// the grid walk; a few small helpers of other crates stay out of line).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn chunk_rays(

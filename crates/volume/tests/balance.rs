@@ -124,7 +124,9 @@ fn results_are_bit_identical_for_any_thread_count() {
         ..TraceOptions::default()
     };
     let tracer = Tracer::new(&layer, options).unwrap();
-    let angles = [20f64.to_radians(), 60f64.to_radians()];
+    // Five incidences of a few chunks each: the tracer groups consecutive incidences
+    // into rounds by the number of threads, which must not change a bit either.
+    let angles = [20f64, 35.0, 45.0, 60.0, 75.0].map(f64::to_radians);
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

@@ -213,7 +213,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let b = indicatif::ProgressBar::new(0);
         b.set_style(
             indicatif::ProgressStyle::with_template(
-                "tracing {bar:40} {pos}/{len} ray batches {eta}",
+                "tracing {bar:40} {pos}/{len} chunks of rays {eta}",
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
