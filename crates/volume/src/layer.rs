@@ -238,8 +238,9 @@ impl Layer {
     /// # Errors
     /// [`VolumeError::Parameter`] for an invalid film or tile,
     /// [`VolumeError::TooManyFlakes`] for more than [`MAX_FLAKES`] flakes,
-    /// [`VolumeError::BadFlake`] naming the first invalid flake, [`VolumeError::Overlap`] for the first overlapping
-    /// pair, [`VolumeError::TileTooSmall`] for a flake that does not fit in the tile.
+    /// [`VolumeError::BadFlake`] naming the first invalid flake,
+    /// [`VolumeError::Overlap`] for the first overlapping pair,
+    /// [`VolumeError::TileTooSmall`] for a flake that does not fit in the tile.
     pub fn from_flakes(
         film_um: f64,
         tile_um: f64,

@@ -62,8 +62,8 @@
 //! `escaped_multiple`, `absorbed_substrate`, `absorbed_flakes` and `absorbed_other`
 //! (`absorbed_rims + cut_off`), summing to 1. Standard errors come from 64 fixed batches
 //! of rays (module [`trace`]); every ray has its own generator (Xoshiro256++ from the
-//! seed and the ray's index), so results are bit-identical for any thread count and
-//! any order of work.
+//! seed and the ray's index), so a ray is the same whichever thread traces it, and
+//! results are bit-identical for any thread count.
 //!
 //! # Acceleration
 //! A periodic uniform grid of columns (module [`grid`]): the film is a thin slab, so a
