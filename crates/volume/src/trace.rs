@@ -554,10 +554,8 @@ impl<'a> Tracer<'a> {
         let sweeps: Vec<(u64, u64)> = (0..rays.div_ceil(SWEEP_RAYS))
             .map(|s| (s * SWEEP_RAYS, ((s + 1) * SWEEP_RAYS).min(rays)))
             .collect();
-        let chunks_per_incidence: u64 = sweeps
-            .iter()
-            .map(|&(a, b)| (b - a).div_ceil(CHUNK_RAYS as u64))
-            .sum();
+        let chunks_in = |first: u64, end: u64| (end - first).div_ceil(CHUNK_RAYS as u64);
+        let chunks_per_incidence: u64 = sweeps.iter().map(|&(a, b)| chunks_in(a, b)).sum();
         let total = chunks_per_incidence * ni as u64;
         let mut done = 0u64;
         // Every sweep of every incidence, in order; they are traced in rounds of
@@ -570,7 +568,6 @@ impl<'a> Tracer<'a> {
         let work: Vec<(usize, u64, u64)> = (0..ni)
             .flat_map(|ii| sweeps.iter().map(move |&(a, b)| (ii, a, b)))
             .collect();
-        let chunks_of = |(_, a, b): (usize, u64, u64)| (b - a).div_ceil(CHUNK_RAYS as u64);
         let enough = 8 * rayon::current_num_threads() as u64;
         let mut totals: Vec<Option<Vec<Partial>>> = (0..ni).map(|_| None).collect();
         let mut chunks_left: Vec<u64> = vec![chunks_per_incidence; ni];
@@ -582,7 +579,7 @@ impl<'a> Tracer<'a> {
                 && (end == k || (round_chunks < enough && round_rays < SWEEP_RAYS))
             {
                 round_rays += work[end].2 - work[end].1;
-                round_chunks += chunks_of(work[end]);
+                round_chunks += chunks_in(work[end].1, work[end].2);
                 end += 1;
             }
             let round = &work[k..end];
@@ -896,14 +893,6 @@ fn ray_rng(key: [u64; 2], stream: u64) -> Xoshiro256PlusPlus {
     Xoshiro256PlusPlus::from_seed(bytes)
 }
 
-/// The entry point `(x, y)` (µm, uniform on `[0, l)²`) of a ray, from its first two
-/// random numbers.
-fn entry_point(l: f64, rng: &mut Xoshiro256PlusPlus) -> (f64, f64) {
-    let x = l * rng.random::<f64>();
-    let y = l * rng.random::<f64>();
-    (x, y)
-}
-
 /// The bits of `v` moved to the even positions (bit `k` to bit `2k`): one coordinate of
 /// a Morton index.
 fn spread_bits(v: u32) -> u64 {
@@ -959,8 +948,7 @@ impl Run<'_> {
         let codes: Vec<u32> = (first..end)
             .into_par_iter()
             .map(|q| {
-                let mut rng = ray_rng(self.key, ii * self.rays + q);
-                let (x, y) = entry_point(l, &mut rng);
+                let (_, x, y) = self.ray_start(ii, q);
                 let cell = |v: f64| ((v / l * side) as u32).min((1 << b) - 1);
                 (spread_bits(cell(x)) | spread_bits(cell(y)) << 1) as u32
             })
@@ -978,6 +966,18 @@ impl Run<'_> {
             starts[c as usize] += 1;
         }
         order
+    }
+
+    /// Ray `q` of incidence number `ii`: its generator (stream `ii·N + q`) after its
+    /// first two numbers, and the entry point `(x, y)` they give (µm, uniform on
+    /// `[0, L)²`).
+    #[inline(always)]
+    fn ray_start(&self, ii: u64, q: u64) -> (Xoshiro256PlusPlus, f64, f64) {
+        let l = self.tile;
+        let mut rng = ray_rng(self.key, ii * self.rays + q);
+        let x = l * rng.random::<f64>();
+        let y = l * rng.random::<f64>();
+        (rng, x, y)
     }
 
     /// Traces the rays `first + o` for the offsets `o` of `order` (from [`Run::sorted`])
@@ -1015,11 +1015,9 @@ impl Run<'_> {
         entry: &FresnelPower,
         parts: &mut [Partial],
     ) {
-        let l = self.tile;
         for &o in order {
             let q = first + u64::from(o);
-            let mut rng = ray_rng(self.key, ii * self.rays + q);
-            let (x, y) = entry_point(l, &mut rng);
+            let (mut rng, x, y) = self.ray_start(ii, q);
             let b = (q / self.batch_rays) as usize;
             self.ray(Vec3::new(x, y, 0.0), k1, entry, &mut rng, &mut parts[b]);
         }
