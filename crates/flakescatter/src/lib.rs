@@ -106,7 +106,7 @@ pub use flakescatter_volume as volume_layer;
 pub use instrument::{DetectorSet, Instrument};
 pub use pipeline::{
     Coating, CurveRow, Curves, OrientationSource, Settings, TopoSettings, distribution_curves,
-    isotropic_curves, p_tilde_about_specular, topographic_curves,
+    distribution_rows, isotropic_curves, p_tilde_about_specular, topographic_curves,
 };
 pub use pixels::{
     PixelOrientation, PixelWidth, WidthSources, pixel_orientation, width_sources,

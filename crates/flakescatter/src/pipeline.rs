@@ -5,7 +5,7 @@
 //! beam power, BRDFs per steradian; `relative` is normalised to the same detector at the
 //! specular direction (physics.md §4).
 
-use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
+use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelError, ModelOptions};
 use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::polarization::{Transmission, Weighting};
@@ -152,6 +152,26 @@ pub fn distribution_curves(
     distribution_curves_of(coating, instrument, settings, source.orientation()?, None)
 }
 
+/// The rows of [`distribution_curves`], bit for bit, handed to `each` one incidence at a
+/// time as they are computed (one row per detector, in order), so that a large grid is
+/// never held whole: for writing a table as it is computed. Every error of the model
+/// comes before the first call of `each`; `each`'s own first error ends the run and is
+/// returned.
+///
+/// # Errors
+/// Those of [`distribution_curves`], and the first of `each`.
+pub fn distribution_rows<E: From<PipelineError>>(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    source: &OrientationSource,
+    each: impl FnMut(&[CurveRow]) -> Result<(), E>,
+) -> Result<(), E> {
+    let orientation = source.orientation()?;
+    let model = distribution_model(coating, settings, orientation)?;
+    curve_rows(&model, instrument, settings, each)
+}
+
 /// [`distribution_curves`] for an orientation distribution, with the binder's absorption
 /// along each ray's path when `absorption` is given (physics.md §8.1; `None` is exactly
 /// [`distribution_curves`]).
@@ -167,39 +187,16 @@ pub(crate) fn distribution_curves_of(
     if let Some(a) = absorption {
         model = model.with_absorption(a);
     }
-    let points = flakescatter_gaussian::curve(
-        &model,
-        instrument.theta_i(),
-        instrument.cones(),
-        settings.cone_method,
-    )
-    .map_err(PipelineError::Model)?;
-    let nd = instrument.cones().len();
-    let rows = points
-        .iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let c = &p.collected;
-            let std_err = match c.reflectance {
-                Some(rho) if rho > 0.0 => Some(c.error * c.brdf / rho),
-                Some(_) => Some(0.0),
-                None => Some(c.error),
-            };
-            CurveRow {
-                theta_i: p.theta_i,
-                detector: k % nd,
-                brdf: c.brdf,
-                reflectance: c.reflectance,
-                relative: p.relative,
-                rays: None,
-                std_err: if settings.cone_method == ConeMethod::Exact {
-                    std_err
-                } else {
-                    None
-                },
-            }
-        })
-        .collect();
+    let mut rows = Vec::with_capacity(
+        instrument
+            .theta_i()
+            .len()
+            .saturating_mul(instrument.cones().len()),
+    );
+    curve_rows(&model, instrument, settings, |block| {
+        rows.extend_from_slice(block);
+        Ok::<(), PipelineError>(())
+    })?;
     Ok(Curves {
         model: "distribution",
         instrument: instrument.clone(),
@@ -207,6 +204,59 @@ pub(crate) fn distribution_curves_of(
         settings: *settings,
         rows,
         source: description,
+    })
+}
+
+/// The model's curve over `instrument` as [`CurveRow`]s, one incidence at a time
+/// (`flakescatter_gaussian::curve_each`: the model's errors before any row).
+fn curve_rows<E: From<PipelineError>>(
+    model: &DistributionModel,
+    instrument: &Instrument,
+    settings: &Settings,
+    mut each: impl FnMut(&[CurveRow]) -> Result<(), E>,
+) -> Result<(), E> {
+    /// The model's error or `each`'s, told apart.
+    enum Failed<E> {
+        Model(ModelError),
+        Each(E),
+    }
+    impl<E> From<ModelError> for Failed<E> {
+        fn from(e: ModelError) -> Self {
+            Self::Model(e)
+        }
+    }
+    let exact = settings.cone_method == ConeMethod::Exact;
+    let mut rows = Vec::with_capacity(instrument.cones().len());
+    flakescatter_gaussian::curve_each(
+        model,
+        instrument.theta_i(),
+        instrument.cones(),
+        settings.cone_method,
+        |points| {
+            rows.clear();
+            rows.extend(points.iter().enumerate().map(|(j, p)| {
+                let c = &p.collected;
+                let std_err = match c.reflectance {
+                    Some(rho) if rho > 0.0 => Some(c.error * c.brdf / rho),
+                    Some(_) => Some(0.0),
+                    None => Some(c.error),
+                };
+                CurveRow {
+                    theta_i: p.theta_i,
+                    detector: j,
+                    brdf: c.brdf,
+                    reflectance: c.reflectance,
+                    relative: p.relative,
+                    rays: None,
+                    std_err: if exact { std_err } else { None },
+                }
+            }));
+            each(&rows).map_err(Failed::Each)
+        },
+    )
+    .map_err(|e| match e {
+        Failed::Model(e) => E::from(PipelineError::Model(e)),
+        Failed::Each(e) => e,
     })
 }
 

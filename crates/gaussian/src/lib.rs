@@ -128,78 +128,125 @@ impl CurvePoint {
 const POINT_BLOCK: usize = 1024;
 
 /// The model at every incidence in `theta_i` (radians) for every detector in `cones`,
-/// rows ordered by incidence then detector. Detectors are evaluated in parallel; the
-/// result does not depend on the number of threads. When every detector is a point
-/// (`α = 0`), the point BRDF is evaluated in blocks by
-/// [`DistributionModel::brdf_batch`] (equal to [`DistributionModel::brdf`] to 1e-12
-/// relative), the specular reference too.
+/// rows ordered by incidence then detector: [`curve_each`]'s rows, collected.
 ///
 /// # Errors
-/// [`ModelError::Incidence`] for an angle outside `[0, π/2)`, [`ModelError::Empty`]
-/// for an empty list, [`ModelError::Detector`] if the specular reference cone cannot be
-/// built, [`ModelError::ConstantIntegrandTooNarrow`] for the constant-integrand
-/// approximation with a distribution narrower than the aperture.
+/// Those of [`curve_each`].
 pub fn curve(
     model: &DistributionModel,
     theta_i: &[f64],
     cones: &[Cone],
     method: ConeMethod,
 ) -> Result<Vec<CurvePoint>, ModelError> {
+    let mut rows = Vec::with_capacity(theta_i.len().saturating_mul(cones.len()));
+    curve_each(model, theta_i, cones, method, |points| {
+        rows.extend_from_slice(points);
+        Ok::<(), ModelError>(())
+    })?;
+    Ok(rows)
+}
+
+/// [`curve`] one incidence at a time: `each` is given the rows of each incidence in
+/// turn (one per detector, in order) as they are computed, so that a large grid is
+/// never held whole. Every error of the model comes before the first call of `each`;
+/// `each`'s own first error ends the run and is returned.
+///
+/// Detectors are evaluated in parallel; the result does not depend on the number of
+/// threads. When every detector is a point (`α = 0`), the point BRDF is evaluated in
+/// blocks by [`DistributionModel::brdf_batch`] (equal to [`DistributionModel::brdf`] to
+/// 1e-12 relative), the specular reference too.
+///
+/// # Errors
+/// [`ModelError::Incidence`] for an angle outside `[0, π/2)`, [`ModelError::Empty`]
+/// for an empty list, [`ModelError::Detector`] if the specular reference cone cannot be
+/// built, [`ModelError::ConstantIntegrandTooNarrow`] for the constant-integrand
+/// approximation with a distribution narrower than the aperture; the first error of
+/// `each`.
+pub fn curve_each<E: From<ModelError>>(
+    model: &DistributionModel,
+    theta_i: &[f64],
+    cones: &[Cone],
+    method: ConeMethod,
+    mut each: impl FnMut(&[CurvePoint]) -> Result<(), E>,
+) -> Result<(), E> {
     if theta_i.is_empty() {
-        return Err(ModelError::Empty("incidence angle"));
+        return Err(ModelError::Empty("incidence angle").into());
     }
     if cones.is_empty() {
-        return Err(ModelError::Empty("detector"));
+        return Err(ModelError::Empty("detector").into());
     }
-    let mut rows = Vec::with_capacity(theta_i.len() * cones.len());
+    // Every check first, incidence by incidence in the order the rows would meet them,
+    // so that the first error is the one a row-by-row pass would give, and comes before
+    // any row. Kept: each incidence and its specular reference cone per aperture.
+    let mut checked = Vec::with_capacity(theta_i.len());
     for &ti in theta_i {
         let inc = model.incidence(ti)?;
         for c in cones {
             model.check_method(&inc, c.half_angle(), method)?;
         }
-        let mut cache: Vec<(f64, f64)> = Vec::new();
-        let collected: Vec<Collected> = if cones.iter().all(|c| c.half_angle() == 0.0) {
-            // Point detectors: the vectorised point BRDF over blocks of directions (equal
-            // to `collect`'s scalar value to 1e-12 relative), the specular reference
-            // below from the same kernel.
-            let axes: Vec<Vec3> = cones.iter().map(|c| c.axis().into_inner()).collect();
-            let f: Vec<f64> = axes
-                .par_chunks(POINT_BLOCK)
-                .flat_map_iter(|block| {
-                    let mut out = Vec::with_capacity(block.len());
-                    model.brdf_batch(&inc, block, &mut out);
-                    out
-                })
-                .collect();
-            axes.iter()
-                .zip(f)
-                .map(|(r, f)| Collected::point(f, r.z))
-                .collect()
-        } else {
-            cones
-                .par_iter()
-                .map(|c| model.collect(&inc, c, method))
-                .collect()
-        };
-        for (cone, col) in cones.iter().zip(collected) {
-            let alpha = cone.half_angle();
-            let spec = if let Some(&(_, v)) = cache.iter().find(|(a, _)| *a == alpha) {
-                v
-            } else {
+        let mut specular: Vec<(f64, Cone)> = Vec::new();
+        for c in cones {
+            let alpha = c.half_angle();
+            if !specular.iter().any(|(a, _)| *a == alpha) {
                 let sc = Cone::in_plane(-ti, alpha).map_err(ModelError::Detector)?;
-                let v = if alpha == 0.0 {
+                specular.push((alpha, sc));
+            }
+        }
+        checked.push((inc, specular));
+    }
+    // Point detectors: the vectorised point BRDF over blocks of directions (equal to
+    // `collect`'s scalar value to 1e-12 relative), the specular reference from the same
+    // kernel.
+    let axes: Option<Vec<Vec3>> = cones
+        .iter()
+        .all(|c| c.half_angle() == 0.0)
+        .then(|| cones.iter().map(|c| c.axis().into_inner()).collect());
+    let mut rows = Vec::with_capacity(cones.len());
+    for (inc, specular) in &checked {
+        let collected: Vec<Collected> = match &axes {
+            Some(axes) => {
+                let f: Vec<f64> = axes
+                    .par_chunks(POINT_BLOCK)
+                    .flat_map_iter(|block| {
+                        let mut out = Vec::with_capacity(block.len());
+                        model.brdf_batch(inc, block, &mut out);
+                        out
+                    })
+                    .collect();
+                axes.iter()
+                    .zip(f)
+                    .map(|(r, f)| Collected::point(f, r.z))
+                    .collect()
+            }
+            None => cones
+                .par_iter()
+                .map(|c| model.collect(inc, c, method))
+                .collect(),
+        };
+        // What the detector at the specular direction collects, per aperture.
+        let spec: Vec<(f64, f64)> = specular
+            .iter()
+            .map(|(alpha, sc)| {
+                let v = if *alpha == 0.0 {
                     let axis = sc.axis().into_inner();
                     let mut out = Vec::with_capacity(1);
-                    model.brdf_batch(&inc, &[axis], &mut out);
+                    model.brdf_batch(inc, &[axis], &mut out);
                     out[0] * axis.z
                 } else {
-                    model.collect(&inc, &sc, method).power_per_sr
+                    model.collect(inc, sc, method).power_per_sr
                 };
-                cache.push((alpha, v));
-                v
-            };
+                (*alpha, v)
+            })
+            .collect();
+        rows.clear();
+        for (cone, col) in cones.iter().zip(collected) {
+            let alpha = cone.half_angle();
+            let spec = spec
+                .iter()
+                .find(|(a, _)| *a == alpha)
+                .map_or(f64::NAN, |&(_, v)| v);
             rows.push(CurvePoint {
-                theta_i: ti,
+                theta_i: inc.theta_i,
                 cone: *cone,
                 collected: col,
                 relative: if spec > 0.0 {
@@ -209,6 +256,7 @@ pub fn curve(
                 },
             });
         }
+        each(&rows)?;
     }
-    Ok(rows)
+    Ok(())
 }

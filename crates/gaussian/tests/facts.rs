@@ -290,6 +290,46 @@ fn bad_input_is_an_error() {
     assert!(t.escaping_power.is_finite());
 }
 
+/// `curve_each` checks every incidence before it computes any: an invalid angle late in
+/// the list is an error with no row handed out; the consumer's first error ends the run.
+#[test]
+fn curve_each_reports_model_errors_before_any_row_and_stops_at_the_consumers() {
+    let m = model(1.5, 6.0, ModelOptions::default());
+    let cones: Vec<Cone> = (-3..=3)
+        .map(|d| Cone::in_plane(f64::from(d) * 0.1, 0.0).unwrap())
+        .collect();
+    let mut calls = 0;
+    let r = flakescatter_gaussian::curve_each(
+        &m,
+        &[0.1, 0.2, PI / 2.0],
+        &cones,
+        ConeMethod::Exact,
+        |_| {
+            calls += 1;
+            Ok::<(), ModelError>(())
+        },
+    );
+    assert!(matches!(r, Err(ModelError::Incidence(_))));
+    assert_eq!(calls, 0);
+    let mut seen = Vec::new();
+    let r = flakescatter_gaussian::curve_each(
+        &m,
+        &[0.1, 0.2, 0.3],
+        &cones,
+        ConeMethod::Exact,
+        |points| {
+            seen.push((points.len(), points[0].theta_i));
+            if seen.len() == 2 {
+                Err(ModelError::Empty("stop"))
+            } else {
+                Ok(())
+            }
+        },
+    );
+    assert!(matches!(r, Err(ModelError::Empty("stop"))));
+    assert_eq!(seen, [(cones.len(), 0.1), (cones.len(), 0.2)]);
+}
+
 #[test]
 fn exact_unpolarized_is_the_mean_of_s_and_p() {
     // In the plane of incidence s and p do not mix: the unpolarised BRDF is the mean of
