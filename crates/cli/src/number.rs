@@ -29,6 +29,19 @@ pub fn push_num_bytes(out: &mut Vec<u8>, x: f64) {
     out.extend_from_slice(&buf[..n]);
 }
 
+/// Appends `x` as `serde_json` writes an `f64` (or an `Option<f64>`): `zmij`'s shortest
+/// digits (`serde_json`'s own formatter: `0.0`, `-89.0`, `0.00006197554196423979`,
+/// `5.194952164430276e-7`), `null`
+/// for `None` and for a value that is not finite.
+pub fn push_json_num(out: &mut Vec<u8>, x: Option<f64>) {
+    match x {
+        Some(x) if x.is_finite() => {
+            out.extend_from_slice(zmij::Buffer::new().format_finite(x).as_bytes());
+        }
+        _ => out.extend_from_slice(b"null"),
+    }
+}
+
 /// Writes [`num`]'s text of `x` into `buf` and returns its length: `zmij`'s text
 /// (`ddd.ddd`, `0.000ddd`, `d.ddde-N` or `de+N`) rewritten in place into our form, slices
 /// copied whole; no allocation, no formatter.

@@ -1,20 +1,27 @@
 //! `flakescatter model`: the distribution model (physics.md §4) over an instrument.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::chart::distribution_chart;
 use flakescatter::gaussian::ConeMethod;
 use flakescatter::spectral::{MultiAngleSource, multi_angle_colour, spectral_distribution_curves};
-use flakescatter::{OrientationSource, distribution_curves, distribution_mueller};
-use serde_json::json;
+use flakescatter::{
+    Coating, Instrument, OrientationSource, Settings, distribution_curves, distribution_mueller,
+    distribution_rows,
+};
+use serde_json::{Value, json};
 
 use crate::flags::{
     ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, OrientationArgs,
     PolarizationArgs, SpectralArgs,
 };
 use crate::output::{Dest, Kind, Plan, print_json, print_json_with, warn};
-use crate::tables::{RowsJson, rows_json, units_json, write_curves, write_curves_with};
+use crate::tables::{
+    CsvText, CurveWarnings, JsonText, TableText, TableWriter, no_extra, rows_json, units_json,
+    write_curves, write_curves_with,
+};
 
 /// How detector cones are integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -114,6 +121,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     plan.check()?;
     let (orientation, orientation_echo) = args.source.orientation()?;
     let source = OrientationSource::Distribution(orientation.clone());
+    if polarimetry.is_none() && plot.is_none() {
+        let run = Run {
+            coating: &coating,
+            instrument: &instrument,
+            settings: &settings,
+            source: &source,
+        };
+        return streamed(&args, plan, table.as_ref(), &run, &orientation_echo);
+    }
     let (curves, mueller) = match &polarimetry {
         None => (
             distribution_curves(&coating, &instrument, &settings, &source)?,
@@ -158,20 +174,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan.write(&Dest::File(p), |w| Ok(w.write_all(&bytes)?), None)?;
     }
     if args.json {
-        let mut summary = json!({
-            "version": env!("CARGO_PKG_VERSION"),
-            "command": "model",
-            "model": curves.model,
-            "inputs": {
-                "instrument": args.instrument.echo(),
-                "orientation": orientation_echo,
-                "cone": match args.cone { ConeKind::Exact => "exact", ConeKind::Constant => "constant-integrand" },
-            },
-            "units": units_json(),
-            "warnings": warnings,
-            "out": args.out.as_ref().map(|p| p.display().to_string()),
-            "plot": args.plot.as_ref().map(|p| p.display().to_string()),
-        });
+        let mut summary = summary(&args, &orientation_echo, curves.model, &warnings);
         if let Some(p) = &polarimetry {
             summary["inputs"]["polarimetry"] = args.polarization.echo(p);
             summary["polarimetry"] = json!({
@@ -188,7 +191,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 // Streamed in its place among the keys (a large grid's rows).
                 summary["rows"] = serde_json::Value::Null;
                 plan.finish()?;
-                return print_json_with(&summary, "rows", &RowsJson(&curves));
+                return print_json_with(summary, "rows", |out, _| {
+                    let mut t = TableWriter::new(out, JsonText::new(&curves.instrument));
+                    t.push(&curves.rows)?;
+                    Ok(t.finish()?)
+                });
             }
         } else {
             summary["row_count"] = json!(curves.rows.len());
@@ -197,6 +204,101 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return print_json(&summary);
     }
     plan.finish()
+}
+
+/// The JSON summary of the curves (inputs, units, warnings, version; no rows).
+fn summary(args: &Args, orientation_echo: &Value, model: &str, warnings: &[String]) -> Value {
+    json!({
+        "version": env!("CARGO_PKG_VERSION"),
+        "command": "model",
+        "model": model,
+        "inputs": {
+            "instrument": args.instrument.echo(),
+            "orientation": orientation_echo,
+            "cone": match args.cone { ConeKind::Exact => "exact", ConeKind::Constant => "constant-integrand" },
+        },
+        "units": units_json(),
+        "warnings": warnings,
+        "out": args.out.as_ref().map(|p| p.display().to_string()),
+        "plot": args.plot.as_ref().map(|p| p.display().to_string()),
+    })
+}
+
+/// What the distribution model is run on.
+struct Run<'a> {
+    coating: &'a Coating,
+    instrument: &'a Instrument,
+    settings: &'a Settings,
+    source: &'a OrientationSource,
+}
+
+impl Run<'_> {
+    /// Writes the table of `text` to `out` as the rows are computed, one incidence at a
+    /// time; their warnings are printed as they are found and kept in `warnings`.
+    fn write(
+        &self,
+        out: &mut dyn Write,
+        text: impl TableText,
+        warnings: &mut CurveWarnings,
+    ) -> anyhow::Result<()> {
+        let mut table = TableWriter::new(out, text);
+        distribution_rows(
+            self.coating,
+            self.instrument,
+            self.settings,
+            self.source,
+            |rows| {
+                for w in warnings.check(rows) {
+                    warn(w);
+                }
+                Ok::<(), anyhow::Error>(table.push(rows)?)
+            },
+        )?;
+        Ok(table.finish()?)
+    }
+}
+
+/// The curves without a plot or Mueller columns (which need them whole): the CSV, or
+/// the `--json` rows, written as they are computed, so that a large grid is never held
+/// whole, as rows or as text. Same bytes as the path above.
+fn streamed(
+    args: &Args,
+    mut plan: Plan,
+    table: Option<&Dest>,
+    run: &Run<'_>,
+    orientation_echo: &Value,
+) -> anyhow::Result<()> {
+    let count = run.instrument.theta_i().len() * run.instrument.cones().len();
+    let mut warnings = CurveWarnings::default();
+    // `distribution_curves` names its model so.
+    let model = "distribution";
+    if let Some(dest) = table {
+        plan.write(
+            dest,
+            |w| {
+                let text = CsvText::new(run.instrument, false, &[], no_extra);
+                run.write(w, text, &mut warnings)
+            },
+            Some(format!("{count} rows")),
+        )?;
+    }
+    if !args.json {
+        return plan.finish();
+    }
+    let mut summary = summary(args, orientation_echo, model, warnings.all());
+    if table.is_some() {
+        summary["row_count"] = json!(count);
+        plan.finish()?;
+        return print_json(&summary);
+    }
+    // Streamed in its place among the keys; the warnings, found on the way, come after.
+    summary["rows"] = Value::Null;
+    plan.finish()?;
+    print_json_with(summary, "rows", |out, summary| {
+        run.write(out, JsonText::new(run.instrument), &mut warnings)?;
+        summary["warnings"] = json!(warnings.all());
+        Ok(())
+    })
 }
 
 /// `--wavelengths` without `--multi-angle`: the curves at every wavelength.

@@ -75,51 +75,114 @@ pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
     print(&(serde_json::to_string_pretty(value)? + "\n"))
 }
 
-/// [`print_json`] of an object whose entry `key` is `rows` instead of what `value`
-/// holds there (a placeholder that fixes its place among the sorted keys), streamed to
-/// stdout: the rows of a large grid are never held as text or as a `Value` tree.
+/// [`print_json`] of an object whose entry `key` is written by `rows`: its value as JSON
+/// text at the indentation of a top-level entry (e.g. a [`crate::tables::JsonText`]
+/// table), and it may set the entries that come after `key` in the object's order (what
+/// is learnt while the rows are written, such as warnings). The rows of a large grid are
+/// streamed to stdout, never held as text or as a `Value` tree. Nothing is written
+/// before `rows` writes, so an error before its first rows leaves stdout untouched.
+/// Without an entry `key`, this is [`print_json`] (`rows` is not called).
 pub fn print_json_with(
-    value: &serde_json::Value,
+    value: serde_json::Value,
     key: &str,
-    rows: &impl serde::Serialize,
+    rows: impl FnOnce(&mut dyn Write, &mut serde_json::Value) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
-    let Some(map) = value.as_object() else {
-        return print_json(value);
-    };
+    if !value.as_object().is_some_and(|m| m.contains_key(key)) {
+        return print_json(&value);
+    }
     let mut stdout = stdout();
-    // serde_json writes in small pieces: a buffer in front keeps each one a copy.
+    // Small writes (the entries around the rows) are copies into this buffer.
     let mut out = io::BufWriter::with_capacity(1 << 16, &mut stdout);
-    let written = serde_json::to_writer_pretty(&mut out, &Substituted { map, key, rows })
-        .map_err(|e| {
-            io::Error::new(
-                e.io_error_kind().unwrap_or(io::ErrorKind::Other),
-                e.to_string(),
-            )
-        })
-        .and_then(|()| out.write_all(b"\n"))
-        .and_then(|()| out.flush());
-    written.map_err(|e| stdout_error(&e))
-}
-
-/// A JSON object with one entry's value replaced, in the object's own key order.
-struct Substituted<'a, T> {
-    map: &'a serde_json::Map<String, serde_json::Value>,
-    key: &'a str,
-    rows: &'a T,
-}
-
-impl<T: serde::Serialize> serde::Serialize for Substituted<'_, T> {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut m = serializer.serialize_map(Some(self.map.len()))?;
-        for (k, v) in self.map {
-            if k == self.key {
-                m.serialize_entry(k, self.rows)?;
-            } else {
-                m.serialize_entry(k, v)?;
-            }
+    write_json_with(&mut out, value, key, rows).map_err(|e| match e {
+        Written::Io(e) => stdout_error(&e),
+        Written::Rows(e) if stdout_failed() || stdout_closed() => {
+            anyhow::Error::from(Failure(format!("writing stdout: {e:#}")))
         }
-        m.end()
+        Written::Rows(e) => e,
+    })
+}
+
+/// Why [`write_json_with`] failed: writing around the rows, or the rows.
+enum Written {
+    Io(io::Error),
+    Rows(anyhow::Error),
+}
+
+/// [`print_json_with`] to `out` (an object with an entry `key`), flushed.
+fn write_json_with(
+    out: &mut impl Write,
+    mut value: serde_json::Value,
+    key: &str,
+    rows: impl FnOnce(&mut dyn Write, &mut serde_json::Value) -> anyhow::Result<()>,
+) -> Result<(), Written> {
+    let keys: Vec<String> = value
+        .as_object()
+        .map(|m| m.keys().cloned().collect())
+        .unwrap_or_default();
+    let at = keys.iter().position(|k| k == key).unwrap_or(keys.len());
+    let mut head = b"{".to_vec();
+    for (i, k) in keys[..at].iter().enumerate() {
+        push_entry(&mut head, k, &value[k], i == 0);
+    }
+    head.extend_from_slice(if at == 0 { b"\n  " } else { b",\n  " });
+    push_key(&mut head, key);
+    let mut lazy = Lazy {
+        head: Some(head),
+        out: &mut *out,
+    };
+    rows(&mut lazy, &mut value).map_err(Written::Rows)?;
+    let mut tail = lazy.head.take().unwrap_or_default();
+    for k in keys.iter().skip(at + 1) {
+        push_entry(&mut tail, k, &value[k], false);
+    }
+    tail.extend_from_slice(b"\n}\n");
+    out.write_all(&tail)
+        .and_then(|()| out.flush())
+        .map_err(Written::Io)
+}
+
+/// A JSON object key, quoted and escaped as `serde_json` writes it, and `: `.
+fn push_key(out: &mut Vec<u8>, key: &str) {
+    // Writing a string to memory cannot fail.
+    let _ = serde_json::to_writer(&mut *out, key);
+    out.extend_from_slice(b": ");
+}
+
+/// One entry of a pretty top-level object as `serde_json` writes it: `value`'s own
+/// pretty text indented one level (a JSON text has line breaks only between its tokens,
+/// never inside a string, so each gets the two spaces of the level).
+fn push_entry(out: &mut Vec<u8>, key: &str, value: &serde_json::Value, first: bool) {
+    out.extend_from_slice(if first { b"\n  " } else { b",\n  " });
+    push_key(out, key);
+    // Serialising a `Value` to memory cannot fail.
+    let text = serde_json::to_vec_pretty(value).unwrap_or_default();
+    for &c in &text {
+        out.push(c);
+        if c == b'\n' {
+            out.extend_from_slice(b"  ");
+        }
+    }
+}
+
+/// A writer that writes `head` before the first bytes written to it.
+struct Lazy<'a, W: Write> {
+    head: Option<Vec<u8>>,
+    out: &'a mut W,
+}
+
+impl<W: Write> Write for Lazy<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        if let Some(head) = self.head.take() {
+            self.out.write_all(&head)?;
+        }
+        self.out.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        if self.head.is_some() {
+            return Ok(());
+        }
+        self.out.flush()
     }
 }
 
@@ -136,23 +199,52 @@ pub fn warn(msg: &str) {
 
 #[cfg(test)]
 mod tests {
-    use super::Substituted;
+    use super::write_json_with;
     use serde_json::json;
 
-    /// The substituted object is the text of the same object with the entry replaced
-    /// in a `Value` (serde_json's own writer of the whole tree).
+    /// The streamed object is the text `serde_json` writes for the same object with the
+    /// entry in place (its own pretty writer of the whole tree), entries the rows set
+    /// afterwards included; nothing is written when the rows fail before writing.
     #[test]
-    fn a_substituted_entry_keeps_its_place_and_the_text() {
-        let mut value = json!({"b": 1, "rows": null, "a": [1.5, null], "z": {"k": "v"}});
-        let rows = vec![json!({"x": 1.0}), json!({"x": 2.5e-7})];
-        let map = value.as_object().unwrap().clone();
-        let streamed = serde_json::to_string_pretty(&Substituted {
-            map: &map,
-            key: "rows",
-            rows: &rows,
-        })
-        .unwrap();
-        value["rows"] = serde_json::Value::Array(rows);
-        assert_eq!(streamed, serde_json::to_string_pretty(&value).unwrap());
+    fn a_streamed_entry_keeps_its_place_and_the_text() {
+        let value = json!({"b": 1, "rows": null, "a": [1.5, null], "z": {"k": "v"}, "w": [], "e\"sc": "x\ny"});
+        let rows = json!([{"x": 1.0, "y": [2.5e-7, {}]}, {"x": -0.0}]);
+        let mut streamed = Vec::new();
+        let written = write_json_with(&mut streamed, value.clone(), "rows", |out, v| {
+            let text = serde_json::to_string_pretty(&rows)
+                .unwrap()
+                .replace('\n', "\n  ");
+            out.write_all(text.as_bytes())?;
+            v["z"] = json!({"k": ["late", 2]});
+            Ok(())
+        });
+        assert!(written.is_ok());
+        let mut whole = value.clone();
+        whole["rows"] = rows.clone();
+        whole["z"] = json!({"k": ["late", 2]});
+        assert_eq!(
+            String::from_utf8(streamed).unwrap(),
+            serde_json::to_string_pretty(&whole).unwrap() + "\n"
+        );
+        // The entry first or last among the keys.
+        for key in ["a", "z"] {
+            let mut streamed = Vec::new();
+            let written = write_json_with(&mut streamed, value.clone(), key, |out, _| {
+                Ok(out.write_all(b"7")?)
+            });
+            assert!(written.is_ok());
+            let mut whole = value.clone();
+            whole[key] = json!(7);
+            assert_eq!(
+                String::from_utf8(streamed).unwrap(),
+                serde_json::to_string_pretty(&whole).unwrap() + "\n"
+            );
+        }
+        let mut streamed = Vec::new();
+        let failed = write_json_with(&mut streamed, value, "rows", |_, _| {
+            Err(anyhow::anyhow!("no rows"))
+        });
+        assert!(failed.is_err());
+        assert!(streamed.is_empty());
     }
 }
