@@ -76,13 +76,15 @@ impl ConeIndex {
                 }
             }
         }
-        let mut offsets = Vec::with_capacity(side * side + 1);
+        let mut offsets = Vec::with_capacity(side * side + 2);
         let mut entries = Vec::new();
         offsets.push(0);
         for l in lists {
             entries.extend(l);
             offsets.push(entries.len() as u32);
         }
+        // The empty cell past the grid.
+        offsets.push(entries.len() as u32);
         Self {
             side,
             inv_cell,
@@ -94,9 +96,40 @@ impl ConeIndex {
     /// The candidate cones for a direction with horizontal components `(x, y)`.
     #[inline]
     pub fn candidates(&self, x: f64, y: f64) -> &[Entry] {
-        let ix = (((x + 1.0) * self.inv_cell) as usize).min(self.side - 1);
-        let iy = (((y + 1.0) * self.inv_cell) as usize).min(self.side - 1);
-        let cell = iy * self.side + ix;
+        self.cell_entries(self.cell(x, y))
+    }
+
+    /// The cell of a direction with horizontal components `(x, y)`: any values, NaN
+    /// included, give a cell of the grid (out-of-range ones are clamped to its edge,
+    /// NaN to the first column or row). Clamped in floating point and truncated, which
+    /// is the truncation of `(v + 1)·side/2` clamped to `0..side` (exact integers below
+    /// 2³²), in a form the compiler vectorises.
+    #[inline(always)]
+    pub fn cell(&self, x: f64, y: f64) -> usize {
+        // An integer-valued `t` in [0, 2³²) plus 2⁵² is exact, with `t` in the low bits
+        // of its representation: a conversion without the checks of `as`.
+        const INT: f64 = 4_503_599_627_370_496.0;
+        let last = (self.side - 1) as f64;
+        let to_int = |v: f64| ((v + 1.0) * self.inv_cell).max(0.0).min(last).trunc() + INT;
+        let (ix, iy) = (to_int(x).to_bits() as u32, to_int(y).to_bits() as u32);
+        (iy * self.side as u32 + ix) as usize
+    }
+
+    /// A cell that lists no cone, outside the grid (for rays that leave no exit).
+    #[inline]
+    pub fn empty_cell(&self) -> usize {
+        self.side * self.side
+    }
+
+    /// Whether `cell` (from [`ConeIndex::cell`]) lists any cone.
+    #[inline]
+    pub fn cell_has_cones(&self, cell: usize) -> bool {
+        self.offsets[cell] < self.offsets[cell + 1]
+    }
+
+    /// The cones listed in `cell` (from [`ConeIndex::cell`]).
+    #[inline]
+    pub fn cell_entries(&self, cell: usize) -> &[Entry] {
         &self.entries[self.offsets[cell] as usize..self.offsets[cell + 1] as usize]
     }
 }

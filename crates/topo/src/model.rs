@@ -738,7 +738,7 @@ impl TopoModel {
         for batch in jobs.chunks(BATCH) {
             let partials: Vec<Partial> = batch
                 .par_iter()
-                .map_init(Scratch::default, |scratch, &(mi, rect)| {
+                .map_init(TraceScratch::default, |scratch, &(mi, rect)| {
                     trace_tile(&setup, maps[mi], rect, scratch, acc)
                 })
                 .collect();
@@ -809,83 +809,243 @@ pub(crate) fn aperture_index(apertures: &[f64], cone: &Cone) -> usize {
         .unwrap_or(0)
 }
 
+/// Reusable buffers of [`trace_tile`]: the normals' running sums, a chunk of normals
+/// and, per ray of the chunk, its exit cell, then the rays kept for the cones.
+#[derive(Debug, Default)]
+struct TraceScratch {
+    normals: Scratch,
+    chunk: Chunk,
+    cells: Vec<u32>,
+    kept: Vec<(u32, u32)>,
+}
+
+/// A chunk of usable pixels' normals, by component: `m.x`, `m.y`, `m.z` and `1/m.z`.
+#[derive(Debug, Default)]
+struct Chunk {
+    mx: Vec<f64>,
+    my: Vec<f64>,
+    mz: Vec<f64>,
+    q: Vec<f64>,
+}
+
+impl Chunk {
+    fn len(&self) -> usize {
+        self.mx.len()
+    }
+
+    fn clear(&mut self) {
+        self.mx.clear();
+        self.my.clear();
+        self.mz.clear();
+        self.q.clear();
+    }
+
+    fn m(&self, i: usize) -> [f64; 4] {
+        [self.mx[i], self.my[i], self.mz[i], self.q[i]]
+    }
+}
+
+/// Normals handled together, incidence by incidence: 16 KiB, so that they stay in the
+/// L1 cache for every incidence.
+const RAY_CHUNK: usize = 512;
+
 /// Normals of one tile, then one ray per usable pixel and incidence.
+///
+/// The sums of each (incidence, detector) take the rays in pixel order whatever the
+/// chunking, so the result is that of one ray at a time, bit for bit.
 fn trace_tile<A: Accumulator>(
     setup: &Setup<'_>,
     map: &HeightMap,
     rect: Rect,
-    scratch: &mut Scratch,
+    scratch: &mut TraceScratch,
     acc: &A,
 ) -> Partial {
+    let ndet = setup.ndet;
+    let channels = acc.channels();
+    let mut p = Partial {
+        sums: vec![0.0; setup.incs.len() * ndet * channels],
+        counts: vec![0; setup.incs.len() * ndet],
+        usable: 0,
+        lost_tir: 0,
+        lost_down: 0,
+    };
+    let TraceScratch {
+        normals,
+        chunk,
+        cells,
+        kept,
+    } = scratch;
+    chunk.clear();
+    let mut trace = |chunk: &Chunk, p: &mut Partial| {
+        pulp::Arch::new().dispatch(ChunkTrace {
+            setup,
+            chunk,
+            cells,
+            kept,
+            acc,
+            p,
+        });
+    };
+    // Normal components and 1/m.z of the usable pixels, a chunk at a time.
+    let usable = tile_slopes(
+        map,
+        setup.options.window / 2,
+        rect,
+        normals,
+        |_, _, a, b| {
+            let q = (1.0 + a * a + b * b).sqrt();
+            let inv = 1.0 / q;
+            chunk.mx.push(-a * inv);
+            chunk.my.push(-b * inv);
+            chunk.mz.push(inv);
+            chunk.q.push(q);
+            if chunk.len() == RAY_CHUNK {
+                trace(chunk, &mut p);
+                chunk.clear();
+            }
+        },
+    );
+    trace(chunk, &mut p);
+    p.usable = usable as u64;
+    p
+}
+
+/// One chunk's rays, handed to [`pulp::Arch::dispatch`] so that [`trace_chunk`] is
+/// compiled for the processor's instruction set (SSE2, AVX2 or AVX-512 encodings of the
+/// same operations in the same order, without fused multiply–add: the results do not
+/// depend on it).
+struct ChunkTrace<'a, 's, A> {
+    setup: &'a Setup<'s>,
+    chunk: &'a Chunk,
+    cells: &'a mut Vec<u32>,
+    kept: &'a mut Vec<(u32, u32)>,
+    acc: &'a A,
+    p: &'a mut Partial,
+}
+
+impl<A: Accumulator> pulp::WithSimd for ChunkTrace<'_, '_, A> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        trace_chunk(
+            self.setup, self.chunk, self.cells, self.kept, self.acc, self.p,
+        );
+    }
+}
+
+/// One ray per normal of `chunk` and incidence, added to `p`.
+///
+/// Per incidence, a first pass without branches (which the compiler vectorises)
+/// computes every ray's exit and its cell of the cone index, counting the lost rays
+/// and giving them the empty cell; a second keeps the rays whose cell lists cones (a
+/// minority for in-plane detectors); a third tests a kept ray's candidate cones into a
+/// bit mask and, when some contain it, weighs the ray once and adds it to them in the
+/// cell's order.
+#[inline(always)]
+fn trace_chunk<A: Accumulator>(
+    setup: &Setup<'_>,
+    chunk: &Chunk,
+    cells: &mut Vec<u32>,
+    kept: &mut Vec<(u32, u32)>,
+    acc: &A,
+    p: &mut Partial,
+) {
     let opts = setup.options;
     let n = opts.n;
     let ndet = setup.ndet;
     let channels = acc.channels();
-    // Normal components and 1/m.z of the usable pixels.
-    let mut ms: Vec<[f64; 4]> = Vec::new();
-    tile_slopes(map, opts.window / 2, rect, scratch, |_, _, a, b| {
-        let q = (1.0 + a * a + b * b).sqrt();
-        let inv = 1.0 / q;
-        ms.push([-a * inv, -b * inv, inv, q]);
-    });
-    let mut p = Partial {
-        sums: vec![0.0; setup.incs.len() * ndet * channels],
-        counts: vec![0; setup.incs.len() * ndet],
-        usable: ms.len() as u64,
-        lost_tir: 0,
-        lost_down: 0,
+    let index = &setup.index;
+    let len = chunk.len();
+    let empty = index.empty_cell() as u32;
+    // The exit of a ray off normal `(mx, my, mz)` (physics.md §5 step 2): γ, k2 and the
+    // horizontal components of k_out in air.
+    let exit = |inc: &Inc, mx: f64, my: f64, mz: f64| {
+        let gamma = -(inc.k1x * mx + inc.k1z * mz);
+        let g2 = 2.0 * gamma;
+        let k2z = inc.k1z + g2 * mz;
+        let (k2x, k2y) = (inc.k1x + g2 * mx, g2 * my);
+        (gamma, Vec3::new(k2x, k2y, k2z), n * k2x, n * k2y)
     };
+    cells.clear();
+    cells.resize(len, empty);
+    kept.clear();
+    kept.resize(len, (0, 0));
     for (ii, inc) in setup.incs.iter().enumerate() {
         let base = ii * ndet;
         let sums = &mut p.sums[base * channels..(base + ndet) * channels];
         let counts = &mut p.counts[base..base + ndet];
-        for &m in &ms {
-            let [mx, my, mz, _] = m;
-            let gamma = -(inc.k1x * mx + inc.k1z * mz);
-            let g2 = 2.0 * gamma;
-            let k2z = inc.k1z + g2 * mz;
-            // Drop rays that head down (this includes gamma <= 0).
-            if gamma <= 0.0 || k2z <= 0.0 {
-                p.lost_down += 1;
-                continue;
-            }
-            let (k2x, k2y) = (inc.k1x + g2 * mx, g2 * my);
-            let ox = n * k2x;
-            let oy = n * k2y;
-            let s2 = ox * ox + oy * oy;
-            // Drop rays that are totally internally reflected.
-            if s2 >= 1.0 {
-                p.lost_tir += 1;
-                continue;
-            }
-            let oz = (1.0 - s2).sqrt();
-            let mut weight = None;
-            let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, k2z));
-            for e in setup.index.candidates(ox, oy) {
-                if e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha {
-                    let ray = Ray {
-                        m,
-                        gamma,
-                        k2: Vec3::new(k2x, k2y, k2z),
-                        k_out: Vec3::new(ox, oy, oz),
-                    };
-                    let w = weight.get_or_insert_with(|| acc.weigh(opts, inc, &ray));
-                    let d = e.index as usize;
-                    let scale = match absorbed {
-                        Some(a) => setup.scale[d] * a,
-                        None => setup.scale[d],
-                    };
-                    acc.add(
-                        w,
-                        &ray,
-                        &setup.cones[d],
-                        scale,
-                        &mut sums[d * channels..(d + 1) * channels],
-                    );
-                    counts[d] += 1;
+        let (mut down, mut tir) = (0u32, 0u32);
+        let normals = chunk.mx.iter().zip(&chunk.my).zip(&chunk.mz);
+        for (((&mx, &my), &mz), cell) in normals.zip(cells.iter_mut()) {
+            let (gamma, k2, ox, oy) = exit(inc, mx, my, mz);
+            // Rays that head down (this includes gamma <= 0), then rays that are totally
+            // internally reflected.
+            let is_down = (gamma <= 0.0) | (k2.z <= 0.0);
+            let is_tir = !is_down & (ox * ox + oy * oy >= 1.0);
+            down += u32::from(is_down);
+            tir += u32::from(is_tir);
+            let c = index.cell(ox, oy) as u32;
+            *cell = if is_down | is_tir { empty } else { c };
+        }
+        p.lost_down += u64::from(down);
+        p.lost_tir += u64::from(tir);
+        let mut kept_n = 0;
+        for (i, &cell) in cells.iter().enumerate() {
+            kept[kept_n] = (i as u32, cell);
+            kept_n += usize::from(index.cell_has_cones(cell as usize));
+        }
+        for &(i, cell) in &kept[..kept_n] {
+            let i = i as usize;
+            let (gamma, k2, ox, oy) = exit(inc, chunk.mx[i], chunk.my[i], chunk.mz[i]);
+            let oz = (1.0 - (ox * ox + oy * oy)).sqrt();
+            let candidates = index.cell_entries(cell as usize);
+            let ray = Ray {
+                m: chunk.m(i),
+                gamma,
+                k2,
+                k_out: Vec3::new(ox, oy, oz),
+            };
+            // The weight and the binder's absorption along the path, once per ray.
+            let weigh = || {
+                let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, k2.z));
+                (acc.weigh(opts, inc, &ray), absorbed)
+            };
+            let mut add = |(w, absorbed): &(A::Weight, Option<f64>), e: &crate::index::Entry| {
+                let d = e.index as usize;
+                let scale = match absorbed {
+                    Some(a) => setup.scale[d] * a,
+                    None => setup.scale[d],
+                };
+                acc.add(
+                    w,
+                    &ray,
+                    &setup.cones[d],
+                    scale,
+                    &mut sums[d * channels..(d + 1) * channels],
+                );
+                counts[d] += 1;
+            };
+            let inside = |e: &crate::index::Entry| e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha;
+            if candidates.len() <= 64 {
+                let mut mask = 0u64;
+                for (j, e) in candidates.iter().enumerate() {
+                    mask |= u64::from(inside(e)) << j;
+                }
+                if mask == 0 {
+                    continue;
+                }
+                let w = weigh();
+                while mask != 0 {
+                    add(&w, &candidates[mask.trailing_zeros() as usize]);
+                    mask &= mask - 1;
+                }
+            } else {
+                let mut weight = None;
+                for e in candidates.iter().filter(|e| inside(e)) {
+                    add(weight.get_or_insert_with(weigh), e);
                 }
             }
         }
     }
-    p
 }
