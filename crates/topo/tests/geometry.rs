@@ -445,3 +445,29 @@ proptest! {
         }
     }
 }
+
+/// A detector collects the same rays whatever other detectors there are: each of 100
+/// overlapping cones (every one of them a candidate of the same index cells, more than
+/// a ray's candidates are tested at once) gets, bit for bit, what it gets alone.
+#[test]
+fn a_detector_collects_the_same_rays_among_many_overlapping_ones() {
+    let map = rough_map(200, 180, 3);
+    let ti = [0.2, 0.5];
+    let crowd: Vec<Cone> = (0..100)
+        .map(|k| Cone::in_plane(-0.2 + 0.0004 * f64::from(k), 0.08).unwrap())
+        .collect();
+    let m = model(TopoOptions::default());
+    let together = m.run(&[&map], &ti, &crowd).unwrap();
+    let mut seen = 0;
+    for k in [0, 37, 99] {
+        let alone = m.run(&[&map], &ti, &crowd[k..=k]).unwrap();
+        for (ii, a) in alone.points.iter().enumerate() {
+            let t = &together.points[ii * crowd.len() + k];
+            assert_eq!(t.rays, a.rays);
+            assert_eq!(t.reflectance.to_bits(), a.reflectance.to_bits());
+            assert_eq!(t.brdf.to_bits(), a.brdf.to_bits());
+            seen += a.rays;
+        }
+    }
+    assert!(seen > 1000, "the cones must collect rays ({seen})");
+}
