@@ -24,6 +24,31 @@ pub(crate) struct Entry {
     pub index: u32,
 }
 
+/// The geometry of a [`ConeIndex`]'s grid.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Grid {
+    /// Cells per unit of `x` or `y` (`side/2`).
+    inv_cell: f64,
+    /// `side − 1`.
+    last: f64,
+    /// Cells per axis.
+    side: f64,
+}
+
+impl Grid {
+    /// The cell of `(x, y)`: `(v + 1)·side/2` clamped to `[0, side − 1]` in floating
+    /// point and truncated, for `v = x` and `y`, combined as `iy·side + ix` (exact
+    /// integers far below 2⁵²); an integer-valued `t` in `[0, 2³²)` plus 2⁵² is exact
+    /// with `t` in the low bits of its representation: a conversion without the checks
+    /// of `as`.
+    #[inline(always)]
+    pub fn cell(self, x: f64, y: f64) -> u32 {
+        const INT: f64 = 4_503_599_627_370_496.0;
+        let at = |v: f64| ((v + 1.0) * self.inv_cell).max(0.0).min(self.last).trunc();
+        (at(y) * self.side + at(x) + INT).to_bits() as u32
+    }
+}
+
 /// Cells of side `cell` over `[−1, 1]²`, CSR layout.
 #[derive(Debug, Clone)]
 pub(crate) struct ConeIndex {
@@ -31,6 +56,9 @@ pub(crate) struct ConeIndex {
     inv_cell: f64,
     offsets: Vec<u32>,
     entries: Vec<Entry>,
+    /// Per cell, the empty one past the grid included, the cell itself if it lists
+    /// cones, else the empty cell.
+    listed: Vec<u32>,
 }
 
 impl ConeIndex {
@@ -85,11 +113,23 @@ impl ConeIndex {
         }
         // The empty cell past the grid.
         offsets.push(entries.len() as u32);
+        let empty = (side * side) as u32;
+        // The empty cell lists itself.
+        let listed = (0..=side * side)
+            .map(|c| {
+                if offsets[c] < offsets[c + 1] {
+                    c as u32
+                } else {
+                    empty
+                }
+            })
+            .collect();
         Self {
             side,
             inv_cell,
             offsets,
             entries,
+            listed,
         }
     }
 
@@ -101,30 +141,36 @@ impl ConeIndex {
 
     /// The cell of a direction with horizontal components `(x, y)`: any values, NaN
     /// included, give a cell of the grid (out-of-range ones are clamped to its edge,
-    /// NaN to the first column or row). Clamped in floating point and truncated, which
-    /// is the truncation of `(v + 1)·side/2` clamped to `0..side` (exact integers below
-    /// 2³²), in a form the compiler vectorises.
+    /// NaN to the first column or row).
     #[inline(always)]
     pub fn cell(&self, x: f64, y: f64) -> usize {
-        // An integer-valued `t` in [0, 2³²) plus 2⁵² is exact, with `t` in the low bits
-        // of its representation: a conversion without the checks of `as`.
-        const INT: f64 = 4_503_599_627_370_496.0;
-        let last = (self.side - 1) as f64;
-        let to_int = |v: f64| ((v + 1.0) * self.inv_cell).max(0.0).min(last).trunc() + INT;
-        let (ix, iy) = (to_int(x).to_bits() as u32, to_int(y).to_bits() as u32);
-        (iy * self.side as u32 + ix) as usize
+        self.grid().cell(x, y) as usize
+    }
+
+    /// The grid's geometry and, per cell (the empty cell past the grid included), the
+    /// cell itself if it lists cones, else [`ConeIndex::empty_cell`]: what a ray needs
+    /// to know to skip the cones, as plain values that a loop keeps in registers (the
+    /// cell of `(x, y)` is `grid.cell(x, y)`, and it lists cones when
+    /// `listed[cell] != empty_cell()`).
+    #[inline]
+    pub fn listed(&self) -> (Grid, &[u32]) {
+        (self.grid(), &self.listed)
+    }
+
+    /// The grid's geometry.
+    #[inline]
+    fn grid(&self) -> Grid {
+        Grid {
+            inv_cell: self.inv_cell,
+            last: (self.side - 1) as f64,
+            side: self.side as f64,
+        }
     }
 
     /// A cell that lists no cone, outside the grid (for rays that leave no exit).
     #[inline]
-    pub fn empty_cell(&self) -> usize {
-        self.side * self.side
-    }
-
-    /// Whether `cell` (from [`ConeIndex::cell`]) lists any cone.
-    #[inline]
-    pub fn cell_has_cones(&self, cell: usize) -> bool {
-        self.offsets[cell] < self.offsets[cell + 1]
+    pub fn empty_cell(&self) -> u32 {
+        (self.side * self.side) as u32
     }
 
     /// The cones listed in `cell` (from [`ConeIndex::cell`]).
@@ -187,5 +233,44 @@ mod tests {
             hits > 10_000,
             "the test must exercise many containments ({hits})"
         );
+    }
+    /// `listed` marks exactly the cells that list cones, the empty cell past the grid
+    /// lists none and marks itself (so a lost ray sent there is never taken for one in
+    /// the grid's last cell, which here lists a cone), and the cell of a direction is
+    /// the integer formula `min(⌊(v + 1)·side/2⌋, side − 1)` per axis (0 below and for
+    /// NaN).
+    #[test]
+    fn listed_cells_and_the_cell_formula() {
+        let corner = Cone::out_of_plane(1.45, std::f64::consts::FRAC_PI_4, 0.5).unwrap();
+        let index = ConeIndex::new(&[corner, Cone::in_plane(0.3, 0.05).unwrap()]);
+        let (grid, listed) = index.listed();
+        let empty = index.empty_cell();
+        assert_eq!(listed.len(), empty as usize + 1);
+        assert_eq!(listed[empty as usize], empty);
+        assert!(index.cell_entries(empty as usize).is_empty());
+        assert!(!index.cell_entries(empty as usize - 1).is_empty());
+        for (c, &l) in listed[..empty as usize].iter().enumerate() {
+            assert_eq!(l != empty, !index.cell_entries(c).is_empty(), "cell {c}");
+            assert!(l == empty || l as usize == c);
+        }
+        let side = index.side;
+        let formula = |v: f64| {
+            let t = ((v + 1.0) * side as f64 / 2.0).floor();
+            if t.is_nan() || t < 0.0 {
+                0
+            } else {
+                (t as usize).min(side - 1)
+            }
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut values: Vec<f64> = (0..20_000).map(|_| rng.random_range(-1.2..1.2)).collect();
+        values.extend([f64::NAN, -1.0, 1.0, 0.0, -0.0, 1e300, -1e300, f64::INFINITY]);
+        values.extend((0..=side).map(|k| 2.0 * k as f64 / side as f64 - 1.0));
+        for pair in values.chunks(2) {
+            let (x, y) = (pair[0], pair[pair.len() - 1]);
+            let want = formula(y) * side + formula(x);
+            assert_eq!(grid.cell(x, y) as usize, want, "({x}, {y})");
+            assert_eq!(index.cell(x, y), want);
+        }
     }
 }

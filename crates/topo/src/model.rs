@@ -809,44 +809,29 @@ pub(crate) fn aperture_index(apertures: &[f64], cone: &Cone) -> usize {
         .unwrap_or(0)
 }
 
-/// Reusable buffers of [`trace_tile`]: the normals' running sums, a chunk of normals
-/// and, per ray of the chunk, its exit cell, then the rays kept for the cones.
+/// Reusable buffers of [`trace_tile`]: the normals' running sums, a chunk of slopes and
+/// what [`trace_chunk`] keeps per normal of a chunk.
 #[derive(Debug, Default)]
 struct TraceScratch {
     normals: Scratch,
+    /// Slopes `(a, b)` of the chunk's usable pixels.
+    slopes: Vec<[f64; 2]>,
     chunk: Chunk,
-    cells: Vec<u32>,
-    kept: Vec<(u32, u32)>,
 }
 
-/// A chunk of usable pixels' normals, by component: `m.x`, `m.y`, `m.z` and `1/m.z`.
+/// Per normal of a chunk: its components `m.x`, `m.y`, `m.z` and `1/m.z`, and the
+/// index cell of its ray at the current incidence.
 #[derive(Debug, Default)]
 struct Chunk {
     mx: Vec<f64>,
     my: Vec<f64>,
     mz: Vec<f64>,
     q: Vec<f64>,
+    cells: Vec<u32>,
 }
 
-impl Chunk {
-    fn len(&self) -> usize {
-        self.mx.len()
-    }
-
-    fn clear(&mut self) {
-        self.mx.clear();
-        self.my.clear();
-        self.mz.clear();
-        self.q.clear();
-    }
-
-    fn m(&self, i: usize) -> [f64; 4] {
-        [self.mx[i], self.my[i], self.mz[i], self.q[i]]
-    }
-}
-
-/// Normals handled together, incidence by incidence: 16 KiB, so that they stay in the
-/// L1 cache for every incidence.
+/// Normals handled together, incidence by incidence: 26 KiB with their slopes, so that
+/// they stay in the L1 cache for every incidence.
 const RAY_CHUNK: usize = 512;
 
 /// Normals of one tile, then one ray per usable pixel and incidence.
@@ -871,41 +856,33 @@ fn trace_tile<A: Accumulator>(
     };
     let TraceScratch {
         normals,
+        slopes,
         chunk,
-        cells,
-        kept,
     } = scratch;
-    chunk.clear();
-    let mut trace = |chunk: &Chunk, p: &mut Partial| {
+    slopes.clear();
+    let mut trace = |slopes: &[[f64; 2]], p: &mut Partial| {
         pulp::Arch::new().dispatch(ChunkTrace {
             setup,
+            slopes,
             chunk,
-            cells,
-            kept,
             acc,
             p,
         });
     };
-    // Normal components and 1/m.z of the usable pixels, a chunk at a time.
     let usable = tile_slopes(
         map,
         setup.options.window / 2,
         rect,
         normals,
         |_, _, a, b| {
-            let q = (1.0 + a * a + b * b).sqrt();
-            let inv = 1.0 / q;
-            chunk.mx.push(-a * inv);
-            chunk.my.push(-b * inv);
-            chunk.mz.push(inv);
-            chunk.q.push(q);
-            if chunk.len() == RAY_CHUNK {
-                trace(chunk, &mut p);
-                chunk.clear();
+            slopes.push([a, b]);
+            if slopes.len() == RAY_CHUNK {
+                trace(slopes, &mut p);
+                slopes.clear();
             }
         },
     );
-    trace(chunk, &mut p);
+    trace(slopes, &mut p);
     p.usable = usable as u64;
     p
 }
@@ -916,9 +893,8 @@ fn trace_tile<A: Accumulator>(
 /// depend on it).
 struct ChunkTrace<'a, 's, A> {
     setup: &'a Setup<'s>,
-    chunk: &'a Chunk,
-    cells: &'a mut Vec<u32>,
-    kept: &'a mut Vec<(u32, u32)>,
+    slopes: &'a [[f64; 2]],
+    chunk: &'a mut Chunk,
     acc: &'a A,
     p: &'a mut Partial,
 }
@@ -928,26 +904,23 @@ impl<A: Accumulator> pulp::WithSimd for ChunkTrace<'_, '_, A> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        trace_chunk(
-            self.setup, self.chunk, self.cells, self.kept, self.acc, self.p,
-        );
+        trace_chunk(self.setup, self.slopes, self.chunk, self.acc, self.p);
     }
 }
 
-/// One ray per normal of `chunk` and incidence, added to `p`.
+/// One ray per pixel of `slopes` and incidence, added to `p`.
 ///
-/// Per incidence, a first pass without branches (which the compiler vectorises)
-/// computes every ray's exit and its cell of the cone index, counting the lost rays
-/// and giving them the empty cell; a second keeps the rays whose cell lists cones (a
-/// minority for in-plane detectors); a third tests a kept ray's candidate cones into a
-/// bit mask and, when some contain it, weighs the ray once and adds it to them in the
-/// cell's order.
+/// The normals first, then per incidence: a pass without branches (which the compiler
+/// vectorises) computes every ray's exit and its cell of the cone index, counting the
+/// lost rays and giving them, and rays whose cell lists no cone (most for in-plane
+/// detectors), the empty cell; then, 64 rays at a time, the others are found through a
+/// bit mask, their candidate cones tested into another and, when some contain the ray,
+/// it is weighed once and added to them in the cell's order.
 #[inline(always)]
 fn trace_chunk<A: Accumulator>(
     setup: &Setup<'_>,
-    chunk: &Chunk,
-    cells: &mut Vec<u32>,
-    kept: &mut Vec<(u32, u32)>,
+    slopes: &[[f64; 2]],
+    chunk: &mut Chunk,
     acc: &A,
     p: &mut Partial,
 ) {
@@ -956,8 +929,36 @@ fn trace_chunk<A: Accumulator>(
     let ndet = setup.ndet;
     let channels = acc.channels();
     let index = &setup.index;
-    let len = chunk.len();
-    let empty = index.empty_cell() as u32;
+    let empty = index.empty_cell();
+    let len = slopes.len();
+    let Chunk {
+        mx,
+        my,
+        mz,
+        q,
+        cells,
+    } = chunk;
+    for v in [&mut *mx, &mut *my, &mut *mz, &mut *q] {
+        v.clear();
+        v.resize(len, 0.0);
+    }
+    cells.clear();
+    cells.resize(len, empty);
+    // m = (−a, −b, 1)/sqrt(1 + a² + b²) and its 1/m.z.
+    for ((((&[a, b], mx), my), mz), q) in slopes
+        .iter()
+        .zip(mx.iter_mut())
+        .zip(my.iter_mut())
+        .zip(mz.iter_mut())
+        .zip(q.iter_mut())
+    {
+        *q = (1.0 + a * a + b * b).sqrt();
+        let inv = 1.0 / *q;
+        *mx = -a * inv;
+        *my = -b * inv;
+        *mz = inv;
+    }
+    let (mx, my, mz, q) = (&mx[..], &my[..], &mz[..], &q[..]);
     // The exit of a ray off normal `(mx, my, mz)` (physics.md §5 step 2): γ, k2 and the
     // horizontal components of k_out in air.
     let exit = |inc: &Inc, mx: f64, my: f64, mz: f64| {
@@ -967,83 +968,90 @@ fn trace_chunk<A: Accumulator>(
         let (k2x, k2y) = (inc.k1x + g2 * mx, g2 * my);
         (gamma, Vec3::new(k2x, k2y, k2z), n * k2x, n * k2y)
     };
-    cells.clear();
-    cells.resize(len, empty);
-    kept.clear();
-    kept.resize(len, (0, 0));
     for (ii, inc) in setup.incs.iter().enumerate() {
         let base = ii * ndet;
         let sums = &mut p.sums[base * channels..(base + ndet) * channels];
         let counts = &mut p.counts[base..base + ndet];
         let (mut down, mut tir) = (0u32, 0u32);
-        let normals = chunk.mx.iter().zip(&chunk.my).zip(&chunk.mz);
-        for (((&mx, &my), &mz), cell) in normals.zip(cells.iter_mut()) {
-            let (gamma, k2, ox, oy) = exit(inc, mx, my, mz);
+        // Local copies, which the loop keeps in registers.
+        let (grid, listed) = index.listed();
+        let last = listed.len() - 1;
+        let here = *inc;
+        for (((&mx, &my), &mz), cell) in mx.iter().zip(my).zip(mz).zip(cells.iter_mut()) {
+            let (gamma, k2, ox, oy) = exit(&here, mx, my, mz);
             // Rays that head down (this includes gamma <= 0), then rays that are totally
             // internally reflected.
             let is_down = (gamma <= 0.0) | (k2.z <= 0.0);
             let is_tir = !is_down & (ox * ox + oy * oy >= 1.0);
             down += u32::from(is_down);
             tir += u32::from(is_tir);
-            let c = index.cell(ox, oy) as u32;
-            *cell = if is_down | is_tir { empty } else { c };
+            *cell = if is_down | is_tir {
+                empty
+            } else {
+                grid.cell(ox, oy)
+            };
         }
         p.lost_down += u64::from(down);
         p.lost_tir += u64::from(tir);
-        let mut kept_n = 0;
-        for (i, &cell) in cells.iter().enumerate() {
-            kept[kept_n] = (i as u32, cell);
-            kept_n += usize::from(index.cell_has_cones(cell as usize));
-        }
-        for &(i, cell) in &kept[..kept_n] {
-            let i = i as usize;
-            let (gamma, k2, ox, oy) = exit(inc, chunk.mx[i], chunk.my[i], chunk.mz[i]);
-            let oz = (1.0 - (ox * ox + oy * oy)).sqrt();
-            let candidates = index.cell_entries(cell as usize);
-            let ray = Ray {
-                m: chunk.m(i),
-                gamma,
-                k2,
-                k_out: Vec3::new(ox, oy, oz),
-            };
-            // The weight and the binder's absorption along the path, once per ray.
-            let weigh = || {
-                let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, k2.z));
-                (acc.weigh(opts, inc, &ray), absorbed)
-            };
-            let mut add = |(w, absorbed): &(A::Weight, Option<f64>), e: &crate::index::Entry| {
-                let d = e.index as usize;
-                let scale = match absorbed {
-                    Some(a) => setup.scale[d] * a,
-                    None => setup.scale[d],
+        for (g, group) in cells.chunks(64).enumerate() {
+            let mut rays = 0u64;
+            for (j, &c) in group.iter().enumerate() {
+                rays |= u64::from(listed[(c as usize).min(last)] != empty) << j;
+            }
+            while rays != 0 {
+                let j = rays.trailing_zeros() as usize;
+                rays &= rays - 1;
+                let i = g * 64 + j;
+                let (gamma, k2, ox, oy) = exit(inc, mx[i], my[i], mz[i]);
+                let oz = (1.0 - (ox * ox + oy * oy)).sqrt();
+                let candidates = index.cell_entries(group[j] as usize);
+                let ray = Ray {
+                    m: [mx[i], my[i], mz[i], q[i]],
+                    gamma,
+                    k2,
+                    k_out: Vec3::new(ox, oy, oz),
                 };
-                acc.add(
-                    w,
-                    &ray,
-                    &setup.cones[d],
-                    scale,
-                    &mut sums[d * channels..(d + 1) * channels],
-                );
-                counts[d] += 1;
-            };
-            let inside = |e: &crate::index::Entry| e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha;
-            if candidates.len() <= 64 {
-                let mut mask = 0u64;
-                for (j, e) in candidates.iter().enumerate() {
-                    mask |= u64::from(inside(e)) << j;
-                }
-                if mask == 0 {
-                    continue;
-                }
-                let w = weigh();
-                while mask != 0 {
-                    add(&w, &candidates[mask.trailing_zeros() as usize]);
-                    mask &= mask - 1;
-                }
-            } else {
-                let mut weight = None;
-                for e in candidates.iter().filter(|e| inside(e)) {
-                    add(weight.get_or_insert_with(weigh), e);
+                // The weight and the binder's absorption along the path, once per ray.
+                let weigh = || {
+                    let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, k2.z));
+                    (acc.weigh(opts, inc, &ray), absorbed)
+                };
+                let mut add = |(w, absorbed): &(A::Weight, Option<f64>),
+                               e: &crate::index::Entry| {
+                    let d = e.index as usize;
+                    let scale = match absorbed {
+                        Some(a) => setup.scale[d] * a,
+                        None => setup.scale[d],
+                    };
+                    acc.add(
+                        w,
+                        &ray,
+                        &setup.cones[d],
+                        scale,
+                        &mut sums[d * channels..(d + 1) * channels],
+                    );
+                    counts[d] += 1;
+                };
+                let inside =
+                    |e: &crate::index::Entry| e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha;
+                if candidates.len() <= 64 {
+                    let mut mask = 0u64;
+                    for (k, e) in candidates.iter().enumerate() {
+                        mask |= u64::from(inside(e)) << k;
+                    }
+                    if mask == 0 {
+                        continue;
+                    }
+                    let w = weigh();
+                    while mask != 0 {
+                        add(&w, &candidates[mask.trailing_zeros() as usize]);
+                        mask &= mask - 1;
+                    }
+                } else {
+                    let mut weight = None;
+                    for e in candidates.iter().filter(|e| inside(e)) {
+                        add(weight.get_or_insert_with(weigh), e);
+                    }
                 }
             }
         }
