@@ -453,12 +453,177 @@ impl Sink for Points {
     fn take(&mut self, chunk: &[u8]) {
         let room = self.n - self.z.len();
         let (dtype, scale, offset) = (self.dtype, self.scale, self.offset);
-        self.z
-            .extend(chunk.chunks_exact(dtype.width()).take(room).map(|c| {
-                let z = dtype.decode(c) * scale;
-                if offset == 0.0 { z } else { z + offset }
-            }));
+        self.z.extend(
+            chunk
+                .chunks_exact(dtype.width())
+                .take(room)
+                .map(|c| scaled(dtype.decode(c), scale, offset)),
+        );
     }
+}
+
+/// A point's value from its raw number, `raw × scale (+ offset)`: the one formula of
+/// both ways of reading `data.bin`, so that their heights are the same bit for bit.
+#[inline]
+fn scaled(raw: f64, scale: f64, offset: f64) -> f64 {
+    let z = raw * scale;
+    if offset == 0.0 { z } else { z + offset }
+}
+
+/// Decodes float64 points in place: `chunk` holds their little-endian bytes.
+fn decode_f64(chunk: &mut [f64], scale: f64, offset: f64) {
+    for v in chunk {
+        *v = scaled(f64::from_bits(u64::from_le(v.to_bits())), scale, offset);
+    }
+}
+
+/// A chunk of heights on its way back from the checksum thread of
+/// [`read_f64_member`].
+enum Hashed<'a> {
+    /// Still raw: for the reading thread to decode.
+    Raw(&'a mut [f64]),
+    /// Decoded by the checksum thread, which had nothing else to do.
+    Decoded,
+}
+
+/// Reads a float64 member `name` of `n` points straight into the heights' own vector:
+/// the zip crate inflates each [`STREAM_CHUNK`] of the member into the vector's bytes
+/// (checking its CRC-32 at the end and refusing more bytes than the archive declares),
+/// and the points are then decoded where they lie, `raw × scale (+ offset)`, so that
+/// nothing is copied and no buffer but the heights is held. With `hash`, the MD5 is
+/// computed on a second thread for a large member, a chunk at a time as it is
+/// inflated; that thread also decodes each chunk it hashes while no other waits for it,
+/// else hands it back to the reading thread to decode, so that whichever thread is the
+/// faster (inflating or hashing, depending on how well the data compressed) takes the
+/// decoding. Returns the heights, the number of bytes read (at most `8n + 1`: more
+/// than `8n` means the member is too long; fewer, too short, and the heights are then
+/// not decoded) and the MD5 (lower-case hex); `None` when there is no such member.
+fn read_f64_member<R: Read + Seek>(
+    archive: &mut zip::ZipArchive<R>,
+    name: &str,
+    hash: bool,
+    n: usize,
+    scale: f64,
+    offset: f64,
+) -> Result<Option<(Vec<f64>, u64, Option<String>)>, X3pError> {
+    let mut file = match archive.by_name(name) {
+        Ok(f) => f,
+        Err(zip::result::ZipError::FileNotFound) => return Ok(None),
+        Err(e) => return Err(X3pError::Zip(format!("member {name:?}: {e}"))),
+    };
+    let zip_err = |e: std::io::Error| X3pError::Zip(format!("member {name:?}: {e}"));
+    // Sized by the header, which the caller has checked against the compressed size
+    // and the archive's declared size; zeroed pages are mapped as they are first
+    // written, so a member shorter than that costs only what it holds.
+    let mut z = vec![0.0f64; n];
+    let step = STREAM_CHUNK / 8;
+    let mut total = 0u64;
+    // Fills `chunk` from the member; false once the member has ended (short).
+    let mut fill = |chunk: &mut [f64]| -> Result<bool, X3pError> {
+        let bytes: &mut [u8] = bytemuck::cast_slice_mut(chunk);
+        let mut at = 0;
+        while at < bytes.len() {
+            match file.read(&mut bytes[at..]) {
+                Ok(0) => break,
+                Ok(k) => at += k,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(zip_err(e)),
+            }
+        }
+        total += at as u64;
+        Ok(at == bytes.len())
+    };
+    let mut whole = true;
+    let digest = if !hash || n * 8 < 8 * STREAM_CHUNK {
+        let mut h = hash.then(Md5::new);
+        for chunk in z.chunks_mut(step) {
+            whole = fill(chunk)?;
+            if let Some(h) = &mut h {
+                h.update(bytemuck::cast_slice::<f64, u8>(chunk));
+            }
+            if !whole {
+                break;
+            }
+            decode_f64(chunk, scale, offset);
+        }
+        h.map(|h| hex(&h.finalize()))
+    } else {
+        let digest = std::thread::scope(|scope| {
+            let (tx, rx) = std::sync::mpsc::channel::<&mut [f64]>();
+            let (back_tx, back_rx) = std::sync::mpsc::channel::<Hashed<'_>>();
+            let hasher = scope.spawn(move || {
+                let mut h = Md5::new();
+                let mut queue = std::collections::VecDeque::new();
+                loop {
+                    if queue.is_empty() {
+                        match rx.recv() {
+                            Ok(chunk) => queue.push_back(chunk),
+                            Err(_) => break,
+                        }
+                    }
+                    queue.extend(rx.try_iter());
+                    let Some(chunk) = queue.pop_front() else {
+                        break;
+                    };
+                    h.update(bytemuck::cast_slice::<f64, u8>(chunk));
+                    let back = if queue.is_empty() {
+                        decode_f64(chunk, scale, offset);
+                        Hashed::Decoded
+                    } else {
+                        Hashed::Raw(chunk)
+                    };
+                    // The reader may have stopped already.
+                    let _ = back_tx.send(back);
+                }
+                hex(&h.finalize())
+            });
+            let mut chunks = z.chunks_mut(step);
+            let read = (|| {
+                for chunk in chunks.by_ref() {
+                    whole = fill(chunk)?;
+                    if tx.send(chunk).is_err() {
+                        return Err(X3pError::Zip(format!(
+                            "member {name:?}: checksum thread stopped"
+                        )));
+                    }
+                    for back in back_rx.try_iter() {
+                        if let Hashed::Raw(chunk) = back {
+                            decode_f64(chunk, scale, offset);
+                        }
+                    }
+                    if !whole {
+                        break;
+                    }
+                }
+                Ok(())
+            })();
+            drop(tx);
+            // The rest come back as the checksum thread finishes (then the channel closes).
+            for back in back_rx {
+                if let Hashed::Raw(chunk) = back {
+                    decode_f64(chunk, scale, offset);
+                }
+            }
+            let digest = hasher
+                .join()
+                .map_err(|_| X3pError::Zip(format!("member {name:?}: checksum thread failed")));
+            read.and(digest)
+        })?;
+        Some(digest)
+    };
+    if whole {
+        // One byte more tells "too long" from "just right"; at the end of the member
+        // the zip crate checks its CRC-32 (an error here if it does not match).
+        let mut probe = [0u8; 1];
+        let k = loop {
+            match file.read(&mut probe) {
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                r => break r.map_err(zip_err)?,
+            }
+        };
+        total += k as u64;
+    }
+    Ok(Some((z, total, digest)))
 }
 
 /// Inflates member `name` chunk by chunk into `sink`, at most `limit` bytes of it (so
@@ -662,6 +827,29 @@ pub fn read_x3p_bytes(bytes: &[u8], options: &ReadOptions) -> Result<HeightMap, 
 /// # Errors
 /// [`X3pError`] naming the member, element or checksum at fault.
 pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, X3pError> {
+    read_with(bytes, options, kind, Path::Auto).map(|(map, _)| map)
+}
+
+/// Which way `data.bin` is read ([`read_with`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Path {
+    /// [`read_f64_member`] when it applies, else [`stream_member`] into [`Points`]
+    /// (only asked for by tests).
+    Auto,
+    /// Always [`stream_member`] into [`Points`].
+    #[cfg(test)]
+    Points,
+    /// Taken: [`read_f64_member`].
+    InPlace,
+}
+
+/// [`read`], with the way `data.bin` may be read; also says which way it was read.
+fn read_with(
+    bytes: &[u8],
+    options: &ReadOptions,
+    kind: ValueKind,
+    path: Path,
+) -> Result<(HeightMap, Path), X3pError> {
     let (mut archive, prefix, xml_bytes) = open(bytes)?;
     let doc = parse_xml(&xml_bytes)?;
     let root = doc.root_element();
@@ -713,9 +901,9 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     // Plausibility before any inflation: deflate expands at most 1032-fold (stored
     // members not at all), so a member whose compressed size cannot hold the data is
     // refused before a byte is allocated for it.
-    let compressed = match archive.by_name(&data_name) {
-        Ok(f) => Some(f.compressed_size()),
-        Err(_) => None,
+    let (compressed, declared_size) = match archive.by_name(&data_name) {
+        Ok(f) => (Some(f.compressed_size()), Some(f.size())),
+        Err(_) => (None, None),
     };
     if let Some(compressed) = compressed
         && expected > compressed.saturating_mul(1032).saturating_add(1024)
@@ -727,25 +915,38 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             detail: detail(),
         });
     }
-    // Read one byte more than needed, to tell "too long" from "just right"; the points
-    // are decoded as the member is inflated, into the heights' own vector (no copy of
-    // the member's bytes is held), at most `n` of them.
-    let mut points = Points {
-        z: Vec::new(),
-        n,
-        dtype: h.dtype,
-        scale: h.z_scale,
-        offset: h.z_offset,
+    let hash = h.data_md5.is_some();
+    // Float64 points whose member declares exactly the size the header implies are
+    // inflated in place; anything else (narrower points, a size that disagrees, which
+    // is then reported as it always was) is decoded chunk by chunk.
+    let in_place =
+        path == Path::Auto && h.dtype == DataType::F64 && declared_size == Some(expected);
+    let (z, read_len, computed, path) = if in_place {
+        let (z, read_len, computed) =
+            read_f64_member(&mut archive, &data_name, hash, n, h.z_scale, h.z_offset)?
+                .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
+        (z, read_len, computed, Path::InPlace)
+    } else {
+        // Read one byte more than needed, to tell "too long" from "just right"; the
+        // points are decoded as the member is inflated, into the heights' own vector
+        // (no copy of the member's bytes is held), at most `n` of them.
+        let mut points = Points {
+            z: Vec::new(),
+            n,
+            dtype: h.dtype,
+            scale: h.z_scale,
+            offset: h.z_offset,
+        };
+        let (read_len, computed) = stream_member(
+            &mut archive,
+            &data_name,
+            hash,
+            expected.saturating_add(1),
+            &mut points,
+        )?
+        .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
+        (points.z, read_len, computed, path)
     };
-    let (read_len, computed) = stream_member(
-        &mut archive,
-        &data_name,
-        h.data_md5.is_some(),
-        expected.saturating_add(1),
-        &mut points,
-    )?
-    .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
-    let z = points.z;
     if read_len != expected {
         let found = if read_len > expected {
             // Longer than needed: report the size the archive declares.
@@ -833,7 +1034,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         map.set_metadata("x3p.md5", "mismatch accepted");
         map.set_metadata("x3p.md5_mismatch", notes.join("; "));
     }
-    Ok(map)
+    Ok((map, path))
 }
 
 fn xml_escape(s: &str) -> String {
