@@ -477,15 +477,6 @@ fn decode_f64(chunk: &mut [f64], scale: f64, offset: f64) {
     }
 }
 
-/// A chunk of heights on its way back from the checksum thread of
-/// [`read_f64_member`].
-enum Hashed<'a> {
-    /// Still raw: for the reading thread to decode.
-    Raw(&'a mut [f64]),
-    /// Decoded by the checksum thread, which had nothing else to do.
-    Decoded,
-}
-
 /// Reads a float64 member `name` of `n` points straight into the heights' own vector:
 /// the zip crate inflates each [`STREAM_CHUNK`] of the member into the vector's bytes
 /// (checking its CRC-32 at the end and refusing more bytes than the archive declares),
@@ -549,47 +540,73 @@ fn read_f64_member<R: Read + Seek>(
         h.map(|h| hex(&h.finalize()))
     } else {
         let digest = std::thread::scope(|scope| {
-            let (tx, rx) = std::sync::mpsc::channel::<&mut [f64]>();
-            let (back_tx, back_rx) = std::sync::mpsc::channel::<Hashed<'_>>();
+            // Each chunk goes from the checksum thread (fresh) to the reader, back to it
+            // (filled), and possibly back to the reader (hashed, still raw).
+            let (fresh_tx, fresh_rx) = std::sync::mpsc::channel::<&mut [f64]>();
+            let (filled_tx, filled_rx) = std::sync::mpsc::channel::<&mut [f64]>();
+            let (raw_tx, raw_rx) = std::sync::mpsc::channel::<&mut [f64]>();
+            let mut chunks = z.chunks_mut(step);
             let hasher = scope.spawn(move || {
                 let mut h = Md5::new();
+                let mut fresh_tx = Some(fresh_tx);
                 let mut queue = std::collections::VecDeque::new();
+                // Chunks handed to the reader and not yet back.
+                let mut out = 0;
                 loop {
-                    if queue.is_empty() {
-                        match rx.recv() {
-                            Ok(chunk) => queue.push_back(chunk),
+                    queue.extend(filled_rx.try_iter());
+                    // Keep the reader a few chunks ahead; while nothing waits to be
+                    // hashed, first touch each page of a chunk, so that the reader does
+                    // not stop for the page faults.
+                    while out < AHEAD
+                        && let Some(tx) = &fresh_tx
+                    {
+                        let Some(chunk) = chunks.next() else {
+                            // The reader's loop ends once it has taken the last one.
+                            fresh_tx = None;
+                            break;
+                        };
+                        if queue.is_empty() {
+                            for v in chunk.iter_mut().step_by(PAGE / 8) {
+                                *v = 0.0;
+                            }
+                        }
+                        if tx.send(chunk).is_err() {
+                            fresh_tx = None;
+                            break;
+                        }
+                        out += 1;
+                    }
+                    let Some(chunk) = queue.pop_front() else {
+                        match filled_rx.recv() {
+                            Ok(chunk) => {
+                                queue.push_back(chunk);
+                                continue;
+                            }
+                            // The reader has stopped.
                             Err(_) => break,
                         }
-                    }
-                    queue.extend(rx.try_iter());
-                    let Some(chunk) = queue.pop_front() else {
-                        break;
                     };
+                    out -= 1;
                     h.update(bytemuck::cast_slice::<f64, u8>(chunk));
-                    let back = if queue.is_empty() {
+                    if queue.is_empty() {
                         decode_f64(chunk, scale, offset);
-                        Hashed::Decoded
                     } else {
-                        Hashed::Raw(chunk)
-                    };
-                    // The reader may have stopped already.
-                    let _ = back_tx.send(back);
+                        // The reader may have stopped already.
+                        let _ = raw_tx.send(chunk);
+                    }
                 }
                 hex(&h.finalize())
             });
-            let mut chunks = z.chunks_mut(step);
             let read = (|| {
-                for chunk in chunks.by_ref() {
+                for chunk in &fresh_rx {
                     whole = fill(chunk)?;
-                    if tx.send(chunk).is_err() {
+                    if filled_tx.send(chunk).is_err() {
                         return Err(X3pError::Zip(format!(
                             "member {name:?}: checksum thread stopped"
                         )));
                     }
-                    for back in back_rx.try_iter() {
-                        if let Hashed::Raw(chunk) = back {
-                            decode_f64(chunk, scale, offset);
-                        }
+                    for chunk in raw_rx.try_iter() {
+                        decode_f64(chunk, scale, offset);
                     }
                     if !whole {
                         break;
@@ -597,12 +614,10 @@ fn read_f64_member<R: Read + Seek>(
                 }
                 Ok(())
             })();
-            drop(tx);
+            drop((filled_tx, fresh_rx));
             // The rest come back as the checksum thread finishes (then the channel closes).
-            for back in back_rx {
-                if let Hashed::Raw(chunk) = back {
-                    decode_f64(chunk, scale, offset);
-                }
+            for chunk in raw_rx {
+                decode_f64(chunk, scale, offset);
             }
             let digest = hasher
                 .join()
@@ -722,6 +737,13 @@ fn stream_member<R: Read + Seek>(
 /// Bytes inflated per step by [`stream_member`] (1 MiB, a multiple of every point
 /// width).
 const STREAM_CHUNK: usize = 1 << 20;
+
+/// Chunks that [`read_f64_member`]'s checksum thread keeps ready for the reader.
+const AHEAD: usize = 4;
+
+/// The memory page size assumed when touching pages ahead of the reader (a smaller
+/// real one only leaves some faults to the reader).
+const PAGE: usize = 4096;
 
 /// Deepest `Record2` element whose text goes into the metadata (ISO 25178-72 nests
 /// two levels, e.g. `Instrument/Manufacturer`).
