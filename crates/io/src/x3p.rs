@@ -1009,8 +1009,11 @@ fn read_with(
         if let Some(d) = &h.valid_md5 {
             check_md5(&name, &md5_hex(&bits), Ok(d), options, &mut notes)?;
         }
-        for (i, v) in valid.iter_mut().enumerate() {
-            *v = bits[i / 8] >> (i % 8) & 1 == 1;
+        // Eight points a byte (bits.len() >= need was checked above).
+        for (points, &byte) in valid.chunks_mut(8).zip(&bits) {
+            for (k, v) in points.iter_mut().enumerate() {
+                *v = byte >> k & 1 == 1;
+            }
         }
         map_meta.push(("x3p.valid_points_member".into(), link.clone()));
     }
