@@ -470,6 +470,10 @@ fn scaled(raw: f64, scale: f64, offset: f64) -> f64 {
     if offset == 0.0 { z } else { z + offset }
 }
 
+/// Heights read from `data.bin`, the number of bytes it inflated to (or as many as were
+/// read, at most one past what the header implies) and its MD5 (lower-case hex).
+type Heights = (Vec<f64>, u64, Option<String>);
+
 /// Decodes float64 points in place: `chunk` holds their little-endian bytes.
 fn decode_f64(chunk: &mut [f64], scale: f64, offset: f64) {
     for v in chunk {
@@ -496,7 +500,7 @@ fn read_f64_member<R: Read + Seek>(
     n: usize,
     scale: f64,
     offset: f64,
-) -> Result<Option<(Vec<f64>, u64, Option<String>)>, X3pError> {
+) -> Result<Option<Heights>, X3pError> {
     let mut file = match archive.by_name(name) {
         Ok(f) => f,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
@@ -641,6 +645,173 @@ fn read_f64_member<R: Read + Seek>(
     Ok(Some((z, total, digest)))
 }
 
+/// Most a `data.bin` member that declares `declared` bytes may take compressed to be
+/// inflated whole ([`inflate_whole`]): half its inflated size plus [`WHOLE_SLACK`], so
+/// that even a copy of its compressed bytes next to the heights would keep a read within
+/// 1.5 times the heights' size plus a constant.
+fn whole_limit(declared: u64) -> u64 {
+    declared / 2 + WHOLE_SLACK
+}
+
+/// The raw deflate stream of member `name` (a slice of the archive's own bytes, so
+/// nothing is copied) and the CRC-32 the archive declares for it, when the member is
+/// deflated, not encrypted and small enough compressed ([`whole_limit`]); `None`
+/// otherwise, and when there is no such member, for the streaming path to handle (and
+/// report) as it always has.
+fn whole_member<'b>(
+    archive: &mut Archive<'b>,
+    bytes: &'b [u8],
+    name: &str,
+) -> Result<Option<(&'b [u8], u32)>, X3pError> {
+    let Some(index) = archive.index_for_name(name) else {
+        return Ok(None);
+    };
+    let f = archive
+        .by_index_raw(index)
+        .map_err(|e| X3pError::Zip(format!("member {name:?}: {e}")))?;
+    if f.compression() != zip::CompressionMethod::Deflated
+        || f.encrypted()
+        || f.compressed_size() > whole_limit(f.size())
+    {
+        return Ok(None);
+    }
+    let packed = f.data_start().and_then(|start| {
+        let start = usize::try_from(start).ok()?;
+        let end = start.checked_add(usize::try_from(f.compressed_size()).ok()?)?;
+        bytes.get(start..end)
+    });
+    Ok(packed.map(|p| (p, f.crc32())))
+}
+
+/// Inflates `data.bin` whole with libdeflate: `packed` (its raw deflate stream) straight
+/// into the heights' own bytes for float64 points (decoded where they lie afterwards),
+/// into a buffer of the member's size for narrower ones (then decoded into the
+/// heights). The output is sized for exactly the `n` points the header implies (which
+/// the archive declares too, [`whole_member`]): a stream that inflates to more is an
+/// error, one that inflates to fewer leaves the heights empty for the caller to report.
+/// The CRC-32 the archive declares is checked here (a raw deflate stream carries none);
+/// with `hash` the MD5 is computed too, for a large member on a second thread, chunk by
+/// chunk, while this one takes the CRC-32 and the decoding. Returns the heights, the
+/// number of bytes inflated and the MD5 (lower-case hex).
+#[allow(clippy::too_many_arguments)]
+fn inflate_whole(
+    packed: &[u8],
+    crc32: u32,
+    name: &str,
+    hash: bool,
+    n: usize,
+    dtype: DataType,
+    scale: f64,
+    offset: f64,
+) -> Result<Heights, X3pError> {
+    let width = dtype.width();
+    // n <= MAX_POINTS, so this does not overflow.
+    let len = n * width;
+    let inflate = |out: &mut [u8]| -> Result<usize, X3pError> {
+        libdeflater::Decompressor::new()
+            .deflate_decompress(packed, out)
+            .map_err(|e| match e {
+                libdeflater::DecompressionError::BadData => X3pError::Zip(format!(
+                    "member {name:?}: corrupt deflate stream (it does not inflate)"
+                )),
+                libdeflater::DecompressionError::InsufficientSpace => X3pError::Zip(format!(
+                    "member {name:?}: inflates to more than its declared uncompressed size \
+                     of {len} bytes"
+                )),
+            })
+    };
+    let check_crc = |computed: u32| {
+        if computed == crc32 {
+            Ok(())
+        } else {
+            Err(X3pError::Zip(format!(
+                "member {name:?}: CRC-32 of the inflated bytes is {computed:08x} but the \
+                 archive declares {crc32:08x}: the archive is corrupt"
+            )))
+        }
+    };
+    let failed = || X3pError::Zip(format!("member {name:?}: checksum thread failed"));
+    let threaded = hash && len >= 8 * STREAM_CHUNK;
+    if dtype != DataType::F64 {
+        let mut raw = vec![0u8; len];
+        let k = inflate(&mut raw)?;
+        let raw = &raw[..k];
+        let (crc, digest) = std::thread::scope(|scope| {
+            let hasher = threaded.then(|| scope.spawn(|| md5_hex(raw)));
+            let crc = libdeflater::crc32(raw);
+            let digest = match hasher {
+                Some(h) => Some(h.join().map_err(|_| failed())?),
+                None => hash.then(|| md5_hex(raw)),
+            };
+            Ok::<_, X3pError>((crc, digest))
+        })?;
+        check_crc(crc)?;
+        if k < len {
+            return Ok((Vec::new(), k as u64, None));
+        }
+        let z = raw
+            .chunks_exact(width)
+            .map(|c| scaled(dtype.decode(c), scale, offset))
+            .collect();
+        return Ok((z, len as u64, digest));
+    }
+    // Zeroed pages are mapped as they are first written: the inflate is the first.
+    let mut z = vec![0.0f64; n];
+    let k = inflate(bytemuck::cast_slice_mut(&mut z))?;
+    if k < len {
+        check_crc(libdeflater::crc32(&bytemuck::cast_slice(&z)[..k]))?;
+        return Ok((Vec::new(), k as u64, None));
+    }
+    let step = STREAM_CHUNK / 8;
+    let mut crc = libdeflater::Crc::new();
+    let digest = if threaded {
+        let digest = std::thread::scope(|scope| {
+            // Each chunk goes to the checksum thread (its CRC-32 taken) and comes back
+            // hashed, to be decoded.
+            let (tx, rx) = std::sync::mpsc::channel::<&mut [f64]>();
+            let (back_tx, back_rx) = std::sync::mpsc::channel::<&mut [f64]>();
+            let hasher = scope.spawn(move || {
+                let mut h = Md5::new();
+                for chunk in rx {
+                    h.update(bytemuck::cast_slice::<f64, u8>(chunk));
+                    // This thread's receiver lives until the end of the scope.
+                    let _ = back_tx.send(chunk);
+                }
+                hex(&h.finalize())
+            });
+            for chunk in z.chunks_mut(step) {
+                crc.update(bytemuck::cast_slice::<f64, u8>(chunk));
+                if tx.send(chunk).is_err() {
+                    break;
+                }
+                for chunk in back_rx.try_iter() {
+                    decode_f64(chunk, scale, offset);
+                }
+            }
+            drop(tx);
+            // The rest come back as the checksum thread finishes (then the channel closes).
+            for chunk in back_rx {
+                decode_f64(chunk, scale, offset);
+            }
+            hasher.join().map_err(|_| failed())
+        })?;
+        Some(digest)
+    } else {
+        let mut h = hash.then(Md5::new);
+        for chunk in z.chunks_mut(step) {
+            let b = bytemuck::cast_slice::<f64, u8>(chunk);
+            crc.update(b);
+            if let Some(h) = &mut h {
+                h.update(b);
+            }
+            decode_f64(chunk, scale, offset);
+        }
+        h.map(|h| hex(&h.finalize()))
+    };
+    check_crc(crc.sum())?;
+    Ok((z, len as u64, digest))
+}
+
 /// Inflates member `name` chunk by chunk into `sink`, at most `limit` bytes of it (so
 /// that a zip bomb or a lying header cannot exhaust memory), without holding the whole
 /// member: every chunk but the last is [`STREAM_CHUNK`] bytes (a multiple of every
@@ -737,6 +908,9 @@ fn stream_member<R: Read + Seek>(
 /// Bytes inflated per step by [`stream_member`] (1 MiB, a multiple of every point
 /// width).
 const STREAM_CHUNK: usize = 1 << 20;
+
+/// The constant part of [`whole_limit`] (48 MiB).
+const WHOLE_SLACK: u64 = 48 << 20;
 
 /// Chunks that [`read_f64_member`]'s checksum thread keeps ready for the reader.
 const AHEAD: usize = 4;
@@ -855,14 +1029,19 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
 /// Which way `data.bin` is read ([`read_with`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Path {
-    /// [`read_f64_member`] when it applies, else [`stream_member`] into [`Points`]
-    /// (only asked for by tests).
+    /// [`inflate_whole`] when the member qualifies ([`whole_limit`]), else
+    /// [`read_f64_member`] when that applies, else [`stream_member`] into [`Points`].
     Auto,
-    /// Always [`stream_member`] into [`Points`].
+    /// As `Auto` but never [`inflate_whole`] (only asked for by tests).
+    #[cfg(test)]
+    Stream,
+    /// Always [`stream_member`] into [`Points`] (only asked for by tests).
     #[cfg(test)]
     Points,
     /// Taken: [`read_f64_member`].
     InPlace,
+    /// Taken: [`inflate_whole`].
+    Whole,
 }
 
 /// [`read`], with the way `data.bin` may be read; also says which way it was read.
@@ -938,12 +1117,29 @@ fn read_with(
         });
     }
     let hash = h.data_md5.is_some();
-    // Float64 points whose member declares exactly the size the header implies are
-    // inflated in place; anything else (narrower points, a size that disagrees, which
-    // is then reported as it always was) is decoded chunk by chunk.
+    // A deflated member that declares exactly the size the header implies and is small
+    // enough compressed to be inflated in one go is; otherwise float64 points are
+    // inflated in place as they stream, and anything else (narrower points, a size that
+    // disagrees, which is then reported as it always was) is decoded chunk by chunk.
+    let whole = if path == Path::Auto && declared_size == Some(expected) {
+        whole_member(&mut archive, bytes, &data_name)?
+    } else {
+        None
+    };
+    #[cfg(test)]
+    let path = if path == Path::Stream {
+        Path::Auto
+    } else {
+        path
+    };
     let in_place =
         path == Path::Auto && h.dtype == DataType::F64 && declared_size == Some(expected);
-    let (z, read_len, computed, path) = if in_place {
+    let (z, read_len, computed, path) = if let Some((packed, crc32)) = whole {
+        let (z, read_len, computed) = inflate_whole(
+            packed, crc32, &data_name, hash, n, h.dtype, h.z_scale, h.z_offset,
+        )?;
+        (z, read_len, computed, Path::Whole)
+    } else if in_place {
         let (z, read_len, computed) =
             read_f64_member(&mut archive, &data_name, hash, n, h.z_scale, h.z_offset)?
                 .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
@@ -1237,3 +1433,7 @@ fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8
     }
     Ok(zip.finish().map_err(zerr)?.into_inner())
 }
+
+#[cfg(test)]
+#[path = "x3p_tests.rs"]
+mod tests;
