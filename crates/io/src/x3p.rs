@@ -21,6 +21,37 @@
 //! Hostile input: no buffer is sized from a header field before the field has been
 //! checked against what the archive can hold (a member is never read past the size the
 //! header implies, and capacity hints are bounded by the compressed size).
+//!
+//! Reading `data.bin` takes one of two ways; both give the same heights bit for bit
+//! (one formula, `raw × Increment + Offset`) and the same typed errors.
+//! * **Whole** (libdeflate, one call): for a deflated, unencrypted member that declares
+//!   exactly the size the header implies and is at most `declared / 2 + 48 MiB`
+//!   compressed, when it pays: no MD5 of the data is declared, or the member is under
+//!   8 MiB, or only one core is available. The raw deflate stream is a slice of the
+//!   file's bytes (no copy); float64 points are inflated straight into the heights'
+//!   bytes and decoded where they lie, narrower points into a buffer of the member's
+//!   size and then decoded. The CRC-32 the archive declares is checked here (on the
+//!   reading thread, while a second one computes the MD5 of a large member chunk by
+//!   chunk); a stream that inflates to more than declared, to fewer, or not at all is
+//!   refused naming the member.
+//! * **Streamed** (the zip crate, zlib-rs): every other member, 1 MiB at a time; float64
+//!   points are inflated into the heights' bytes, narrower ones decoded chunk by chunk;
+//!   the MD5 of a large member is computed on a second thread as it is inflated, and
+//!   the zip crate checks the CRC-32 and the declared size.
+//!
+//! Why both: whole, libdeflate inflates about twice as fast as zlib-rs streams (4096²
+//! float64: 75–95 ms against ~176 ms for a well-compressed map), but the MD5 (~500 MB/s,
+//! the slowest step) can only start once it is done, whereas streamed it overlaps the
+//! inflate on a second core. So with an MD5 to compute and a second core, a large
+//! member streams; a poorly compressible one (more than `declared / 2 + 48 MiB`
+//! compressed) always does, since its inflate is slow either way and streaming
+//! overlaps it with the MD5.
+//!
+//! Memory: besides the file's bytes (held by the caller), a read holds the float64
+//! heights, the validity mask and, on the whole way for narrower points, a buffer of
+//! at most half the heights' size; streamed, a few 1 MiB chunks. The compressed-size
+//! bound keeps the whole way within 1.5 times the heights' size plus a constant even
+//! were its compressed bytes copied.
 
 use std::io::{Cursor, Read, Seek, Write};
 
@@ -645,6 +676,20 @@ fn read_f64_member<R: Read + Seek>(
     Ok(Some((z, total, digest)))
 }
 
+/// Whether inflating a `data.bin` of `len` bytes whole ([`inflate_whole`]) is faster
+/// than streaming it. Whole, libdeflate inflates about twice as fast as the zip crate
+/// streams, but the MD5 (~500 MB/s, the slowest step) can only start once it is done;
+/// streamed, the MD5 of a large member runs on a second thread as it is inflated, and
+/// the read takes about as long as the slower of the two alone. So whole pays when
+/// there is no MD5 to compute, when the member is small enough for its MD5 to be
+/// computed on the reading thread either way (below `8 ×` [`STREAM_CHUNK`]), or when
+/// there is no second core to overlap it on (then the smaller total work wins).
+fn whole_pays(hash: bool, len: u64) -> bool {
+    !hash
+        || len < 8 * STREAM_CHUNK as u64
+        || std::thread::available_parallelism().map_or(true, |p| p.get() < 2)
+}
+
 /// Most a `data.bin` member that declares `declared` bytes may take compressed to be
 /// inflated whole ([`inflate_whole`]): half its inflated size plus [`WHOLE_SLACK`], so
 /// that even a copy of its compressed bytes next to the heights would keep a read within
@@ -1029,18 +1074,19 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
 /// Which way `data.bin` is read ([`read_with`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Path {
-    /// [`inflate_whole`] when the member qualifies ([`whole_limit`]), else
-    /// [`read_f64_member`] when that applies, else [`stream_member`] into [`Points`].
+    /// [`inflate_whole`] when it pays ([`whole_pays`]) and the member qualifies
+    /// ([`whole_member`]), else [`read_f64_member`] when that applies, else
+    /// [`stream_member`] into [`Points`].
     Auto,
     /// As `Auto` but never [`inflate_whole`] (only asked for by tests).
     #[cfg(test)]
     Stream,
-    /// Always [`stream_member`] into [`Points`] (only asked for by tests).
-    #[cfg(test)]
+    /// Taken: [`stream_member`] into [`Points`]; asked for (by tests): always that.
     Points,
     /// Taken: [`read_f64_member`].
     InPlace,
-    /// Taken: [`inflate_whole`].
+    /// Taken: [`inflate_whole`]; asked for (by tests): [`inflate_whole`] whenever the
+    /// member qualifies, whether or not it pays.
     Whole,
 }
 
@@ -1121,7 +1167,12 @@ fn read_with(
     // enough compressed to be inflated in one go is; otherwise float64 points are
     // inflated in place as they stream, and anything else (narrower points, a size that
     // disagrees, which is then reported as it always was) is decoded chunk by chunk.
-    let whole = if path == Path::Auto && declared_size == Some(expected) {
+    let try_whole = match path {
+        Path::Auto => whole_pays(hash, expected),
+        Path::Whole => true,
+        _ => false,
+    };
+    let whole = if try_whole && declared_size == Some(expected) {
         whole_member(&mut archive, bytes, &data_name)?
     } else {
         None
@@ -1163,7 +1214,7 @@ fn read_with(
             &mut points,
         )?
         .ok_or_else(|| X3pError::MissingMember(data_name.clone()))?;
-        (points.z, read_len, computed, path)
+        (points.z, read_len, computed, Path::Points)
     };
     if read_len != expected {
         let found = if read_len > expected {

@@ -12,9 +12,9 @@ use crate::reader::{ReadOptions, ValueKind};
 
 const DATA: &str = "bindata/data.bin";
 
-/// Every way a test can ask for: whole when it qualifies, streamed in place, streamed
-/// into points.
-const PATHS: [Path; 3] = [Path::Auto, Path::Stream, Path::Points];
+/// Every way a test can ask for: whole whenever the member qualifies, streamed in place,
+/// streamed into points.
+const PATHS: [Path; 3] = [Path::Whole, Path::Stream, Path::Points];
 
 fn md5_hex(b: &[u8]) -> String {
     Md5::digest(b).iter().map(|x| format!("{x:02x}")).collect()
@@ -116,7 +116,6 @@ fn read_opts(
 /// The way the reader says it took, for a deflated float64 member of the right size.
 fn taken(asked: Path) -> Path {
     match asked {
-        Path::Auto => Path::Whole,
         Path::Stream => Path::InPlace,
         other => other,
     }
@@ -163,14 +162,9 @@ fn narrow_points_are_known_on_every_path() {
         for (nx, ny) in [(1024, 1024), (7, 3)] {
             let (data, want) = (&data[..nx * ny * data.len() / n], &want[..nx * ny]);
             let bytes = archive(nx, ny, dtype, data, Some(&md5_hex(data)), deflated());
-            for path in [Path::Auto, Path::Points] {
+            for path in [Path::Whole, Path::Points] {
                 let (z, took) = read(&bytes, path).unwrap();
-                let expect_took = if path == Path::Auto {
-                    Path::Whole
-                } else {
-                    path
-                };
-                assert_eq!(took, expect_took, "{dtype}");
+                assert_eq!(took, path, "{dtype}");
                 assert!(
                     z == want,
                     "{dtype} {nx} x {ny} via {path:?}: heights differ"
@@ -181,12 +175,36 @@ fn narrow_points_are_known_on_every_path() {
 }
 
 #[test]
+fn auto_takes_whole_where_it_pays() {
+    let two_cores = std::thread::available_parallelism().is_ok_and(|p| p.get() >= 2);
+    for (nx, ny) in [(40, 25), (1024, 1024)] {
+        let (data, want) = f64_points(nx * ny);
+        for md5 in [None, Some(md5_hex(&data))] {
+            let bytes = archive(nx, ny, "D", &data, md5.as_deref(), deflated());
+            let (z, took) = read(&bytes, Path::Auto).unwrap();
+            // Large (8 MiB) with an MD5 to overlap on a second core: streamed.
+            let streamed = md5.is_some() && nx * ny * 8 >= 8 << 20 && two_cores;
+            let want_took = if streamed { Path::InPlace } else { Path::Whole };
+            assert_eq!(took, want_took, "{nx} x {ny}, MD5 {}", md5.is_some());
+            assert!(z == want);
+        }
+    }
+}
+
+#[test]
 fn stored_members_stream() {
     let (data, want) = f64_points(1000);
     let bytes = archive(40, 25, "D", &data, None, zip::CompressionMethod::Stored);
-    let (z, took) = read(&bytes, Path::Auto).unwrap();
-    assert_eq!(took, Path::InPlace);
-    assert_eq!(z, want);
+    for path in [Path::Auto, Path::Whole] {
+        let (z, took) = read(&bytes, path).unwrap();
+        let want_took = if path == Path::Auto {
+            Path::InPlace
+        } else {
+            Path::Points
+        };
+        assert_eq!(took, want_took);
+        assert_eq!(z, want);
+    }
 }
 
 /// Each way's error for `bytes`, all of which must be errors.
