@@ -21,17 +21,24 @@
 //!   `2 |θ²/(2s²)| ε`.
 //! * `exp` of the Gaussian exponent `x = −θ²/(2s²) ∈ [`MIN_VECTOR_EXPONENT`, 0]` is
 //!   `2^k · e^r` with `k = round(x / ln 2)`, `r = x − k ln 2` in two parts (`|r| ≤ ln 2/2`)
-//!   and `e^r` by its Taylor series to degree 14 (truncation below 1e-19 relative).
-//!   Lanes whose exponent is below [`MIN_VECTOR_EXPONENT`] (`p2` below `e^−500` of its
+//!   and `e^r` by a polynomial of degree 11 fitted to it, evaluated by Estrin's scheme
+//!   (relative error 1.7e-17 with its coefficients rounded to `f64`; they and that error
+//!   come from `crates/gaussian/tools/exp_fit.py`).
+//!   Lanes whose exponent is below [`MIN_VECTOR_EXPONENT`] (`p2` below `e^−400` of its
 //!   peak) are given to the scalar path, so the worst amplification of the arctangent's
-//!   error is `2 · 500 · 4e-16 = 4e-13`, and every value the scalar path rounds to zero
+//!   error is `2 · 400 · 4e-16 = 3.2e-13`, and every value the scalar path rounds to zero
 //!   or to a subnormal is the scalar path's own.
 //! * The products and quotients after the half vector are regrouped so that one
 //!   division serves them all: the exit amplitudes enter only squared, and the
 //!   `(2n cos θ2)²` of their numerators cancels the `cos θ2` of the power factor and of
 //!   the refraction Jacobian. The `s` and `p` factors are formed as `2(…)` directly
-//!   rather than as `m00 ± m01`. This changes the rounding by a few ulp (the sums
-//!   involved have no cancellation: every term is a non-negative power).
+//!   rather than as `m00 ± m01`; `a b` and `g d` of the frame rotations, both
+//!   `rc1 rc2 rd1 rd2`, are one product; the factors that do not depend on the
+//!   direction (the Gaussian's normalisation, the power factor's constants, the column
+//!   weights times the entry amplitudes) are multiplied together once per block. This
+//!   changes the rounding by a few ulp (the sums involved have no cancellation: every
+//!   term is a non-negative power). For the perfect conductor (`|rs|² = |rp|² = 1`) the
+//!   products with 1 are left out, which changes no bit.
 //! * `cos θ2` is `sqrt(n² − 1 + r_z²) · (1/n)` (one ulp from the scalar quotient; it
 //!   enters `h_z = cos θ2 + cos θt`, a sum of positive numbers). The transverse half
 //!   vector `r_xy/n − k1_xy` is computed exactly as in the scalar path: near specular it
@@ -56,15 +63,17 @@
 //! builds give the same bits. Plain loops over fixed-size arrays were not vectorised by
 //! the compiler (checked in the assembly: scalar `vmulsd`/`vdivsd` loops), hence the
 //! explicit vectors of [`pulp::Simd`]. In the x86-64-v4 build of the bench binary
-//! (`perf annotate` of `pulp::x86::v4::V4::vectorize::imp_fastcall`, the function the
-//! kernel is inlined into) the kernel is 122 `vmulpd`, 54 `vaddpd`, 13 `vsubpd`,
-//! 5 `vdivpd`, 2 `vsqrtpd` and 10 `vblendmpd` on `zmm` registers, with no call to
-//! `atan2` or `exp`; the five divisions are `r_x/n`, `r_y/n` (computed once and kept for
-//! the frame rotations), the arctangent's ratio and rational function, and the final
-//! quotient. The remaining scalar instructions are the per-lane paths above and the copy
-//! of the directions into arrays. On this project's 2-core Xeon the AVX-512 build took
-//! 0.71–0.72× the CPU time of the AVX2 build on the bench's 1000 directions (user time
-//! of 10⁵ batches, measured side by side), with the same output bits.
+//! (`objdump` of `pulp::x86::v4::V4::vectorize::imp_fastcall`, the function the kernel
+//! is inlined into) the vector kernel, both flake branches of pass 4 included, is
+//! 106 `vmulpd`, 56 `vaddpd`, 14 `vsubpd`, 5 `vdivpd` and 2 `vsqrtpd` on `zmm`
+//! registers; the calls to `atan2` and `exp` in that function belong to the per-lane
+//! scalar paths above. The five divisions are `r_x/n`, `r_y/n` (computed once and kept
+//! for the frame rotations), the arctangent's ratio and rational function, and the final
+//! quotient; `perf` puts about a fifth of the kernel's time in pass 1 (two divisions
+//! and two square roots per vector), a third in the arctangent and exponential, and
+//! the rest mostly in pass 4. On a 2-core Xeon the AVX-512 build took 0.71–0.72× the CPU
+//! time of the AVX2 build on the bench's 1000 directions (user time of 10⁵ batches,
+//! measured side by side), with the same output bits.
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
@@ -222,30 +231,33 @@ fn atan2_first_quadrant<S: Simd>(y: V<S>, x: V<S>) -> V<S> {
     let den = reduce.pick(lo + hi, hi);
     let t = num / den;
     let z = t * t;
-    let p = (((z * ATAN_P[0] + ATAN_P[1]) * z + ATAN_P[2]) * z + ATAN_P[3]) * z + ATAN_P[4];
-    let q = ((((z + ATAN_Q[0]) * z + ATAN_Q[1]) * z + ATAN_Q[2]) * z + ATAN_Q[3]) * z + ATAN_Q[4];
+    // Estrin's scheme in `z` and `z²` (all terms of each polynomial have one sign, so
+    // the order costs no accuracy).
+    let z2 = z * z;
+    let p = (z * ATAN_P[3] + ATAN_P[4]) + z2 * ((z * ATAN_P[1] + ATAN_P[2]) + z2 * ATAN_P[0]);
+    let q = (z * ATAN_Q[3] + ATAN_Q[4]) + z2 * ((z * ATAN_Q[1] + ATAN_Q[2]) + z2 * (z + ATAN_Q[0]));
     let a = t * (z * p / q) + t;
     let a = reduce.pick(a.k(FRAC_PI_4) + (a + 0.5 * MOREBITS), a);
     swap.pick((a.k(FRAC_PI_2) - a) + MOREBITS, a)
 }
 
-/// Taylor coefficients `1/j!` of `e^r`, `j = 0..=14`.
-const EXP_TAYLOR: [f64; 15] = [
+/// Coefficients of the degree-11 polynomial for `e^r` on `|r| ≤ ln 2 / 2`, lowest
+/// degree first: a Chebyshev fit computed in 50-digit arithmetic and rounded to `f64`
+/// (`crates/gaussian/tools/exp_fit.py`, which also measures the rounded polynomial's
+/// largest relative error: 1.7e-17).
+const EXP_POLY: [f64; 12] = [
     1.0,
     1.0,
-    1.0 / 2.0,
-    1.0 / 6.0,
-    1.0 / 24.0,
-    1.0 / 120.0,
-    1.0 / 720.0,
-    1.0 / 5040.0,
-    1.0 / 40320.0,
-    1.0 / 362_880.0,
-    1.0 / 3_628_800.0,
-    1.0 / 39_916_800.0,
-    1.0 / 479_001_600.0,
-    1.0 / 6_227_020_800.0,
-    1.0 / 87_178_291_200.0,
+    0.500_000_000_000_001_9,
+    0.166_666_666_666_666_8,
+    0.041_666_666_666_488_1,
+    0.008_333_333_333_319_601,
+    0.001_388_888_895_231_477_5,
+    0.000_198_412_698_900_471_13,
+    2.480_148_548_232_849_4e-5,
+    2.755_724_091_857_897e-6,
+    2.763_263_963_904_103e-7,
+    2.511_003_760_596_377_7e-8,
 ];
 
 /// `e^x = 2^k e^r` for `x ∈ [−708, 0]` (module docs), returned as `(e^r, shifted)`:
@@ -256,10 +268,18 @@ fn exp_parts<S: Simd>(x: V<S>) -> (V<S>, V<S>) {
     let shifted = x * std::f64::consts::LOG2_E + ROUND_SHIFTER;
     let k = shifted - ROUND_SHIFTER;
     let r = (x - k * LN2_HI) - k * LN2_LO;
-    let mut e = r.k(EXP_TAYLOR[14]);
-    for j in (0..14).rev() {
-        e = e * r + EXP_TAYLOR[j];
-    }
+    // Estrin's scheme: pairs `c_2i + c_2i+1 r`, then pairs of those in `r²`, then in
+    // `r⁴`, `r⁸`: a dependency chain of a few operations instead of Horner's 22 (every
+    // partial sum is positive on `|r| ≤ ln 2/2`, so the order costs no accuracy). No
+    // closure for the pairs: it would be compiled outside the instruction-set build.
+    let c = &EXP_POLY;
+    let r2 = r * r;
+    let r4 = r2 * r2;
+    let r8 = r4 * r4;
+    let b0 = (r * c[1] + c[0]) + r2 * (r * c[3] + c[2]);
+    let b1 = (r * c[5] + c[4]) + r2 * (r * c[7] + c[6]);
+    let b2 = (r * c[9] + c[8]) + r2 * (r * c[11] + c[10]);
+    let e = (b0 + r4 * b1) + r8 * b2;
     (e, shifted)
 }
 
@@ -445,9 +465,12 @@ impl DistributionModel {
         for (d, o) in dirs.chunks(LANES).zip(out.chunks_mut(LANES)) {
             // Structure of arrays, padded with the zenith (a direction every lane can
             // compute).
-            for i in 0..LANES {
-                let r = d.get(i).copied().unwrap_or_else(Vec3::z);
+            // (Two plain loops: an `Option` per lane cost 7 % of the kernel's time.)
+            for (i, r) in d.iter().enumerate() {
                 (buf.x[i], buf.y[i], buf.z[i]) = (r.x, r.y, r.z);
+            }
+            for i in d.len()..LANES {
+                (buf.x[i], buf.y[i], buf.z[i]) = (0.0, 0.0, 1.0);
             }
             self.batch_block(simd, inc, s, d, buf);
             o.copy_from_slice(&buf.out[..d.len()]);
@@ -494,8 +517,9 @@ impl DistributionModel {
                 let h_y = yn - k1y;
                 let h_z = c - k1z;
                 let r = (h_x * h_x + h_y * h_y).sqrt();
-                let max = V::splat(simd, f64::MAX);
-                let finite = x.abs().le(max).and(y.abs().le(max)).and(z.abs().le(max));
+                // A non-finite component makes the sum infinite or NaN (so does an
+                // overflowing sum of huge components, which the scalar path then takes).
+                let finite = (x + y + z).abs().le(V::splat(simd, f64::MAX));
                 let is_zero = z.gt(zero_v).and(h_z.gt(zero_v)).not();
                 let to_scalar = finite.not().or(h_z.lt(r * NEAR_HORIZON));
                 (hx[j], hy[j], hz[j], c2[j], rho[j]) = (h_x.1, h_y.1, h_z.1, c.1, r.1);
@@ -504,9 +528,14 @@ impl DistributionModel {
                 scalar[j] = to_scalar.ones().1;
             }
         }
-        // Pass 2: the density p2 of the normal.
+        // Pass 2: the density p2 of the normal, as `p2_scale · buf.p2` (the Gaussian's
+        // constant factor is applied with the other constants of pass 4).
+        let p2_scale = match s.density {
+            Density::Gaussian { norm, .. } => norm,
+            Density::Table => 1.0,
+        };
         match s.density {
-            Density::Gaussian { k, norm } => {
+            Density::Gaussian { k, .. } => {
                 {
                     let (rho, _) = S::as_simd_f64s(&buf.rho);
                     let (hz, _) = S::as_simd_f64s(&buf.hz);
@@ -524,7 +553,7 @@ impl DistributionModel {
                     }
                 }
                 for i in 0..LANES {
-                    buf.p2[i] = norm * (buf.p2[i] * pow2_from_shifted(buf.shifted[i]));
+                    buf.p2[i] *= pow2_from_shifted(buf.shifted[i]);
                 }
             }
             Density::Table => {
@@ -561,6 +590,14 @@ impl DistributionModel {
         if let Some((cu, cv)) = s.columns {
             let [s0x, s0y] = s.s0;
             let [p1x, p1y, p1z] = s.p1;
+            // Constant factors folded once per block (a few ulp from multiplying them
+            // in per lane; every factor is positive).
+            let (tsc, tpc) = (s.ts2 * cu, s.tp2 * cv);
+            let num_k =
+                s.num_const * p2_scale * if s.exit_fresnel { s.four_n2 } else { n } / s.den_const;
+            // The perfect conductor (`|rs|² = |rp|² = 1` exactly): the products with 1
+            // are left out, which gives the same bits.
+            let unit_flake = matches!(s.flake, Some((a, b, _)) if a == 1.0 && b == 1.0);
             let (x, _) = S::as_simd_f64s(&buf.x);
             let (y, _) = S::as_simd_f64s(&buf.y);
             let (z, _) = S::as_simd_f64s(&buf.z);
@@ -603,31 +640,36 @@ impl DistributionModel {
                 let rc2 = sox * cx + soy * cy;
                 let rd2 = sox * qx + soy * qy;
                 let (a, b, g, d) = (rc2 * rc1, rd2 * rd1, rc2 * rd1, rd2 * rc1);
-                let (ab, gd) = (x2 * a * b, x2 * g * d);
+                // `a b = g d` (both are rc1 rc2 rd1 rd2).
+                let ab = x2 * a * b;
+                let gd = ab;
                 let (aa, bb, gg, dd) = (a * a, b * b, g * g, d * d);
-                let b00 = big_rs * aa + big_rp * bb - ab;
-                let b11 = big_rp * aa + big_rs * bb - ab;
-                let b01 = big_rs * gg + big_rp * dd + gd;
-                let b10 = big_rs * dd + big_rp * gg + gd;
+                let (b00, b01, b10, b11) = if unit_flake {
+                    let (b00, b01) = (aa + bb - ab, gg + dd + gd);
+                    (b00, b01, b01, b00)
+                } else {
+                    (
+                        big_rs * aa + big_rp * bb - ab,
+                        big_rs * gg + big_rp * dd + gd,
+                        big_rs * dd + big_rp * gg + gd,
+                        big_rp * aa + big_rs * bb - ab,
+                    )
+                };
                 // Columns: s input (b00, b10), p input (b01, b11); rows s, p.
-                let s_row = b00 * s.ts2 * cu + b01 * s.tp2 * cv;
-                let p_row = b10 * s.ts2 * cu + b11 * s.tp2 * cv;
+                let s_row = b00 * tsc + b01 * tpc;
+                let p_row = b10 * tsc + b11 * tpc;
                 // f = ½ (k1_z r_z / (k_in,z c2)) K² (u_s² s_row + u_p² p_row) p2/⟨cos θn⟩
                 //     / (4n² cos θt c2): with Fresnel, u² = (2n c2)²/e², whose c2²
                 // cancels the two c2 of the denominator; lossless, u² = n c2/r_z.
                 let es = c2i * n + z;
                 let ep = c2i + z * n;
-                let (rows, num_extra, den_extra) = if s.exit_fresnel {
-                    (
-                        ep * ep * s_row + es * es * p_row,
-                        one.k(s.four_n2),
-                        es * es * (ep * ep),
-                    )
+                let (rows, den_extra) = if s.exit_fresnel {
+                    (ep * ep * s_row + es * es * p_row, es * es * (ep * ep))
                 } else {
-                    (s_row + p_row, one.k(n), z * c2i)
+                    (s_row + p_row, z * c2i)
                 };
-                let mut num = z * s.num_const * rows * V(simd, p2[j]) * num_extra;
-                let mut den = rho_out2 * s.den_const * (c2n * c2n) * den_extra;
+                let mut num = z * num_k * rows * V(simd, p2[j]);
+                let mut den = rho_out2 * (c2n * c2n) * den_extra;
                 if s.printed {
                     num = num * c2i;
                     den = den * z;
@@ -644,8 +686,8 @@ impl DistributionModel {
                 let c2e = (s.n2m1 + r.z * r.z).max(0.0).sqrt() / n;
                 let k2 = Vec3::new(r.x / n, r.y / n, c2e);
                 let factor = self.path_factor(inc, &h, self.obliquity(inc, &h), &k2, &r);
-                let mut f =
-                    factor * buf.p2[i] * self.inv_mean_cos() / (4.0 * n * n * inc.cos_t * c2e);
+                let mut f = factor * (p2_scale * buf.p2[i]) * self.inv_mean_cos()
+                    / (4.0 * n * n * inc.cos_t * c2e);
                 if s.printed {
                     f *= c2e / r.z;
                 }
@@ -658,11 +700,25 @@ impl DistributionModel {
                 buf.out[i] *= a.factor(inc.cos_t, c2e);
             }
         }
-        for (i, r) in dirs.iter().enumerate() {
-            if buf.scalar[i] != 0.0 {
-                buf.out[i] = self.brdf(inc, r);
-            } else if buf.zero[i] != 0.0 {
-                buf.out[i] = 0.0;
+        // Zero lanes in vectors; the scalar path only in a block that has such lanes
+        // (most have none).
+        let any_scalar = {
+            let (out, _) = S::as_mut_simd_f64s(&mut buf.out);
+            let (zero, _) = S::as_simd_f64s(&buf.zero);
+            let (scalar, _) = S::as_simd_f64s(&buf.scalar);
+            let mut any = zero_v;
+            for j in 0..out.len() {
+                let is_zero = V(simd, zero[j]).eq(zero_v).not();
+                out[j] = is_zero.pick(zero_v, V(simd, out[j])).1;
+                any = V(simd, simd.max_f64s(any.1, scalar[j]));
+            }
+            simd.reduce_max_f64s(any.1) != 0.0
+        };
+        if any_scalar {
+            for (i, r) in dirs.iter().enumerate() {
+                if buf.scalar[i] != 0.0 {
+                    buf.out[i] = self.brdf(inc, r);
+                }
             }
         }
     }
