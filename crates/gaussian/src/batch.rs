@@ -591,7 +591,7 @@ impl DistributionModel {
             let [s0x, s0y] = s.s0;
             let [p1x, p1y, p1z] = s.p1;
             // Constant factors folded once per block (a few ulp from multiplying them
-            // in per lane; every factor is positive).
+            // in per lane).
             let (tsc, tpc) = (s.ts2 * cu, s.tp2 * cv);
             let num_k =
                 s.num_const * p2_scale * if s.exit_fresnel { s.four_n2 } else { n } / s.den_const;
