@@ -340,7 +340,7 @@ struct Batch<'a> {
     inc: &'a Incidence,
     setup: &'a Setup,
     dirs: &'a [Vec3],
-    out: &'a mut [f64],
+    out: &'a mut Vec<f64>,
     buf: &'a mut Buffers,
 }
 
@@ -366,7 +366,7 @@ impl DistributionModel {
     /// processor offers.
     pub fn brdf_batch(&self, inc: &Incidence, dirs: &[Vec3], out: &mut Vec<f64>) {
         out.clear();
-        out.resize(dirs.len(), 0.0);
+        out.reserve(dirs.len());
         let setup = self.batch_setup(inc);
         // The block arrays (9 KiB) are kept per thread rather than zeroed on every call:
         // every lane a block reads was written earlier in that block (`batch_block`).
@@ -450,7 +450,7 @@ impl DistributionModel {
         }
     }
 
-    /// All blocks of a batch; `out` has the length of `dirs`. Inlined into the
+    /// All blocks of a batch, appended to the empty `out`. Inlined into the
     /// instruction-set build [`pulp::Arch::dispatch`] chose.
     #[inline(always)]
     fn batch_blocks<S: Simd>(
@@ -459,10 +459,10 @@ impl DistributionModel {
         inc: &Incidence,
         s: &Setup,
         dirs: &[Vec3],
-        out: &mut [f64],
+        out: &mut Vec<f64>,
         buf: &mut Buffers,
     ) {
-        for (d, o) in dirs.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        for d in dirs.chunks(LANES) {
             // Structure of arrays, padded with the zenith (a direction every lane can
             // compute).
             // (Two plain loops: an `Option` per lane cost 7 % of the kernel's time.)
@@ -473,7 +473,7 @@ impl DistributionModel {
                 (buf.x[i], buf.y[i], buf.z[i]) = (0.0, 0.0, 1.0);
             }
             self.batch_block(simd, inc, s, d, buf);
-            o.copy_from_slice(&buf.out[..d.len()]);
+            out.extend_from_slice(&buf.out[..d.len()]);
         }
     }
 
