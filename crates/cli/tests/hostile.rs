@@ -16,6 +16,15 @@ fn run(args: &[&str]) -> Output {
     bin().args(args).output().unwrap()
 }
 
+/// The binary run with `args` and its stdout on a full disk (`/dev/full`).
+fn run_to_full_stdout(args: &[&str]) -> Output {
+    let full = fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    bin().args(args).stdout(Stdio::from(full)).output().unwrap()
+}
+
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
 }
@@ -274,15 +283,7 @@ fn a_closed_stdout_ends_quietly_and_a_full_one_is_exit_1() {
             continue;
         }
         // A full disk: exit 1 naming stdout.
-        let full = fs::OpenOptions::new()
-            .write(true)
-            .open("/dev/full")
-            .unwrap();
-        let o = bin()
-            .args(&args)
-            .stdout(Stdio::from(full))
-            .output()
-            .unwrap();
+        let o = run_to_full_stdout(&args);
         expect(&o, 1, &["stdout"]);
     }
     // A full disk behind a file name (a device: written in place, never replaced).
@@ -674,15 +675,7 @@ fn a_streamed_table_fails_cleanly_at_any_point() {
                 "theta_i_deg,theta_s_deg,phi_s_deg,aperture_deg,brdf_per_sr,reflectance,relative\n"
             }
         );
-        let full = fs::OpenOptions::new()
-            .write(true)
-            .open("/dev/full")
-            .unwrap();
-        let o = bin()
-            .args(&args)
-            .stdout(Stdio::from(full))
-            .output()
-            .unwrap();
+        let o = run_to_full_stdout(&args);
         expect(&o, 1, &["writing stdout", "No space left"]);
     }
     let mut args = grid.to_vec();
