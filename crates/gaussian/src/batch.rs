@@ -35,7 +35,7 @@
 //!   rather than as `m00 ± m01`; `a b` and `g d` of the frame rotations, both
 //!   `rc1 rc2 rd1 rd2`, are one product; the factors that do not depend on the
 //!   direction (the Gaussian's normalisation, the power factor's constants, the column
-//!   weights times the entry amplitudes) are multiplied together once per block. This
+//!   weights times the entry amplitudes) are multiplied together once per batch. This
 //!   changes the rounding by a few ulp (the sums involved have no cancellation: every
 //!   term is a non-negative power). For the perfect conductor (`|rs|² = |rp|² = 1`) the
 //!   products with 1 are left out, which changes no bit.
@@ -293,8 +293,9 @@ fn pow2_from_shifted(shifted: f64) -> f64 {
 /// How the orientation distribution gives `p2` in the kernel.
 #[derive(Debug, Clone, Copy)]
 enum Density {
-    /// Gaussian: `p2 = norm · exp(k θ²)` in the vector kernel.
-    Gaussian { k: f64, norm: f64 },
+    /// Gaussian: `p2 = norm · exp(k θ²)`, the exponential in the vector kernel and `norm`
+    /// in [`Setup::p2_scale`].
+    Gaussian { k: f64 },
     /// Tabulated: the scalar `atan2` and bin look-up per lane.
     Table,
 }
@@ -312,22 +313,24 @@ struct Setup {
     rho_in2: f64,
     /// `p1 = k1 × s0`.
     p1: [f64; 3],
-    /// Squared entry amplitudes `ts²`, `tp²`.
-    ts2: f64,
-    tp2: f64,
     /// Perfect conductor: `(|rs|², |rp|², 2 Re(rs rp*))`.
     flake: Option<(f64, f64, f64)>,
-    /// Weights of the `(s → ·)` and `(p → ·)` columns: `(1, 1)` unpolarised, `(2, 0)`
-    /// `s`, `(0, 2)` `p`; `None` for `paper`.
+    /// `|rs|² = |rp|² = 1` exactly (the perfect conductor): pass 4 leaves out the
+    /// products with 1, which gives the same bits.
+    unit_flake: bool,
+    /// The `(s → ·)` and `(p → ·)` columns' weights times the squared entry amplitudes,
+    /// `(w_s ts², w_p tp²)` with `(w_s, w_p)` = `(1, 1)` unpolarised, `(2, 0)` `s`,
+    /// `(0, 2)` `p`; `None` for `paper`.
     columns: Option<(f64, f64)>,
     exit_fresnel: bool,
     printed: bool,
-    /// `0.5 k1_z · 1/⟨cos θn⟩`, numerator constant.
-    num_const: f64,
-    /// `k_in,z · |s0|² · 4 n² cos θt`, denominator constant.
-    den_const: f64,
-    /// `(2n)²`.
-    four_n2: f64,
+    /// The direction-independent factors of pass 4's quotient in one (module docs):
+    /// `0.5 k1_z / ⟨cos θn⟩ · p2_scale · ((2n)² with the exit Fresnel factor, else n)`
+    /// over `k_in,z · |s0|² · 4 n² cos θt`.
+    num_k: f64,
+    /// The factor of `p2` that the kernel applies last: the Gaussian's `norm`, 1 for a
+    /// table.
+    p2_scale: f64,
     density: Density,
 }
 
@@ -410,24 +413,29 @@ impl DistributionModel {
                 2.0 * (rs.re * rp.re + rs.im * rp.im),
             )
         });
-        let columns = match options.transmission {
+        let weights = match options.transmission {
             Transmission::ExactUnpolarized => Some((1.0, 1.0)),
             Transmission::S => Some((2.0, 0.0)),
             Transmission::P => Some((0.0, 2.0)),
             Transmission::Paper => None,
         };
         let orientation = self.orientation();
-        let density = match orientation.gaussian_width() {
+        let (density, p2_scale) = match orientation.gaussian_width() {
             Some(w) => {
                 // The same expressions as `Orientation::gaussian`, so `k` is its
                 // `−1/(2s²)` to the bit; `p2(0) = norm · exp(−0) = norm` exactly.
                 let sigma = w.sigma();
-                Density::Gaussian {
-                    k: -0.5 / (sigma * sigma),
-                    norm: orientation.p2(0.0),
-                }
+                let k = -0.5 / (sigma * sigma);
+                (Density::Gaussian { k }, orientation.p2(0.0))
             }
-            None => Density::Table,
+            None => (Density::Table, 1.0),
+        };
+        let num_const = 0.5 * k1.z * self.inv_mean_cos();
+        let den_const = ki.z * rho_in2 * (4.0 * n * n * inc.cos_t);
+        let exit = if options.exit_fresnel {
+            (2.0 * n) * (2.0 * n)
+        } else {
+            n
         };
         Setup {
             n,
@@ -437,15 +445,13 @@ impl DistributionModel {
             s0: [s0x, s0y],
             rho_in2,
             p1,
-            ts2: ts * ts,
-            tp2: tp * tp,
             flake,
-            columns,
+            unit_flake: matches!(flake, Some((a, b, _)) if a == 1.0 && b == 1.0),
+            columns: weights.map(|(ws, wp)| ((ts * ts) * ws, (tp * tp) * wp)),
             exit_fresnel: options.exit_fresnel,
             printed: options.weighting == Weighting::PaperPrinted,
-            num_const: 0.5 * k1.z * self.inv_mean_cos(),
-            den_const: ki.z * rho_in2 * (4.0 * n * n * inc.cos_t),
-            four_n2: (2.0 * n) * (2.0 * n),
+            num_k: num_const * p2_scale * exit / den_const,
+            p2_scale,
             density,
         }
     }
@@ -528,14 +534,10 @@ impl DistributionModel {
                 scalar[j] = to_scalar.ones().1;
             }
         }
-        // Pass 2: the density p2 of the normal, as `p2_scale · buf.p2` (the Gaussian's
+        // Pass 2: the density p2 of the normal, as `s.p2_scale · buf.p2` (the Gaussian's
         // constant factor is applied with the other constants of pass 4).
-        let p2_scale = match s.density {
-            Density::Gaussian { norm, .. } => norm,
-            Density::Table => 1.0,
-        };
         match s.density {
-            Density::Gaussian { k, .. } => {
+            Density::Gaussian { k } => {
                 {
                     let (rho, _) = S::as_simd_f64s(&buf.rho);
                     let (hz, _) = S::as_simd_f64s(&buf.hz);
@@ -587,17 +589,9 @@ impl DistributionModel {
             }
         }
         // Pass 4: the path factor and the BRDF.
-        if let Some((cu, cv)) = s.columns {
+        if let Some((tsc, tpc)) = s.columns {
             let [s0x, s0y] = s.s0;
             let [p1x, p1y, p1z] = s.p1;
-            // Constant factors folded once per block (a few ulp from multiplying them
-            // in per lane).
-            let (tsc, tpc) = (s.ts2 * cu, s.tp2 * cv);
-            let num_k =
-                s.num_const * p2_scale * if s.exit_fresnel { s.four_n2 } else { n } / s.den_const;
-            // The perfect conductor (`|rs|² = |rp|² = 1` exactly): the products with 1
-            // are left out, which gives the same bits.
-            let unit_flake = matches!(s.flake, Some((a, b, _)) if a == 1.0 && b == 1.0);
             let (x, _) = S::as_simd_f64s(&buf.x);
             let (y, _) = S::as_simd_f64s(&buf.y);
             let (z, _) = S::as_simd_f64s(&buf.z);
@@ -640,18 +634,17 @@ impl DistributionModel {
                 let rc2 = sox * cx + soy * cy;
                 let rd2 = sox * qx + soy * qy;
                 let (a, b, g, d) = (rc2 * rc1, rd2 * rd1, rc2 * rd1, rd2 * rc1);
-                // `a b = g d` (both are rc1 rc2 rd1 rd2).
+                // `x2 a b`, which is also `x2 g d` (both are rc1 rc2 rd1 rd2).
                 let ab = x2 * a * b;
-                let gd = ab;
                 let (aa, bb, gg, dd) = (a * a, b * b, g * g, d * d);
-                let (b00, b01, b10, b11) = if unit_flake {
-                    let (b00, b01) = (aa + bb - ab, gg + dd + gd);
+                let (b00, b01, b10, b11) = if s.unit_flake {
+                    let (b00, b01) = (aa + bb - ab, gg + dd + ab);
                     (b00, b01, b01, b00)
                 } else {
                     (
                         big_rs * aa + big_rp * bb - ab,
-                        big_rs * gg + big_rp * dd + gd,
-                        big_rs * dd + big_rp * gg + gd,
+                        big_rs * gg + big_rp * dd + ab,
+                        big_rs * dd + big_rp * gg + ab,
                         big_rp * aa + big_rs * bb - ab,
                     )
                 };
@@ -668,7 +661,7 @@ impl DistributionModel {
                 } else {
                     (s_row + p_row, z * c2i)
                 };
-                let mut num = z * num_k * rows * V(simd, p2[j]);
+                let mut num = z * s.num_k * rows * V(simd, p2[j]);
                 let mut den = rho_out2 * (c2n * c2n) * den_extra;
                 if s.printed {
                     num = num * c2i;
@@ -686,7 +679,7 @@ impl DistributionModel {
                 let c2e = (s.n2m1 + r.z * r.z).max(0.0).sqrt() / n;
                 let k2 = Vec3::new(r.x / n, r.y / n, c2e);
                 let factor = self.path_factor(inc, &h, self.obliquity(inc, &h), &k2, &r);
-                let mut f = factor * (p2_scale * buf.p2[i]) * self.inv_mean_cos()
+                let mut f = factor * (s.p2_scale * buf.p2[i]) * self.inv_mean_cos()
                     / (4.0 * n * n * inc.cos_t * c2e);
                 if s.printed {
                     f *= c2e / r.z;
