@@ -37,8 +37,12 @@
 //!   direction (the Gaussian's normalisation, the power factor's constants, the column
 //!   weights times the entry amplitudes) are multiplied together once per batch. This
 //!   changes the rounding by a few ulp (the sums involved have no cancellation: every
-//!   term is a non-negative power). For the perfect conductor (`|rs|² = |rp|² = 1`) the
-//!   products with 1 are left out, which changes no bit.
+//!   term is a non-negative power). For the perfect conductor (`|rs|² = |rp|² = 1`,
+//!   `2 Re(rs rp*) = ∓2`, so `x2 = ∓2`) the two entries of the coherency product are
+//!   squares, `aa + bb − x2 ab = (a ± b)²` and `gg + dd + x2 gd = (g ∓ d)²` with
+//!   `ab = gd`: six operations instead of fourteen, and no cancellation where the
+//!   expanded form had one (the sum of the two entries is `(rc1² + rd1²)(rc2² + rd2²)`
+//!   either way, so the change is a few ulp of the BRDF).
 //! * `cos θ2` is `sqrt(n² − 1 + r_z²) · (1/n)` (one ulp from the scalar quotient; it
 //!   enters `h_z = cos θ2 + cos θt`, a sum of positive numbers). The transverse half
 //!   vector `r_xy/n − k1_xy` is computed exactly as in the scalar path: near specular it
@@ -57,16 +61,21 @@
 //! # Vector instructions
 //! The block kernel runs under [`pulp::Arch`], which detects AVX-512 (x86-64-v4, eight
 //! `f64` per vector) or else AVX2 + FMA (x86-64-v3, four) at run time, and otherwise
-//! runs the same generic code with one lane per vector (the baseline build). The code
-//! uses no `mul_add`, and Rust never contracts `a * b + c`; addition, multiplication,
-//! division and square root are correctly rounded in every instruction set, so all
-//! builds give the same bits. Plain loops over fixed-size arrays were not vectorised by
+//! runs the same generic code with one lane per vector (the baseline build). Rust never
+//! contracts `a * b + c`; the fused multiply-adds are explicit (pulp's `mul_add_f64s`,
+//! correctly rounded in every build: an instruction with FMA, software without) and
+//! only where no cancellation can occur: the arctangent's and the exponential's
+//! polynomials (every partial sum of one sign), and the sums of non-negative powers of
+//! pass 4 (the coherency entries, the rows, the exit denominators). The half vector,
+//! the cross product and the frame rotations keep the scalar path's own expressions.
+//! Addition, multiplication, division, square root and fused multiply-add are
+//! correctly rounded in every instruction set, so all builds give the same bits. Plain loops over fixed-size arrays were not vectorised by
 //! the compiler (checked in the assembly: scalar `vmulsd`/`vdivsd` loops), hence the
 //! explicit vectors of [`pulp::Simd`]. In the x86-64-v4 build of the bench binary
 //! (`objdump` of `pulp::x86::v4::V4::vectorize::imp_fastcall`, the function the kernel
 //! is inlined into) the vector kernel, both flake branches of pass 4 included, is
-//! 106 `vmulpd`, 56 `vaddpd`, 14 `vsubpd`, 5 `vdivpd` and 2 `vsqrtpd` on `zmm`
-//! registers; the calls to `atan2` and `exp` in that function belong to the per-lane
+//! 89 `vmulpd`, 31 `vaddpd`, 13 `vsubpd`, 26 `vfmadd`/`vfnmadd`, 5 `vdivpd` and 2
+//! `vsqrtpd` on `zmm` registers; the calls to `atan2` and `exp` in that function belong to the per-lane
 //! scalar paths above. The five divisions are `r_x/n`, `r_y/n` (computed once and kept
 //! for the frame rotations), the arctangent's ratio and rational function, and the final
 //! quotient; `perf` puts about a fifth of the kernel's time in pass 1 (two divisions
@@ -142,6 +151,23 @@ impl<S: Simd> V<S> {
     #[inline(always)]
     fn k(self, v: f64) -> Self {
         Self::splat(self.0, v)
+    }
+    /// `self · b + c`, rounded once: pulp's `mul_add_f64s` is the correctly rounded
+    /// fused multiply-add in every build (an instruction with FMA, software without),
+    /// so the builds still agree to the bit (module docs).
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        Self(self.0, self.0.mul_add_f64s(self.1, b.1, c.1))
+    }
+    /// `c − self · b`, rounded once (as [`V::mul_add`]).
+    #[inline(always)]
+    fn neg_mul_add(self, b: Self, c: Self) -> Self {
+        Self(self.0, self.0.negate_mul_add_f64s(self.1, b.1, c.1))
+    }
+    /// [`V::mul_add`] with constants `b`, `c`.
+    #[inline(always)]
+    fn mul_add_k(self, b: f64, c: f64) -> Self {
+        self.mul_add(self.k(b), self.k(c))
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
@@ -234,9 +260,15 @@ fn atan2_first_quadrant<S: Simd>(y: V<S>, x: V<S>) -> V<S> {
     // Estrin's scheme in `z` and `z²` (all terms of each polynomial have one sign, so
     // the order costs no accuracy).
     let z2 = z * z;
-    let p = (z * ATAN_P[3] + ATAN_P[4]) + z2 * ((z * ATAN_P[1] + ATAN_P[2]) + z2 * ATAN_P[0]);
-    let q = (z * ATAN_Q[3] + ATAN_Q[4]) + z2 * ((z * ATAN_Q[1] + ATAN_Q[2]) + z2 * (z + ATAN_Q[0]));
-    let a = t * (z * p / q) + t;
+    let p = z2.mul_add(
+        z2.mul_add(z.k(ATAN_P[0]), z.mul_add_k(ATAN_P[1], ATAN_P[2])),
+        z.mul_add_k(ATAN_P[3], ATAN_P[4]),
+    );
+    let q = z2.mul_add(
+        z2.mul_add(z + ATAN_Q[0], z.mul_add_k(ATAN_Q[1], ATAN_Q[2])),
+        z.mul_add_k(ATAN_Q[3], ATAN_Q[4]),
+    );
+    let a = t.mul_add(z * p / q, t);
     let a = reduce.pick(a.k(FRAC_PI_4) + (a + 0.5 * MOREBITS), a);
     swap.pick((a.k(FRAC_PI_2) - a) + MOREBITS, a)
 }
@@ -276,10 +308,10 @@ fn exp_parts<S: Simd>(x: V<S>) -> (V<S>, V<S>) {
     let r2 = r * r;
     let r4 = r2 * r2;
     let r8 = r4 * r4;
-    let b0 = (r * c[1] + c[0]) + r2 * (r * c[3] + c[2]);
-    let b1 = (r * c[5] + c[4]) + r2 * (r * c[7] + c[6]);
-    let b2 = (r * c[9] + c[8]) + r2 * (r * c[11] + c[10]);
-    let e = (b0 + r4 * b1) + r8 * b2;
+    let b0 = r2.mul_add(r.mul_add_k(c[3], c[2]), r.mul_add_k(c[1], c[0]));
+    let b1 = r2.mul_add(r.mul_add_k(c[7], c[6]), r.mul_add_k(c[5], c[4]));
+    let b2 = r2.mul_add(r.mul_add_k(c[11], c[10]), r.mul_add_k(c[9], c[8]));
+    let e = r8.mul_add(b2, r4.mul_add(b1, b0));
     (e, shifted)
 }
 
@@ -315,9 +347,10 @@ struct Setup {
     p1: [f64; 3],
     /// Perfect conductor: `(|rs|², |rp|², 2 Re(rs rp*))`.
     flake: Option<(f64, f64, f64)>,
-    /// `|rs|² = |rp|² = 1` exactly (the perfect conductor): pass 4 leaves out the
-    /// products with 1, which gives the same bits.
-    unit_flake: bool,
+    /// `|rs|² = |rp|² = 1` and `2 Re(rs rp*) = ±2` exactly (the perfect conductor):
+    /// `p1` times `∓1`, the sign with which pass 4 writes the two entries of the
+    /// coherency product as squares (module docs); `None` for any other flake.
+    unit_flake: Option<[f64; 3]>,
     /// The `(s → ·)` and `(p → ·)` columns' weights times the squared entry amplitudes,
     /// `(w_s ts², w_p tp²)` with `(w_s, w_p)` = `(1, 1)` unpolarised, `(2, 0)` `s`,
     /// `(0, 2)` `p`; `None` for `paper`.
@@ -446,7 +479,13 @@ impl DistributionModel {
             rho_in2,
             p1,
             flake,
-            unit_flake: matches!(flake, Some((a, b, _)) if a == 1.0 && b == 1.0),
+            unit_flake: match flake {
+                Some((a, b, x2)) if a == 1.0 && b == 1.0 && x2.abs() == 2.0 => {
+                    let sign = -0.5 * x2;
+                    Some(p1.map(|v| sign * v))
+                }
+                _ => None,
+            },
             columns: weights.map(|(ws, wp)| ((ts * ts) * ws, (tp * tp) * wp)),
             exit_fresnel: options.exit_fresnel,
             printed: options.weighting == Weighting::PaperPrinted,
@@ -630,17 +669,22 @@ impl DistributionModel {
                 let qx = k2y * cz - c2i * cy;
                 let qy = c2i * cx - k2x * cz;
                 let rc1 = cx * s0x + cy * s0y;
-                let rd1 = cx * p1x + cy * p1y + cz * p1z;
                 let rc2 = sox * cx + soy * cy;
                 let rd2 = sox * qx + soy * qy;
-                let (a, b, g, d) = (rc2 * rc1, rd2 * rd1, rc2 * rd1, rd2 * rc1);
-                // `x2 a b`, which is also `x2 g d` (both are rc1 rc2 rd1 rd2).
-                let ab = x2 * a * b;
-                let (aa, bb, gg, dd) = (a * a, b * b, g * g, d * d);
-                let (b00, b01, b10, b11) = if s.unit_flake {
-                    let (b00, b01) = (aa + bb - ab, gg + dd + ab);
+                let (b00, b01, b10, b11) = if let Some([u1x, u1y, u1z]) = s.unit_flake {
+                    // `rd1` times ∓1, so that `aa + bb − ab = (a ± b)²` and
+                    // `gg + dd + ab = (g ∓ d)²` (module docs).
+                    let rd1 = cx * u1x + cy * u1y + cz * u1z;
+                    let u = rc2.mul_add(rc1, rd2 * rd1);
+                    let v = rd2.neg_mul_add(rc1, rc2 * rd1);
+                    let (b00, b01) = (u * u, v * v);
                     (b00, b01, b01, b00)
                 } else {
+                    let rd1 = cx * p1x + cy * p1y + cz * p1z;
+                    let (a, b, g, d) = (rc2 * rc1, rd2 * rd1, rc2 * rd1, rd2 * rc1);
+                    // `x2 a b`, which is also `x2 g d` (both are rc1 rc2 rd1 rd2).
+                    let ab = x2 * a * b;
+                    let (aa, bb, gg, dd) = (a * a, b * b, g * g, d * d);
                     (
                         big_rs * aa + big_rp * bb - ab,
                         big_rs * gg + big_rp * dd + ab,
@@ -649,15 +693,16 @@ impl DistributionModel {
                     )
                 };
                 // Columns: s input (b00, b10), p input (b01, b11); rows s, p.
-                let s_row = b00 * tsc + b01 * tpc;
-                let p_row = b10 * tsc + b11 * tpc;
+                let s_row = b00.mul_add(one.k(tsc), b01 * tpc);
+                let p_row = b10.mul_add(one.k(tsc), b11 * tpc);
                 // f = ½ (k1_z r_z / (k_in,z c2)) K² (u_s² s_row + u_p² p_row) p2/⟨cos θn⟩
                 //     / (4n² cos θt c2): with Fresnel, u² = (2n c2)²/e², whose c2²
                 // cancels the two c2 of the denominator; lossless, u² = n c2/r_z.
-                let es = c2i * n + z;
-                let ep = c2i + z * n;
+                let es = c2i.mul_add(one.k(n), z);
+                let ep = z.mul_add(one.k(n), c2i);
                 let (rows, den_extra) = if s.exit_fresnel {
-                    (ep * ep * s_row + es * es * p_row, es * es * (ep * ep))
+                    let (es2, ep2) = (es * es, ep * ep);
+                    (ep2.mul_add(s_row, es2 * p_row), es2 * ep2)
                 } else {
                     (s_row + p_row, z * c2i)
                 };
