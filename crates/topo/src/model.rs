@@ -518,7 +518,7 @@ impl TopoModel {
     }
 
     /// Local normals of one map (module [`crate::normals`]): `None` where any point of
-    /// the `k × k` window is invalid or outside the map. O(1) per pixel.
+    /// the `k × k` window is invalid or outside the map. O(k) additions per pixel.
     ///
     /// # Errors
     /// [`TopoError::WindowTooLarge`] when the window does not fit in the map.
@@ -535,7 +535,7 @@ impl TopoModel {
         // The tiles are row-major, so the tiles of one band of rows are consecutive and
         // write only that band's rows: each band fills its own slice of the output in
         // place (no per-pixel records gathered and copied afterwards). The tiles, and so
-        // the running sums and their rounding, are those of `run`.
+        // the window sums and their rounding, are those of `run`.
         let tiles = self.tiles(map);
         let nx = map.nx();
         let band_rows = tiles.first().map_or(map.ny(), |t| t.r1 - t.r0);
@@ -813,7 +813,7 @@ pub(crate) fn aperture_index(apertures: &[f64], cone: &Cone) -> usize {
         .unwrap_or(0)
 }
 
-/// Reusable buffers of [`trace_tile`]: the normals' running sums, a chunk of slopes and
+/// Reusable buffers of [`trace_tile`]: the normals' window sums, a chunk of slopes and
 /// what [`trace_chunk`] keeps per normal of a chunk.
 #[derive(Debug, Default)]
 struct TraceScratch {

@@ -16,11 +16,12 @@
 //! normal equations are diagonal:
 //! `a = Σ u z / Σ u² = Σ i z / (k · dx · S)` and `b = Σ j z / (k · dy · S)` with
 //! `S = Σ_{i=−h}^{h} i² = h(h+1)(2h+1)/3`.
-//! The sums are separable: a row pass keeps a running box sum `Σ_i z` and a running first
-//! moment `Σ_i i z` along each row (updated in O(1) per step), a column pass does the same
-//! down each column, so a normal costs O(1) per pixel whatever `k`. Running sums restart on
-//! every tile (a few hundred pixels at most), which bounds the rounding drift, and heights
-//! are taken relative to a reference height of the tile to avoid cancellation.
+//! The sums are separable: a row pass forms each row's box sum `Σ_i z` and first moment
+//! `Σ_i i z` (from the differences of symmetric pairs, `Σ_{i=1}^{h} i (z(+i) − z(−i))`)
+//! for every column of a tile, a column pass combines `k` rows of them, so a normal
+//! costs `O(k)` additions per pixel, in loops over columns that the compiler vectorises.
+//! The sums are direct, not running, so nothing drifts along a tile, and heights are
+//! taken relative to a reference height of the tile to avoid cancellation.
 
 use flakescatter_optics::{UnitVec3, Vec3};
 use flakescatter_stats::HeightMap;
@@ -132,14 +133,20 @@ pub(crate) struct Scratch {
     moment: Vec<f64>,
     bad: Vec<u32>,
     z: Vec<f64>,
+    z_bad: Vec<u32>,
+    col_m: Vec<f64>,
+    col_js: Vec<f64>,
+    col_bad: Vec<u32>,
 }
 
 /// The slopes `(a, b)` of the `k × k` window (`k = 2h + 1`) centred on `(row, col)`,
-/// summed directly (no running sums) from the differences of symmetric pairs:
-/// `a = Σ_j Σ_{i=1}^{h} i (z(j, col + i) − z(j, col − i)) / (k dx S)`, and `b` alike. Rounding is then of the order of the height differences inside the window
-/// times 1e-16, whatever the map's size or orientation (the running sums of
-/// [`tile_slopes`] drift by up to about 1e-11 rad over a tile of a deep film). The
-/// caller guarantees that the whole window is valid and inside the map.
+/// summed directly from the differences of symmetric pairs, pixel by pixel:
+/// `a = Σ_j Σ_{i=1}^{h} i (z(j, col + i) − z(j, col − i)) / (k dx S)`, and `b` alike.
+/// Rounding is of the order of the height differences inside the window times 1e-16,
+/// whatever the map's size or orientation, and does not depend on the tiling (the
+/// absolute heights, not heights relative to a tile's reference, and the sums in
+/// another order than [`tile_slopes`]'s). The caller guarantees that the whole window
+/// is valid and inside the map.
 pub(crate) fn direct_slopes(map: &HeightMap, h: usize, row: usize, col: usize) -> (f64, f64) {
     let nx = map.nx();
     let z = map.heights();
@@ -169,6 +176,19 @@ pub(crate) fn direct_slopes(map: &HeightMap, h: usize, row: usize, col: usize) -
 
 /// Calls `emit(row, col, a, b)` for every usable pixel of `rect`, in row-major order,
 /// and returns how many there were. `k = 2h + 1` is the window side.
+///
+/// Two passes over the tile's region (output rectangle plus the window halo), each a
+/// direct sum over the window rather than a running one, so that the loops over
+/// columns have no dependence from one pixel to the next and vectorise: the row pass
+/// gives, per region row and output column, the box sum `Σ_i z`, the first moment
+/// `Σ_{i=1}^{h} i (z(+i) − z(−i))` and the invalid count; the column pass sums the
+/// moments (for `a`), the rows' box sums paired `Σ_{j=1}^{h} j (S(+j) − S(−j))` (for
+/// `b`) and the counts over the window's rows. Heights are relative to a reference of
+/// the region, and the pair differences keep rounding to the order of the height
+/// differences inside the window times 1e-16. Both passes run under
+/// [`pulp::Arch::dispatch`], so the compiler vectorises them for the processor's
+/// instruction set (additions and multiplications only, no fused multiply–add: the
+/// same bits in every build); `emit` is called outside it.
 pub(crate) fn tile_slopes(
     map: &HeightMap,
     h: usize,
@@ -186,120 +206,164 @@ pub(crate) fn tile_slopes(
     if or0 >= or1 || oc0 >= oc1 {
         return 0;
     }
+    let out = Rect {
+        r0: or0,
+        r1: or1,
+        c0: oc0,
+        c1: oc1,
+    };
+    pulp::Arch::new().dispatch(TileSums {
+        map,
+        h,
+        out,
+        scratch: &mut *scratch,
+    });
     let k = 2 * h + 1;
     let hf = h as f64;
     let s = (hf * (hf + 1.0) * (2.0 * hf + 1.0)) / 3.0;
     let inv_x = 1.0 / (k as f64 * map.dx() * s);
     let inv_y = 1.0 / (k as f64 * map.dy() * s);
-    // Region read: the output rectangle plus the window halo.
-    let (rr0, rr1) = (or0 - h, or1 + h);
-    let (rc0, rc1) = (oc0 - h, oc1 + h);
-    let rw = rc1 - rc0;
-    let rh = rr1 - rr0;
     let ow = oc1 - oc0;
-    let heights = map.heights();
-    let valid = map.valid();
-
-    // Heights relative to a reference of the region; invalid points contribute 0 and
-    // are counted in `bad`.
-    let mut zref = 0.0;
-    'find: for r in rr0..rr1 {
-        for c in rc0..rc1 {
-            let i = r * nx + c;
-            if valid[i] {
-                zref = heights[i];
-                break 'find;
-            }
-        }
-    }
-    scratch.z.clear();
-    scratch.z.resize(rw, 0.0);
-    scratch.box_sum.clear();
-    scratch.box_sum.resize(rh * ow, 0.0);
-    scratch.moment.clear();
-    scratch.moment.resize(rh * ow, 0.0);
-    scratch.bad.clear();
-    scratch.bad.resize(rh * ow, 0);
-
-    // Row pass: running Σ_i z, Σ_i i z and invalid count over columns c-h..=c+h.
-    for (lr, r) in (rr0..rr1).enumerate() {
-        let base = r * nx + rc0;
-        let mut nbad_row = 0u32;
-        for (j, zz) in scratch.z.iter_mut().enumerate() {
-            let i = base + j;
-            if valid[i] {
-                *zz = heights[i] - zref;
-            } else {
-                *zz = 0.0;
-                nbad_row += 1;
-            }
-        }
-        let z = &scratch.z;
-        let out = lr * ow;
-        if nbad_row as usize == rw {
-            scratch.bad[out..out + ow].fill(k as u32);
-            continue;
-        }
-        // First window (centre at local column h) directly.
-        let (mut sum, mut mom, mut bad) = (0.0, 0.0, 0u32);
-        for t in 0..k {
-            sum += z[t];
-            mom += (t as f64 - hf) * z[t];
-            bad += u32::from(!valid[base + t]);
-        }
-        scratch.box_sum[out] = sum;
-        scratch.moment[out] = mom;
-        scratch.bad[out] = bad;
-        for oc in 1..ow {
-            // Window centre moves from local column oc+h-1 to oc+h.
-            let leaving = oc - 1;
-            let entering = oc - 1 + k;
-            // M(c+1) = M(c) + h z[c-h] + (h+1) z[c+h+1] - S(c+1).
-            sum += z[entering] - z[leaving];
-            mom += hf * z[leaving] + (hf + 1.0) * z[entering] - sum;
-            bad = bad + u32::from(!valid[base + entering]) - u32::from(!valid[base + leaving]);
-            scratch.box_sum[out + oc] = sum;
-            scratch.moment[out + oc] = mom;
-            scratch.bad[out + oc] = bad;
-        }
-    }
-
-    // Column pass: Σ_j of the row moments (for a), Σ_j j·(row sums) (for b), Σ_j bad.
-    // Done for all columns at once, row by row, so memory is walked contiguously.
-    let mut col_m = vec![0.0; ow];
-    let mut col_s = vec![0.0; ow];
-    let mut col_js = vec![0.0; ow];
-    let mut col_bad = vec![0u32; ow];
     let mut emitted = 0;
-    for t in 0..k {
-        let row = t * ow;
-        let jt = t as f64 - hf;
-        for oc in 0..ow {
-            col_m[oc] += scratch.moment[row + oc];
-            col_s[oc] += scratch.box_sum[row + oc];
-            col_js[oc] += jt * scratch.box_sum[row + oc];
-            col_bad[oc] += scratch.bad[row + oc];
-        }
-    }
     for (o, r) in (or0..or1).enumerate() {
-        if o > 0 {
-            let leaving = (o - 1) * ow;
-            let entering = (o - 1 + k) * ow;
-            for oc in 0..ow {
-                let sl = scratch.box_sum[leaving + oc];
-                let se = scratch.box_sum[entering + oc];
-                col_m[oc] += scratch.moment[entering + oc] - scratch.moment[leaving + oc];
-                col_s[oc] += se - sl;
-                col_js[oc] += hf * sl + (hf + 1.0) * se - col_s[oc];
-                col_bad[oc] = col_bad[oc] + scratch.bad[entering + oc] - scratch.bad[leaving + oc];
-            }
-        }
-        for oc in 0..ow {
-            if col_bad[oc] == 0 {
-                emit(r, oc0 + oc, col_m[oc] * inv_x, col_js[oc] * inv_y);
+        let row = o * ow..(o + 1) * ow;
+        let (m, js, nbad) = (
+            &scratch.col_m[row.clone()],
+            &scratch.col_js[row.clone()],
+            &scratch.col_bad[row],
+        );
+        for (oc, ((&m, &js), &nbad)) in m.iter().zip(js).zip(nbad).enumerate() {
+            if nbad == 0 {
+                emit(r, oc0 + oc, m * inv_x, js * inv_y);
                 emitted += 1;
             }
         }
     }
     emitted
+}
+
+/// The window sums of one tile ([`tile_slopes`]), handed to [`pulp::Arch::dispatch`]
+/// so that [`tile_sums`] is compiled for the processor's instruction set.
+struct TileSums<'a> {
+    map: &'a HeightMap,
+    h: usize,
+    /// The output pixels (whole windows inside the map).
+    out: Rect,
+    scratch: &'a mut Scratch,
+}
+
+impl pulp::WithSimd for TileSums<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        tile_sums(self.map, self.h, self.out, self.scratch);
+    }
+}
+
+/// Fills `scratch.col_m`, `col_js` and `col_bad` (row-major over `out`) with each
+/// output pixel's `Σ i z`, `Σ j z` and invalid count over its window ([`tile_slopes`]).
+#[inline(always)]
+fn tile_sums(map: &HeightMap, h: usize, out: Rect, scratch: &mut Scratch) {
+    let nx = map.nx();
+    let k = 2 * h + 1;
+    // Region read: the output rectangle plus the window halo.
+    let (rr0, rr1) = (out.r0 - h, out.r1 + h);
+    let (rc0, rc1) = (out.c0 - h, out.c1 + h);
+    let rw = rc1 - rc0;
+    let rh = rr1 - rr0;
+    let ow = out.c1 - out.c0;
+    let oh = out.r1 - out.r0;
+    let heights = map.heights();
+    let valid = map.valid();
+
+    // Heights relative to a reference of the region; invalid points contribute 0 and
+    // are counted in `bad`.
+    let zref = (rr0..rr1)
+        .flat_map(|r| r * nx + rc0..r * nx + rc1)
+        .find(|&i| valid[i])
+        .map_or(0.0, |i| heights[i]);
+    let Scratch {
+        box_sum,
+        moment,
+        bad,
+        z,
+        z_bad,
+        col_m,
+        col_js,
+        col_bad,
+    } = scratch;
+    // Every element below is written before it is read, so the buffers are only
+    // resized (tiles of one size need no memset).
+    z.resize(rw, 0.0);
+    z_bad.resize(rw, 0);
+    box_sum.resize(rh * ow, 0.0);
+    moment.resize(rh * ow, 0.0);
+    bad.resize(rh * ow, 0);
+    col_m.resize(oh * ow, 0.0);
+    col_js.resize(oh * ow, 0.0);
+    col_bad.resize(oh * ow, 0);
+
+    // Row pass.
+    for (lr, r) in (rr0..rr1).enumerate() {
+        let base = r * nx + rc0;
+        let (hrow, vrow) = (&heights[base..base + rw], &valid[base..base + rw]);
+        for (((zz, zb), &v), &hv) in z.iter_mut().zip(z_bad.iter_mut()).zip(vrow).zip(hrow) {
+            *zz = if v { hv - zref } else { 0.0 };
+            *zb = u32::from(!v);
+        }
+        let span = lr * ow..(lr + 1) * ow;
+        let (sum, mom, nbad) = (
+            &mut box_sum[span.clone()],
+            &mut moment[span.clone()],
+            &mut bad[span],
+        );
+        sum.copy_from_slice(&z[..ow]);
+        nbad.copy_from_slice(&z_bad[..ow]);
+        for t in 1..k {
+            for (acc, &v) in sum.iter_mut().zip(&z[t..t + ow]) {
+                *acc += v;
+            }
+            for (acc, &v) in nbad.iter_mut().zip(&z_bad[t..t + ow]) {
+                *acc += v;
+            }
+        }
+        mom.fill(0.0);
+        for i in 1..=h {
+            let w = i as f64;
+            let (up, down) = (&z[h + i..h + i + ow], &z[h - i..h - i + ow]);
+            for ((acc, &u), &d) in mom.iter_mut().zip(up).zip(down) {
+                *acc += w * (u - d);
+            }
+        }
+    }
+
+    // Column pass, one output row at a time over all its columns.
+    for o in 0..oh {
+        let row = |t: usize| (o + t) * ow..(o + t + 1) * ow;
+        let span = o * ow..(o + 1) * ow;
+        let (cm, cjs, cbad) = (
+            &mut col_m[span.clone()],
+            &mut col_js[span.clone()],
+            &mut col_bad[span],
+        );
+        cm.copy_from_slice(&moment[row(0)]);
+        cbad.copy_from_slice(&bad[row(0)]);
+        for t in 1..k {
+            for (acc, &v) in cm.iter_mut().zip(&moment[row(t)]) {
+                *acc += v;
+            }
+            for (acc, &v) in cbad.iter_mut().zip(&bad[row(t)]) {
+                *acc += v;
+            }
+        }
+        cjs.fill(0.0);
+        for j in 1..=h {
+            let w = j as f64;
+            let (up, down) = (&box_sum[row(h + j)], &box_sum[row(h - j)]);
+            for ((acc, &u), &d) in cjs.iter_mut().zip(up).zip(down) {
+                *acc += w * (u - d);
+            }
+        }
+    }
 }
