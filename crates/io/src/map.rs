@@ -14,6 +14,7 @@
 //! [`MapFormat`] variant, a [`MapError`] variant, and one row in `FORMATS`.
 
 use std::fmt;
+use std::io::{Read, Seek};
 use std::path::{Path, PathBuf};
 
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
@@ -473,7 +474,20 @@ pub fn read_bytes(
     options: &ReadOptions,
     kind: ValueKind,
 ) -> Result<(HeightMap, MapFormat), MapError> {
-    // Check the pitch override first, so a bad option is reported as such in every format.
+    check_pitch(options)?;
+    let format = choose(bytes, extension)?;
+    check_flags(format, options, kind)?;
+    let spec = spec(format);
+    if let Some(requested) = options.channel {
+        ChannelSelector::Index(requested).resolve(&(spec.channels)(bytes, options)?)?;
+    }
+    let map = (spec.read)(bytes, options, kind)?;
+    Ok((finish(map, format, options, kind)?, format))
+}
+
+/// The pitch override, checked first, so that a bad option is reported as such in every
+/// format.
+fn check_pitch(options: &ReadOptions) -> Result<(), MapError> {
     if let Some((dx, dy)) = options.pixel_um {
         for (axis, value) in [("dx", dx), ("dy", dy)] {
             if !value.is_finite() || value <= 0.0 {
@@ -481,9 +495,12 @@ pub fn read_bytes(
             }
         }
     }
-    let format = choose(bytes, extension)?;
-    // A flag is honoured or refused: the text-only options are refused for the
-    // calibrated formats (intensity reads share the height map's flags and ignore them).
+    Ok(())
+}
+
+/// A flag is honoured or refused: the text-only options are refused for the calibrated
+/// formats (intensity reads share the height map's flags and ignore them).
+fn check_flags(format: MapFormat, options: &ReadOptions, kind: ValueKind) -> Result<(), MapError> {
     if kind == ValueKind::Height && format != MapFormat::Text {
         // GWY data fields may store no unit; the GWY reader then needs (and otherwise
         // refuses) `z_unit` itself.
@@ -502,11 +519,17 @@ pub fn read_bytes(
             });
         }
     }
-    let spec = spec(format);
-    if let Some(requested) = options.channel {
-        ChannelSelector::Index(requested).resolve(&(spec.channels)(bytes, options)?)?;
-    }
-    let mut map = (spec.read)(bytes, options, kind)?;
+    Ok(())
+}
+
+/// What every read does last: the pitch override and the metadata of how the map was
+/// read.
+fn finish(
+    mut map: HeightMap,
+    format: MapFormat,
+    options: &ReadOptions,
+    kind: ValueKind,
+) -> Result<HeightMap, MapError> {
     if let Some((dx, dy)) = options.pixel_um {
         map.set_pitch(dx, dy).map_err(MapError::Pitch)?;
         map.set_metadata("pitch_source", "option");
@@ -517,7 +540,7 @@ pub fn read_bytes(
     if kind == ValueKind::Intensity {
         map.set_metadata("values", "intensity as stored in the file (unit-less)");
     }
-    Ok((map, format))
+    Ok(map)
 }
 
 /// Reads a height map from memory, recognising the format from the content.
@@ -543,19 +566,77 @@ pub fn read_intensity_bytes(
     read_bytes(bytes, None, options, ValueKind::Intensity)
 }
 
+/// Files at least this long that start like a zip archive are read as X3P straight
+/// from the file ([`read_file`]).
+const STREAM_FILE_MIN: u64 = 8 << 20;
+
 fn read_file(
     path: &Path,
     options: &ReadOptions,
     kind: ValueKind,
 ) -> Result<(HeightMap, MapFormat), ReadMapError> {
-    let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
+    let io = |source| ReadMapError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    read_bytes(&bytes, extension(path), options, kind).map_err(|error| ReadMapError::Format {
+    };
+    let format_error = |error| ReadMapError::Format {
         path: path.to_path_buf(),
         error,
-    })
+    };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    let named = extension(path).and_then(MapFormat::from_extension);
+    let mut bytes = Vec::new();
+    if len >= STREAM_FILE_MIN && named.is_none_or(|f| f == MapFormat::X3p) {
+        // Content that starts like a zip archive scores 0 in every other format's
+        // `detect` and at least 60 in X3P's, so `choose` would pick X3P from the whole
+        // file's bytes: a large one is read as it is inflated (the inflate then also
+        // reads the file, overlapped with the checksum of the data on a second thread)
+        // instead of being read whole first.
+        let mut head = [0u8; 4];
+        file.read_exact(&mut head).map_err(io)?;
+        if x3p::is_zip(&head) {
+            file.rewind().map_err(io)?;
+            return read_x3p_file(file, options, kind)
+                .map(|map| (map, MapFormat::X3p))
+                .map_err(|e| match e {
+                    Streamed::Io(source) => io(source),
+                    Streamed::Format(error) => format_error(error),
+                });
+        }
+        bytes.extend_from_slice(&head);
+    }
+    file.read_to_end(&mut bytes).map_err(io)?;
+    read_bytes(&bytes, extension(path), options, kind).map_err(format_error)
+}
+
+/// How [`read_x3p_file`] fails.
+enum Streamed {
+    Io(std::io::Error),
+    Format(MapError),
+}
+
+/// [`read_bytes`] for an X3P file read through `file` rather than from its bytes.
+fn read_x3p_file(
+    file: std::fs::File,
+    options: &ReadOptions,
+    kind: ValueKind,
+) -> Result<HeightMap, Streamed> {
+    let format = MapFormat::X3p;
+    check_pitch(options).map_err(Streamed::Format)?;
+    check_flags(format, options, kind).map_err(Streamed::Format)?;
+    let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
+    if let Some(requested) = options.channel {
+        let channels = x3p::channels_from(&mut reader, options)
+            .map_err(|e| Streamed::Format(MapError::X3p(e)))?;
+        ChannelSelector::Index(requested)
+            .resolve(&channels)
+            .map_err(|e| Streamed::Format(e.into()))?;
+        reader.rewind().map_err(Streamed::Io)?;
+    }
+    let map =
+        x3p::read_from(reader, options, kind).map_err(|e| Streamed::Format(MapError::X3p(e)))?;
+    finish(map, format, options, kind).map_err(Streamed::Format)
 }
 
 /// Reads a height map file (X3P, SDF or plain text, recognised from the content; an

@@ -110,7 +110,28 @@ fn read_opts(
     path: Path,
     options: &ReadOptions,
 ) -> Result<(Vec<f64>, Path), X3pError> {
-    read_with(bytes, options, ValueKind::Height, path).map(|(m, p)| (m.heights().to_vec(), p))
+    read_with(
+        std::io::Cursor::new(bytes),
+        Some(bytes),
+        options,
+        ValueKind::Height,
+        path,
+    )
+    .map(|(m, p)| (m.heights().to_vec(), p))
+}
+
+/// As [`read`] with `Path::Auto`, through a reader that does not hold the archive's
+/// bytes (as for a file, [`super::read_from`]): `data.bin` can then only stream.
+fn read_streamed(bytes: &[u8]) -> Result<(Vec<f64>, Path), X3pError> {
+    let reader = std::io::BufReader::with_capacity(4096, std::io::Cursor::new(bytes));
+    read_with(
+        reader,
+        None,
+        &ReadOptions::default(),
+        ValueKind::Height,
+        Path::Auto,
+    )
+    .map(|(m, p)| (m.heights().to_vec(), p))
 }
 
 /// The way the reader says it took, for a deflated float64 member of the right size.
@@ -137,6 +158,9 @@ fn float64_heights_are_known_on_every_path() {
                 assert_eq!(took, taken(path));
                 assert!(z == want, "{nx} x {ny} via {path:?}: heights differ");
             }
+            let (z, took) = read_streamed(&bytes).unwrap();
+            assert_eq!(took, Path::InPlace);
+            assert!(z == want, "{nx} x {ny} through a reader: heights differ");
         }
     }
 }
@@ -170,6 +194,9 @@ fn narrow_points_are_known_on_every_path() {
                     "{dtype} {nx} x {ny} via {path:?}: heights differ"
                 );
             }
+            let (z, took) = read_streamed(&bytes).unwrap();
+            assert_eq!(took, Path::Points, "{dtype}");
+            assert!(z == want, "{dtype} {nx} x {ny} through a reader");
         }
     }
 }
@@ -207,15 +234,21 @@ fn stored_members_stream() {
     }
 }
 
-/// Each way's error for `bytes`, all of which must be errors.
+/// Each way's error for `bytes`, all of which must be errors; the last is that of a
+/// read through a reader ([`read_streamed`], listed as `Path::Auto`).
 fn errors(bytes: &[u8]) -> Vec<(Path, X3pError)> {
-    PATHS
+    let mut all: Vec<(Path, X3pError)> = PATHS
         .iter()
         .map(|&p| match read(bytes, p) {
             Ok((_, took)) => panic!("{p:?} (took {took:?}) accepted a bad member"),
             Err(e) => (p, e),
         })
-        .collect()
+        .collect();
+    match read_streamed(bytes) {
+        Ok((_, took)) => panic!("a reader (took {took:?}) accepted a bad member"),
+        Err(e) => all.push((Path::Auto, e)),
+    }
+    all
 }
 
 /// Whether `e` is an archive error that names the data member and says `what`.

@@ -181,3 +181,76 @@ fn files_round_trip_and_valid_bin_only_when_needed() {
     let wide = HeightMap::new(65536, 1, 1.0, 1.0, vec![0.0; 65536]).unwrap();
     assert!(sdf::write_sdf_binary(&wide, ValueKind::Height).is_err());
 }
+
+/// A file of 8 MiB or more that starts like a zip archive is read as X3P straight from
+/// the file (inflated as it is read) rather than read whole first: the same map, the
+/// same metadata and the same errors as reading its bytes, whatever the extension
+/// (`x3p`, none, one no format claims). The reference is the written map itself.
+#[test]
+fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
+    let (nx, ny) = (1200, 1000);
+    // Incompressible heights (random mantissas), so the file is about 9.6 MB.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let z: Vec<f64> = (0..nx * ny)
+        .map(|i| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            if i % 1013 == 0 {
+                f64::NAN
+            } else {
+                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            }
+        })
+        .collect();
+    let map = HeightMap::new(nx, ny, 0.25, 0.5, z).unwrap();
+    let dir = std::env::temp_dir();
+    let pid = std::process::id();
+    let x3p_path = dir.join(format!("flakescatter-io-large-{pid}.x3p"));
+    write_map(&map, &x3p_path, MapFormat::X3p).unwrap();
+    let bytes = std::fs::read(&x3p_path).unwrap();
+    assert!(bytes.len() >= 8 << 20, "{} bytes", bytes.len());
+    let (from_bytes, _) = read_map_bytes(&bytes, &ReadOptions::default()).unwrap();
+    assert_same(&map, &from_bytes);
+    let bare = dir.join(format!("flakescatter-io-large-{pid}"));
+    let other = dir.join(format!("flakescatter-io-large-{pid}.dat"));
+    let truncated = dir.join(format!("flakescatter-io-large-{pid}-cut.x3p"));
+    std::fs::write(&bare, &bytes).unwrap();
+    std::fs::write(&other, &bytes).unwrap();
+    std::fs::write(&truncated, &bytes[..bytes.len() - 1000]).unwrap();
+    for path in [&x3p_path, &bare, &other] {
+        let (back, format) = read_map(path, &ReadOptions::default()).unwrap();
+        assert_eq!(format, MapFormat::X3p);
+        assert_same(&map, &back);
+        assert_eq!(back.metadata(), from_bytes.metadata(), "{}", path.display());
+        // Options are checked as for the bytes: channel 0 exists, 1 does not, and the
+        // text-only `z_unit` is refused.
+        let channel = |c| ReadOptions {
+            channel: Some(c),
+            ..ReadOptions::default()
+        };
+        assert!(read_map(path, &channel(0)).is_ok());
+        let e = read_map(path, &channel(1)).unwrap_err().to_string();
+        let want = read_map_bytes(&bytes, &channel(1)).unwrap_err().to_string();
+        assert!(e.contains(&want), "{e} / {want}");
+        let unit = ReadOptions {
+            z_unit: Some("um".parse::<flakescatter_io::ZUnit>().unwrap()),
+            ..ReadOptions::default()
+        };
+        let e = read_map(path, &unit).unwrap_err().to_string();
+        let want = read_map_bytes(&bytes, &unit).unwrap_err().to_string();
+        assert!(e.contains(&want), "{e} / {want}");
+    }
+    // A cut archive (no central directory) is refused naming the file, with the error
+    // its bytes give.
+    let e = read_map(&truncated, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    let want = read_map_bytes(&bytes[..bytes.len() - 1000], &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(&want) && e.contains("-cut.x3p"), "{e} / {want}");
+    for path in [&x3p_path, &bare, &other, &truncated] {
+        std::fs::remove_file(path).unwrap();
+    }
+}
