@@ -567,76 +567,130 @@ pub fn read_intensity_bytes(
 }
 
 /// Files at least this long that start like a zip archive are read as X3P straight
-/// from the file ([`read_file`]).
+/// from the file ([`Source::open`]).
 const STREAM_FILE_MIN: u64 = 8 << 20;
+
+/// Where a map file is read from: its bytes in memory, or, for a large X3P file, the
+/// file itself through a buffered reader, inflated as it is read.
+pub(crate) enum Source<'a> {
+    /// The whole file's bytes and its extension.
+    Bytes {
+        bytes: &'a [u8],
+        extension: Option<&'a str>,
+    },
+    /// An X3P file of at least [`STREAM_FILE_MIN`] bytes.
+    X3pFile(std::io::BufReader<std::fs::File>),
+}
+
+impl<'a> Source<'a> {
+    /// Opens `path`: an X3P file of at least [`STREAM_FILE_MIN`] bytes whose extension
+    /// names X3P or no format stays a file; any other file is read into `buf`.
+    ///
+    /// Content that starts like a zip archive scores 0 in every other format's `detect`
+    /// and at least 60 in X3P's, so [`choose`] would pick X3P from the whole file's
+    /// bytes: such a file is read as it is inflated (the inflate then reads the file,
+    /// overlapped with the checksum of the data on a second thread) instead of being
+    /// read whole first, and its bytes are never held.
+    pub(crate) fn open(path: &'a Path, buf: &'a mut Vec<u8>) -> std::io::Result<Self> {
+        let mut file = std::fs::File::open(path)?;
+        let len = file.metadata()?.len();
+        let extension = extension(path);
+        let named = extension.and_then(MapFormat::from_extension);
+        buf.clear();
+        if len >= STREAM_FILE_MIN && named.is_none_or(|f| f == MapFormat::X3p) {
+            let mut head = [0u8; 4];
+            file.read_exact(&mut head)?;
+            if x3p::is_zip(&head) {
+                file.rewind()?;
+                return Ok(Self::X3pFile(std::io::BufReader::with_capacity(
+                    1 << 20,
+                    file,
+                )));
+            }
+            buf.extend_from_slice(&head);
+        }
+        file.read_to_end(buf)?;
+        Ok(Self::Bytes {
+            bytes: buf,
+            extension,
+        })
+    }
+
+    /// The file's channels and format, as [`list_channels_bytes`] gives them.
+    pub(crate) fn channels(
+        &mut self,
+        options: &ReadOptions,
+    ) -> Result<(Vec<Channel>, MapFormat), MapError> {
+        match self {
+            Self::Bytes { bytes, extension } => list_channels_bytes(bytes, *extension, options),
+            Self::X3pFile(reader) => {
+                rewind(reader)?;
+                let channels = x3p::channels_from(&mut *reader, options).map_err(MapError::X3p)?;
+                Ok((channels, MapFormat::X3p))
+            }
+        }
+    }
+
+    /// The map, as [`read_bytes`] gives it.
+    pub(crate) fn read(
+        &mut self,
+        options: &ReadOptions,
+        kind: ValueKind,
+    ) -> Result<(HeightMap, MapFormat), MapError> {
+        match self {
+            Self::Bytes { bytes, extension } => read_bytes(bytes, *extension, options, kind),
+            Self::X3pFile(_) => {
+                check_pitch(options)?;
+                check_flags(MapFormat::X3p, options, kind)?;
+                if let Some(requested) = options.channel {
+                    let (channels, _) = self.channels(options)?;
+                    ChannelSelector::Index(requested).resolve(&channels)?;
+                }
+                self.read_x3p(options, kind)
+            }
+        }
+    }
+
+    /// [`Source::read`] of an [`Source::X3pFile`] whose channel has been checked.
+    fn read_x3p(
+        &mut self,
+        options: &ReadOptions,
+        kind: ValueKind,
+    ) -> Result<(HeightMap, MapFormat), MapError> {
+        let Self::X3pFile(reader) = self else {
+            unreachable!("only called for an X3P file")
+        };
+        rewind(reader)?;
+        let map = x3p::read_from(&mut *reader, options, kind).map_err(MapError::X3p)?;
+        Ok((finish(map, MapFormat::X3p, options, kind)?, MapFormat::X3p))
+    }
+}
+
+/// Back to the start of a file read more than once ([`Source`]).
+fn rewind(reader: &mut std::io::BufReader<std::fs::File>) -> Result<(), MapError> {
+    reader.rewind().map_err(|e| {
+        MapError::X3p(X3pError::Zip(format!(
+            "cannot go back to the start of the file: {e}"
+        )))
+    })
+}
 
 fn read_file(
     path: &Path,
     options: &ReadOptions,
     kind: ValueKind,
 ) -> Result<(HeightMap, MapFormat), ReadMapError> {
-    let io = |source| ReadMapError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let format_error = |error| ReadMapError::Format {
-        path: path.to_path_buf(),
-        error,
-    };
-    let mut file = std::fs::File::open(path).map_err(io)?;
-    let len = file.metadata().map_err(io)?.len();
-    let named = extension(path).and_then(MapFormat::from_extension);
-    let mut bytes = Vec::new();
-    if len >= STREAM_FILE_MIN && named.is_none_or(|f| f == MapFormat::X3p) {
-        // Content that starts like a zip archive scores 0 in every other format's
-        // `detect` and at least 60 in X3P's, so `choose` would pick X3P from the whole
-        // file's bytes: a large one is read as it is inflated (the inflate then also
-        // reads the file, overlapped with the checksum of the data on a second thread)
-        // instead of being read whole first.
-        let mut head = [0u8; 4];
-        file.read_exact(&mut head).map_err(io)?;
-        if x3p::is_zip(&head) {
-            file.rewind().map_err(io)?;
-            return read_x3p_file(file, options, kind)
-                .map(|map| (map, MapFormat::X3p))
-                .map_err(|e| match e {
-                    Streamed::Io(source) => io(source),
-                    Streamed::Format(error) => format_error(error),
-                });
-        }
-        bytes.extend_from_slice(&head);
-    }
-    file.read_to_end(&mut bytes).map_err(io)?;
-    read_bytes(&bytes, extension(path), options, kind).map_err(format_error)
-}
-
-/// How [`read_x3p_file`] fails.
-enum Streamed {
-    Io(std::io::Error),
-    Format(MapError),
-}
-
-/// [`read_bytes`] for an X3P file read through `file` rather than from its bytes.
-fn read_x3p_file(
-    file: std::fs::File,
-    options: &ReadOptions,
-    kind: ValueKind,
-) -> Result<HeightMap, Streamed> {
-    let format = MapFormat::X3p;
-    check_pitch(options).map_err(Streamed::Format)?;
-    check_flags(format, options, kind).map_err(Streamed::Format)?;
-    let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
-    if let Some(requested) = options.channel {
-        let channels = x3p::channels_from(&mut reader, options)
-            .map_err(|e| Streamed::Format(MapError::X3p(e)))?;
-        ChannelSelector::Index(requested)
-            .resolve(&channels)
-            .map_err(|e| Streamed::Format(e.into()))?;
-        reader.rewind().map_err(Streamed::Io)?;
-    }
-    let map =
-        x3p::read_from(reader, options, kind).map_err(|e| Streamed::Format(MapError::X3p(e)))?;
-    finish(map, format, options, kind).map_err(Streamed::Format)
+    let mut buf = Vec::new();
+    Source::open(path, &mut buf)
+        .map_err(|source| ReadMapError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .read(options, kind)
+        .map_err(|error| ReadMapError::Format {
+            path: path.to_path_buf(),
+            error,
+        })
 }
 
 /// Reads a height map file (X3P, SDF or plain text, recognised from the content; an

@@ -19,7 +19,7 @@ use std::str::FromStr;
 use flakescatter_stats::heightmap::HeightMap;
 use thiserror::Error;
 
-use crate::map::{MapError, MapFormat, ReadMapError, list_channels_bytes, read_bytes};
+use crate::map::{MapError, MapFormat, ReadMapError, Source};
 use crate::reader::{Channel, ReadOptions, ValueKind};
 
 /// A channel chosen by its 0-based index or its name.
@@ -217,7 +217,22 @@ pub fn read_selected_bytes(
     channel: Option<&ChannelSelector>,
     intensity: Option<&ChannelSelector>,
 ) -> Result<SelectedRead, MapError> {
-    let (channels, _) = list_channels_bytes(bytes, extension, options)?;
+    read_selected_from(
+        &mut Source::Bytes { bytes, extension },
+        options,
+        channel,
+        intensity,
+    )
+}
+
+/// [`read_selected_bytes`] of a [`Source`].
+fn read_selected_from(
+    source: &mut Source<'_>,
+    options: &ReadOptions,
+    channel: Option<&ChannelSelector>,
+    intensity: Option<&ChannelSelector>,
+) -> Result<SelectedRead, MapError> {
+    let (channels, _) = source.channels(options)?;
     let index = match channel {
         Some(s) => s.resolve(&channels)?,
         None => ChannelSelector::Index(options.channel.unwrap_or(0)).resolve(&channels)?,
@@ -228,7 +243,7 @@ pub fn read_selected_bytes(
         channel: (i != 0).then_some(i),
         ..*options
     };
-    let (map, format) = read_bytes(bytes, extension, &with(index), ValueKind::Height)?;
+    let (map, format) = source.read(&with(index), ValueKind::Height)?;
     let intensity = match intensity {
         None => None,
         Some(s) => {
@@ -240,7 +255,7 @@ pub fn read_selected_bytes(
                     available: channels,
                 }));
             }
-            let (m, _) = read_bytes(bytes, extension, &with(i), ValueKind::Intensity)?;
+            let (m, _) = source.read(&with(i), ValueKind::Intensity)?;
             Some((m, i))
         }
     };
@@ -253,7 +268,8 @@ pub fn read_selected_bytes(
     })
 }
 
-/// Reads a map file as [`read_selected_bytes`] does (the file is read once).
+/// Reads a map file as [`read_selected_bytes`] does (the file is read once; a large X3P
+/// file is read as it is inflated, never held whole).
 ///
 /// # Errors
 /// [`ReadMapError::Io`] if the file cannot be read, [`ReadMapError::Format`] naming the
@@ -265,12 +281,12 @@ pub fn read_selected(
     intensity: Option<&ChannelSelector>,
 ) -> Result<SelectedRead, ReadMapError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
+    let mut buf = Vec::new();
+    let mut source = Source::open(path, &mut buf).map_err(|source| ReadMapError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let ext = path.extension().and_then(|e| e.to_str());
-    read_selected_bytes(&bytes, ext, options, channel, intensity).map_err(|error| {
+    read_selected_from(&mut source, options, channel, intensity).map_err(|error| {
         ReadMapError::Format {
             path: path.to_path_buf(),
             error,

@@ -47,7 +47,8 @@
 //! compressed) always does, since its inflate is slow either way and streaming
 //! overlaps it with the MD5.
 //!
-//! From a file ([`read_from`], which `read_map` uses for an X3P file of 8 MiB or more)
+//! From a file ([`read_from`], which `read_map` and `read_selected` use for an X3P
+//! file of 8 MiB or more)
 //! the archive is read as it is inflated, through a buffered reader: nothing holds the
 //! file's bytes, the file is read on the inflating thread while the MD5 runs on the
 //! other, and `data.bin` always streams (the whole way needs the compressed bytes in

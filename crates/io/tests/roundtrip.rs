@@ -7,8 +7,8 @@
 //! `real_files.rs`.
 
 use flakescatter_io::{
-    MapFormat, ReadOptions, ValueKind, read_intensity_bytes, read_map, read_map_bytes, sdf, text,
-    write_map, x3p,
+    ChannelSelector, MapFormat, ReadOptions, ValueKind, read_intensity_bytes, read_map,
+    read_map_bytes, read_selected, read_selected_bytes, sdf, text, write_map, x3p,
 };
 use flakescatter_stats::heightmap::HeightMap;
 use proptest::prelude::*;
@@ -183,7 +183,8 @@ fn files_round_trip_and_valid_bin_only_when_needed() {
 }
 
 /// A file of 8 MiB or more that starts like a zip archive is read as X3P straight from
-/// the file (inflated as it is read) rather than read whole first: the same map, the
+/// the file (inflated as it is read) rather than read whole first, by `read_map` and
+/// `read_selected` (what the commands use): the same map, the
 /// same metadata and the same errors as reading its bytes, whatever the extension
 /// (`x3p`, none, one no format claims). The reference is the written map itself.
 #[test]
@@ -239,6 +240,24 @@ fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
         };
         let e = read_map(path, &unit).unwrap_err().to_string();
         let want = read_map_bytes(&bytes, &unit).unwrap_err().to_string();
+        assert!(e.contains(&want), "{e} / {want}");
+        // What the commands use: channel selectors, and an intensity channel, which an
+        // X3P file does not have apart from its heights.
+        let ext = path.extension().and_then(|e| e.to_str());
+        let z = ChannelSelector::Name("Z".into());
+        let picked = read_selected(path, &ReadOptions::default(), Some(&z), None).unwrap();
+        assert_same(&map, &picked.map);
+        assert_eq!(picked.map.metadata(), from_bytes.metadata());
+        assert_eq!((picked.format, picked.channel), (MapFormat::X3p, 0));
+        let want =
+            read_selected_bytes(&bytes, ext, &ReadOptions::default(), Some(&z), None).unwrap();
+        assert_eq!(picked.channels, want.channels);
+        let e = read_selected(path, &ReadOptions::default(), None, Some(&z))
+            .unwrap_err()
+            .to_string();
+        let want = read_selected_bytes(&bytes, ext, &ReadOptions::default(), None, Some(&z))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(&want), "{e} / {want}");
     }
     // A cut archive (no central directory) is refused naming the file, with the error
