@@ -51,10 +51,10 @@
 //! file of 8 MiB or more)
 //! the archive is read as it is inflated, through a buffered reader: nothing holds the
 //! file's bytes, the file is read on the inflating thread while the MD5 runs on the
-//! other, and `data.bin` always streams (the whole way needs the compressed bytes in
-//! memory). On the benchmark's 4096² file that took 480 ms to 406 ms (the read of the
-//! file's 134 MB into memory, about 100 ms, is gone; the streaming inflate is then the
-//! slowest step).
+//! other; the whole way, where it pays, first reads the member's compressed bytes (not
+//! the file's). On the benchmark's 4096² file (with an MD5, so streamed) that took
+//! 480 ms to 406 ms (the read of the file into memory, about 100 ms, is gone; the
+//! streaming inflate is then the slowest step).
 //!
 //! Memory: besides the file's bytes (held by the caller, unless read from a file), a read holds the float64
 //! heights, the validity mask and, on the whole way for narrower points, a buffer of
@@ -707,16 +707,22 @@ fn whole_limit(declared: u64) -> u64 {
     declared / 2 + WHOLE_SLACK
 }
 
-/// The raw deflate stream of member `name` (a slice of the archive's own bytes, so
-/// nothing is copied) and the CRC-32 the archive declares for it, when the member is
-/// deflated, not encrypted and small enough compressed ([`whole_limit`]); `None`
-/// otherwise, and when there is no such member, for the streaming path to handle (and
-/// report) as it always has.
+/// A member's raw deflate stream (borrowed from the archive's bytes or read from the
+/// archive) and the CRC-32 the archive declares for it.
+type Packed<'b> = (std::borrow::Cow<'b, [u8]>, u32);
+
+/// The raw deflate stream of member `name` and the CRC-32 the archive declares for it,
+/// when the member is deflated, not encrypted and small enough compressed
+/// ([`whole_limit`]); `None` otherwise, and when there is no such member, for the
+/// streaming path to handle (and report) as it always has. The stream is a slice of
+/// the archive's own `bytes` when they are in memory (nothing is copied), else it is
+/// read from the archive (`archive_len` bytes long, which bounds the buffer).
 fn whole_member<'b, R: Read + Seek>(
     archive: &mut zip::ZipArchive<R>,
-    bytes: &'b [u8],
+    bytes: Option<&'b [u8]>,
+    archive_len: u64,
     name: &str,
-) -> Result<Option<(&'b [u8], u32)>, X3pError> {
+) -> Result<Option<Packed<'b>>, X3pError> {
     let Some(index) = archive.index_for_name(name) else {
         return Ok(None);
     };
@@ -729,12 +735,21 @@ fn whole_member<'b, R: Read + Seek>(
     {
         return Ok(None);
     }
+    let crc = f.crc32();
+    let Some(bytes) = bytes else {
+        let capacity = f.compressed_size().min(archive_len);
+        let mut packed = Vec::with_capacity(usize::try_from(capacity).unwrap_or(0));
+        let mut f = f;
+        f.read_to_end(&mut packed)
+            .map_err(|e| X3pError::Zip(format!("member {name:?}: {e}")))?;
+        return Ok(Some((std::borrow::Cow::Owned(packed), crc)));
+    };
     let packed = f.data_start().and_then(|start| {
         let start = usize::try_from(start).ok()?;
         let end = start.checked_add(usize::try_from(f.compressed_size()).ok()?)?;
         bytes.get(start..end)
     });
-    Ok(packed.map(|p| (p, f.crc32())))
+    Ok(packed.map(|p| (std::borrow::Cow::Borrowed(p), crc)))
 }
 
 /// Inflates `data.bin` whole with libdeflate: `packed` (its raw deflate stream) straight
@@ -1091,7 +1106,8 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
 
 /// [`read`] of an X3P archive read through `reader` (a file, say) instead of held in
 /// memory: the members are inflated as they are read, so the archive's bytes are never
-/// held whole (`data.bin` is streamed, never inflated in one call).
+/// held whole (`data.bin`, when it is inflated in one call, is first read into a buffer
+/// of its compressed size).
 ///
 /// # Errors
 /// As [`read`], and [`X3pError::Zip`] for a read that fails.
@@ -1124,14 +1140,22 @@ enum Path {
 
 /// [`read`], with the way `data.bin` may be read; also says which way it was read.
 /// `bytes` are the archive's bytes when they are in memory (`reader` then reads them),
-/// `None` when `reader` streams them; only then can `data.bin` be inflated whole.
+/// `None` when `reader` reads them from elsewhere (a file); then a `data.bin` inflated
+/// whole is first read into a buffer of its compressed size.
 fn read_with<R: Read + Seek>(
-    reader: R,
+    mut reader: R,
     bytes: Option<&[u8]>,
     options: &ReadOptions,
     kind: ValueKind,
     path: Path,
 ) -> Result<(HeightMap, Path), X3pError> {
+    let archive_len = match bytes {
+        Some(b) => b.len() as u64,
+        None => reader
+            .seek(std::io::SeekFrom::End(0))
+            .and_then(|len| reader.rewind().map(|()| len))
+            .map_err(|e| X3pError::Zip(format!("cannot find the archive's length: {e}")))?,
+    };
     let (mut archive, prefix, xml_bytes) = open(reader)?;
     let doc = parse_xml(&xml_bytes)?;
     let root = doc.root_element();
@@ -1207,11 +1231,10 @@ fn read_with<R: Read + Seek>(
         Path::Whole => true,
         _ => false,
     };
-    let whole = match bytes {
-        Some(bytes) if try_whole && declared_size == Some(expected) => {
-            whole_member(&mut archive, bytes, &data_name)?
-        }
-        _ => None,
+    let whole = if try_whole && declared_size == Some(expected) {
+        whole_member(&mut archive, bytes, archive_len, &data_name)?
+    } else {
+        None
     };
     #[cfg(test)]
     let path = if path == Path::Stream {
@@ -1223,7 +1246,7 @@ fn read_with<R: Read + Seek>(
         path == Path::Auto && h.dtype == DataType::F64 && declared_size == Some(expected);
     let (z, read_len, computed, path) = if let Some((packed, crc32)) = whole {
         let (z, read_len, computed) = inflate_whole(
-            packed, crc32, &data_name, hash, n, h.dtype, h.z_scale, h.z_offset,
+            &packed, crc32, &data_name, hash, n, h.dtype, h.z_scale, h.z_offset,
         )?;
         (z, read_len, computed, Path::Whole)
     } else if in_place {
