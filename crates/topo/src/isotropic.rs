@@ -1379,11 +1379,25 @@ fn deposit_tile(
         hat[i] = 0.0;
         mark_odd[i] = false;
     }
-    // Pixels grouped by cell (stable: raster order within a cell), cells ascending.
-    d.pixels.sort_by_key(|p| p.0);
+    // Pixels grouped by cell (stable: raster order within a cell), cells ascending: a
+    // counting sort, each cell's count turned into its first slot, the pixels placed
+    // in the order they came.
     touched_cells.sort_unstable();
+    let mut first = 0u32;
     for &c in touched_cells.iter() {
-        d.cells.push((c, cells[c as usize]));
+        let count = cells[c as usize];
+        d.cells.push((c, count));
+        cells[c as usize] = first;
+        first += count;
+    }
+    let mut grouped = vec![(0u32, 0.0, 0.0); d.pixels.len()];
+    for &p in &d.pixels {
+        let slot = &mut cells[p.0 as usize];
+        grouped[*slot as usize] = p;
+        *slot += 1;
+    }
+    d.pixels = grouped;
+    for &c in touched_cells.iter() {
         cells[c as usize] = 0;
     }
     d
