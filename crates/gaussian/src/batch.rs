@@ -69,14 +69,15 @@
 //! pass 4 (the coherency entries, the rows, the exit denominators). The half vector,
 //! the cross product and the frame rotations keep the scalar path's own expressions.
 //! Addition, multiplication, division, square root and fused multiply-add are
-//! correctly rounded in every instruction set, so all builds give the same bits. Plain loops over fixed-size arrays were not vectorised by
-//! the compiler (checked in the assembly: scalar `vmulsd`/`vdivsd` loops), hence the
+//! correctly rounded in every instruction set, so all builds give the same bits. Plain
+//! loops over fixed-size arrays were not vectorised by the compiler (checked in the
+//! assembly: scalar `vmulsd`/`vdivsd` loops), hence the
 //! explicit vectors of [`pulp::Simd`]. In the x86-64-v4 build of the bench binary
 //! (`objdump` of `pulp::x86::v4::V4::vectorize::imp_fastcall`, the function the kernel
 //! is inlined into) the vector kernel, both flake branches of pass 4 included, is
 //! 89 `vmulpd`, 31 `vaddpd`, 13 `vsubpd`, 26 `vfmadd`/`vfnmadd`, 5 `vdivpd` and 2
-//! `vsqrtpd` on `zmm` registers; the calls to `atan2` and `exp` in that function belong to the per-lane
-//! scalar paths above. The five divisions are `r_x/n`, `r_y/n` (computed once and kept
+//! `vsqrtpd` on `zmm` registers; the calls to `atan2` and `exp` in that function
+//! belong to the per-lane scalar paths above. The five divisions are `r_x/n`, `r_y/n` (computed once and kept
 //! for the frame rotations), the arctangent's ratio and rational function, and the final
 //! quotient; `perf` puts about a fifth of the kernel's time in pass 1 (two divisions
 //! and two square roots per vector), a third in the arctangent and exponential, and

@@ -205,11 +205,11 @@ pub struct SelectedRead {
 
 /// Reads the height channel `channel` (default: `options.channel`, else the first) and,
 /// if `intensity` is given, that channel of the same bytes as an intensity map;
-/// `extension` as in [`read_bytes`].
+/// `extension` as in [`read_bytes`](crate::map::read_bytes).
 ///
 /// # Errors
 /// [`MapError::Channel`] when a selector matches no channel, several, or the intensity
-/// channel is the height channel; otherwise as [`read_bytes`].
+/// channel is the height channel; otherwise as [`read_bytes`](crate::map::read_bytes).
 pub fn read_selected_bytes(
     bytes: &[u8],
     extension: Option<&str>,

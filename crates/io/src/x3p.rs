@@ -48,19 +48,20 @@
 //! overlaps it with the MD5.
 //!
 //! From a file ([`read_from`], which `read_map` and `read_selected` use for an X3P
-//! file of 8 MiB or more)
-//! the archive is read as it is inflated, through a buffered reader: nothing holds the
-//! file's bytes, the file is read on the inflating thread while the MD5 runs on the
-//! other; the whole way, where it pays, first reads the member's compressed bytes (not
-//! the file's). On the benchmark's 4096² file (with an MD5, so streamed) that took
-//! 480 ms to 406 ms (the read of the file into memory, about 100 ms, is gone; the
-//! streaming inflate is then the slowest step).
+//! file of 8 MiB or more) the archive is read as it is inflated, through a buffered
+//! reader: nothing holds the file's bytes, the file is read on the inflating thread
+//! while the MD5 runs on the other; the whole way, where it pays, first reads the
+//! member's compressed bytes (not the file's). On the benchmark's 4096² file (with an
+//! MD5, so streamed) that took 480 ms to 406 ms (the read of the file into memory,
+//! about 100 ms, is gone; the streaming inflate is then the slowest step).
 //!
-//! Memory: besides the file's bytes (held by the caller, unless read from a file), a read holds the float64
-//! heights, the validity mask and, on the whole way for narrower points, a buffer of
-//! at most half the heights' size; streamed, a few 1 MiB chunks. The compressed-size
-//! bound keeps the whole way within 1.5 times the heights' size plus a constant even
-//! were its compressed bytes copied.
+//! Memory: besides the file's bytes (held by the caller, unless read from a file), a
+//! read holds the float64 heights, the validity mask and, on the whole way for
+//! narrower points, a buffer of at most half the heights' size (and, from a file, the
+//! member's compressed bytes); streamed, a few 1 MiB chunks. The compressed-size bound
+//! (half the member's inflated size plus 48 MiB) keeps what the whole way adds to the
+//! heights within half their size plus 48 MiB for float64 points, three quarters of it
+//! for narrower ones.
 
 use std::io::{Cursor, Read, Seek, Write};
 

@@ -184,8 +184,8 @@ pub(crate) fn direct_slopes(map: &HeightMap, h: usize, row: usize, col: usize) -
 /// `Σ_{i=1}^{h} i (z(+i) − z(−i))` and the invalid count; the column pass sums the
 /// moments (for `a`), the rows' box sums paired `Σ_{j=1}^{h} j (S(+j) − S(−j))` (for
 /// `b`) and the counts over the window's rows. Heights are relative to a reference of
-/// the region, and the pair differences keep rounding to the order of the height
-/// differences inside the window times 1e-16. Both passes run under
+/// the region, so rounding is of the order of the heights' spread over the tile times
+/// 1e-16, with nothing accumulated from one pixel to the next. Both passes run under
 /// [`pulp::Arch::dispatch`], so the compiler vectorises them for the processor's
 /// instruction set (additions and multiplications only, no fused multiply–add: the
 /// same bits in every build); `emit` is called outside it.
