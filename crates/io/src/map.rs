@@ -623,11 +623,7 @@ impl<'a> Source<'a> {
     ) -> Result<(Vec<Channel>, MapFormat), MapError> {
         match self {
             Self::Bytes { bytes, extension } => list_channels_bytes(bytes, *extension, options),
-            Self::X3pFile(reader) => {
-                rewind(reader)?;
-                let channels = x3p::channels_from(&mut *reader, options).map_err(MapError::X3p)?;
-                Ok((channels, MapFormat::X3p))
-            }
+            Self::X3pFile(reader) => Ok((x3p_file_channels(reader, options)?, MapFormat::X3p)),
         }
     }
 
@@ -639,31 +635,29 @@ impl<'a> Source<'a> {
     ) -> Result<(HeightMap, MapFormat), MapError> {
         match self {
             Self::Bytes { bytes, extension } => read_bytes(bytes, *extension, options, kind),
-            Self::X3pFile(_) => {
+            Self::X3pFile(reader) => {
+                let format = MapFormat::X3p;
                 check_pitch(options)?;
-                check_flags(MapFormat::X3p, options, kind)?;
+                check_flags(format, options, kind)?;
                 if let Some(requested) = options.channel {
-                    let (channels, _) = self.channels(options)?;
-                    ChannelSelector::Index(requested).resolve(&channels)?;
+                    ChannelSelector::Index(requested)
+                        .resolve(&x3p_file_channels(reader, options)?)?;
                 }
-                self.read_x3p(options, kind)
+                rewind(reader)?;
+                let map = x3p::read_from(&mut *reader, options, kind).map_err(MapError::X3p)?;
+                Ok((finish(map, format, options, kind)?, format))
             }
         }
     }
+}
 
-    /// [`Source::read`] of an [`Source::X3pFile`] whose channel has been checked.
-    fn read_x3p(
-        &mut self,
-        options: &ReadOptions,
-        kind: ValueKind,
-    ) -> Result<(HeightMap, MapFormat), MapError> {
-        let Self::X3pFile(reader) = self else {
-            unreachable!("only called for an X3P file")
-        };
-        rewind(reader)?;
-        let map = x3p::read_from(&mut *reader, options, kind).map_err(MapError::X3p)?;
-        Ok((finish(map, MapFormat::X3p, options, kind)?, MapFormat::X3p))
-    }
+/// The channels of an X3P file read through `reader`, from its start.
+fn x3p_file_channels(
+    reader: &mut std::io::BufReader<std::fs::File>,
+    options: &ReadOptions,
+) -> Result<Vec<Channel>, MapError> {
+    rewind(reader)?;
+    x3p::channels_from(&mut *reader, options).map_err(MapError::X3p)
 }
 
 /// Back to the start of a file read more than once ([`Source`]).

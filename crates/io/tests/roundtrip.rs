@@ -190,18 +190,15 @@ fn files_round_trip_and_valid_bin_only_when_needed() {
 #[test]
 fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
     let (nx, ny) = (1200, 1000);
-    // Incompressible heights (random mantissas), so the file is about 9.6 MB.
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    // Incompressible heights (random mantissas, from proptest's seeded generator), so
+    // the file is about 9.6 MB.
+    let mut rng = proptest::test_runner::TestRng::deterministic_rng(
+        proptest::test_runner::RngAlgorithm::ChaCha,
+    );
     let z: Vec<f64> = (0..nx * ny)
         .map(|i| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            if i % 1013 == 0 {
-                f64::NAN
-            } else {
-                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            }
+            let v = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            if i % 1013 == 0 { f64::NAN } else { v }
         })
         .collect();
     let map = HeightMap::new(nx, ny, 0.25, 0.5, z).unwrap();
