@@ -456,6 +456,40 @@ fn floor_ratio_targets_and_compute_limits() {
 }
 
 #[test]
+fn measured_compute_limit_is_the_rows_work_over_its_bench() {
+    let dir = temp_dir("measured-limit");
+    // 10⁸ bytes in 400 ms = 250 MB/s; the inflate alone in 200 ms = 500 MB/s: 50 %.
+    write_estimate(&dir, "read_x3p/4096x4096_f64", 4e8);
+    write_estimate(&dir, "read_x3p/inflate_4096x4096_f64", 2e8);
+    let row = spec("read_x3p/4096x4096_f64", None, 1e8, Unit::Bytes);
+    let rows = build_rows(&dir, &[row], None);
+    assert_eq!(rows[0].limit_per_second(), Some(Ok(5e8)));
+    let table = render_table(&rows);
+    assert_eq!(
+        table.lines().nth(2).unwrap(),
+        "| op | n | 400 ms | 250 MB/s | — | — | — | — | 500 MB/s (the streaming inflate of \
+         `data.bin` alone, measured; we reach 50 %) |"
+    );
+    // Without the limit's bench the cell says so, and the table lists what is missing.
+    std::fs::remove_dir_all(dir.join("read_x3p/inflate_4096x4096_f64")).unwrap();
+    let rows = build_rows(&dir, &[row], None);
+    assert!(matches!(rows[0].limit_per_second(), Some(Err(_))));
+    let table = render_table(&rows);
+    assert!(
+        table.lines().nth(2).unwrap().ends_with("| not measured |"),
+        "{table}"
+    );
+    assert!(
+        table.contains("limit `read_x3p/inflate_4096x4096_f64`"),
+        "{table}"
+    );
+    // A row without a limit has none.
+    let other = spec("read_x3p/floor_4096x4096_f64", None, 1e8, Unit::Bytes);
+    assert_eq!(build_rows(&dir, &[other], None)[0].limit_per_second(), None);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn peak_memory_from_gnu_time_and_its_target() {
     use xtask::bench::memory::{MemoryRow, map_bytes, parse_time_v, render};
     // The lines GNU time 1.9 `-v` prints (tab-indented), KiB.

@@ -6,6 +6,14 @@
 //! `read_x3p/floor_4096x4096_f64` is the floor `cargo xtask bench` compares the read
 //! with: reading the same file's bytes into memory and summing them once (no inflate,
 //! no parsing, no checksum).
+//!
+//! `read_x3p/inflate_4096x4096_f64` is the read's compute limit: the same file's
+//! `bindata/data.bin` inflated by the zip crate's streaming inflater (zlib-rs, the one the
+//! read streams a poorly compressed member with: this one does not compress, its
+//! level-1 deflate stream is 6 % larger than its bytes), through the same 1 MiB file
+//! buffer, into one reused 1 MiB buffer: no parsing, no checksum but the zip crate's
+//! CRC-32, no decoding, no heights vector. The read runs the MD5 and the decoding on a
+//! second thread while this inflates; it cannot be faster than this alone.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use flakescatter_io::{MapFormat, ReadOptions, read_map, write_map};
@@ -40,6 +48,26 @@ fn bench_read(c: &mut Criterion) {
         b.iter(|| {
             let bytes = std::fs::read(&path).expect("read bench file bytes");
             bytes.iter().map(|&v| u64::from(v)).sum::<u64>()
+        })
+    });
+    group.bench_function("inflate_4096x4096_f64", |b| {
+        let mut out = vec![0u8; 1 << 20];
+        b.iter(|| {
+            let file = std::fs::File::open(&path).expect("open bench file");
+            let mut archive =
+                zip::ZipArchive::new(std::io::BufReader::with_capacity(1 << 20, file))
+                    .expect("bench file is a zip archive");
+            let mut member = archive.by_name("bindata/data.bin").expect("data.bin");
+            let mut total = 0usize;
+            loop {
+                let k = std::io::Read::read(&mut member, &mut out).expect("inflate data.bin");
+                if k == 0 {
+                    break;
+                }
+                total += k;
+            }
+            assert_eq!(total, N * N * 8);
+            total
         })
     });
     group.bench_function("4096x4096_f64", |b| {

@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use super::rows::{Row, Unit};
+use super::rows::{LimitSource, Row, Unit};
 
 /// A time in seconds with a readable unit: `4.56 µs`, `6.40 ms`, `1.23 s`.
 #[must_use]
@@ -91,18 +91,24 @@ pub fn render_table(rows: &[Row]) -> String {
             .ratio()
             .map_or_else(|| "—".to_owned(), |r| format!("{}×", three_digits(r)));
         // The known limit and the share of it reached.
-        let limit = row.limit().map_or_else(
-            || "—".to_owned(),
-            |l| match row.per_second() {
+        let limit = match (row.limit(), row.limit_per_second()) {
+            (Some(l), Some(Ok(per_second))) => match row.per_second() {
                 Some(r) => format!(
                     "{} ({}; we reach {:.0} %)",
-                    format_rate(l.per_second, spec.unit),
+                    format_rate(per_second, spec.unit),
                     l.note,
-                    100.0 * r / l.per_second
+                    100.0 * r / per_second
                 ),
-                None => format!("{} ({})", format_rate(l.per_second, spec.unit), l.note),
+                None => format!("{} ({})", format_rate(per_second, spec.unit), l.note),
             },
-        );
+            (Some(l), Some(Err(why))) => {
+                if let LimitSource::Measured(id) = l.source {
+                    missing.push(format!("limit `{id}`: {why}"));
+                }
+                "not measured".to_owned()
+            }
+            _ => "—".to_owned(),
+        };
         let _ = writeln!(
             s,
             "| {} | {} | {median} | {rate} | {target} | {met} | {floor} | {ratio} | {limit} |",
@@ -130,7 +136,12 @@ pub fn render_document(rows: &[Row], machine: &[(String, String)], quick: bool) 
          file's bytes read into memory and summed), measured on the same input in the same \
          run: `time / floor` says how far an operation is from memory-bound and stays \
          comparable on a noisy machine where absolute times are not. For the synthetic \
-         layer, which has no input map, the floor is one pass over its output.\n\n",
+         layer, which has no input map, the floor is one pass over its output. The \
+         compute limit, where one is known, is the throughput of the fastest known \
+         implementation of the same work on the same core (a figure measured outside \
+         these benches), or of the step that bounds the operation done alone on the same \
+         input in the same run (a bench of its own, named in the bench's docs), with the \
+         share of it reached.\n\n",
     );
     if quick {
         s.push_str(

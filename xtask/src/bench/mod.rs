@@ -35,7 +35,9 @@ use std::time::{Instant, SystemTime};
 use anyhow::{Context, bail};
 
 pub use format::{format_rate, format_time, render_document, render_table};
-pub use rows::{BenchTarget, LIMITS, Limit, ROWS, Row, RowSpec, TARGETS, Target, Unit};
+pub use rows::{
+    BenchTarget, LIMITS, Limit, LimitSource, ROWS, Row, RowSpec, TARGETS, Target, Unit,
+};
 pub use runner::{build_rows, machine_description, read_elements, read_median, utc_date};
 use runner::{parse, run_benches, target_dir};
 

@@ -59,31 +59,49 @@ pub enum Target {
 }
 
 /// The compute limit of a row where one is known: the throughput (in the row's unit per
-/// second) of the fastest known implementation of the same work on the same core, and
-/// where that figure comes from. Printed in its own column with our share of it.
+/// second) of the fastest known implementation of the same work on the same core, or of
+/// the step that bounds the row done alone, and where that figure comes from. Printed in
+/// its own column with our share of it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limit {
     /// Criterion id of the row.
     pub id: &'static str,
-    /// Units per second.
-    pub per_second: f64,
+    /// The figure, or the bench that measures it.
+    pub source: LimitSource,
     /// Where the figure comes from.
     pub note: &'static str,
 }
 
-/// The known compute limits (issue 22: a vectorised C version of the point BRDF with
-/// AVX2 vector `exp`/`acos` runs 173–186 M evaluations/s on one core of this machine;
-/// the lower end is taken).
-pub const LIMITS: [Limit; 2] = [
+/// Where a [`Limit`]'s throughput comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LimitSource {
+    /// A figure measured outside this project's benches, units per second.
+    Known(f64),
+    /// A criterion bench (its id) of the bounding step alone, on the row's input and
+    /// in the same run: the row's work over that bench's median.
+    Measured(&'static str),
+}
+
+/// The known compute limits. Issue 22: a vectorised C version of the point BRDF with
+/// AVX2 vector `exp`/`acos` runs 173–186 M evaluations/s on one core of this machine
+/// (the lower end is taken). The X3P read cannot be faster than inflating its
+/// `data.bin` with the zip crate's streaming inflater (zlib-rs), which the read bench
+/// times alone on the same file.
+pub const LIMITS: [Limit; 3] = [
     Limit {
         id: "gaussian/point_brdf_x1000",
-        per_second: 1.73e8,
+        source: LimitSource::Known(1.73e8),
         note: "vectorised C, AVX2",
     },
     Limit {
         id: "gaussian/point_brdf_batch_x1000",
-        per_second: 1.73e8,
+        source: LimitSource::Known(1.73e8),
         note: "vectorised C, AVX2",
+    },
+    Limit {
+        id: "read_x3p/4096x4096_f64",
+        source: LimitSource::Measured("read_x3p/inflate_4096x4096_f64"),
+        note: "the streaming inflate of `data.bin` alone, measured",
     },
 ];
 
@@ -500,6 +518,9 @@ pub struct Row {
     /// Median time of the reference of a [`Target::MaxTimes`], seconds (`None` for
     /// other targets; `Err`: missing).
     pub reference_s: Option<Result<f64, String>>,
+    /// Median time of the bench of a [`LimitSource::Measured`] limit, seconds (`None`
+    /// for other rows; `Err`: missing).
+    pub limit_s: Option<Result<f64, String>>,
 }
 
 impl Row {
@@ -529,6 +550,27 @@ impl Row {
     #[must_use]
     pub fn limit(&self) -> Option<&'static Limit> {
         LIMITS.iter().find(|l| l.id == self.spec.id)
+    }
+
+    /// The throughput of the row's compute limit, units per second: `None` without a
+    /// limit, `Err` when the bench that measures it is missing (why).
+    #[must_use]
+    pub fn limit_per_second(&self) -> Option<Result<f64, String>> {
+        Some(match self.limit()?.source {
+            LimitSource::Known(v) => Ok(v),
+            LimitSource::Measured(_) => {
+                let t = self.limit_s.clone()?;
+                let w = self.work.clone();
+                t.and_then(|t| {
+                    let w = w?;
+                    if t > 0.0 {
+                        Ok(w / t)
+                    } else {
+                        Err("a median of zero".to_owned())
+                    }
+                })
+            }
+        })
     }
 
     /// Median time over floor median time, when both were measured.

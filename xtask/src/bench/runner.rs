@@ -7,7 +7,7 @@ use std::time::{Instant, SystemTime};
 
 use anyhow::{Context, bail};
 
-use super::rows::{BenchTarget, Row, RowSpec, TARGETS, Target, Unit};
+use super::rows::{BenchTarget, LIMITS, LimitSource, Row, RowSpec, TARGETS, Target, Unit};
 
 /// Median seconds per iteration of benchmark `id`, read from
 /// `<criterion_dir>/<id>/new/estimates.json` (`median.point_estimate`, nanoseconds).
@@ -100,6 +100,13 @@ pub fn build_rows(criterion_dir: &Path, specs: &[RowSpec], since: Option<SystemT
                 Some(Target::MaxTimes { of, .. }) => Some(read_median(criterion_dir, of, since)),
                 _ => None,
             },
+            limit_s: LIMITS
+                .iter()
+                .find(|l| l.id == spec.id)
+                .and_then(|l| match l.source {
+                    LimitSource::Measured(id) => Some(read_median(criterion_dir, id, since)),
+                    LimitSource::Known(_) => None,
+                }),
         })
         .collect()
 }
