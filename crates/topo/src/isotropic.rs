@@ -1325,7 +1325,7 @@ fn deposit_tile(
     touched_cells.clear();
     let mut usable = 0u64;
     let mut pixels = Vec::new();
-    tile_slopes(map, h, rect, normals, |row, col, _, _| {
+    tile_slopes::<false>(map, h, rect, normals, |row, col, _, _| {
         let (a, b) = direct_slopes(map, h, row, col);
         let w = if physical {
             (1.0 + a * a + b * b).sqrt()

@@ -540,17 +540,27 @@ impl TopoModel {
         let nx = map.nx();
         let band_rows = tiles.first().map_or(map.ny(), |t| t.r1 - t.r0);
         let bands: Vec<&[Rect]> = tiles.chunk_by(|a, b| a.r0 == b.r0).collect();
-        // Zeroed memory comes from the allocator untouched; each band writes its pages.
-        let mut slopes = vec![[0.0_f64; 2]; nx * map.ny()];
+        // Zeroed memory comes from the allocator untouched; each band writes its pages,
+        // each pixel once: the tiles write every pixel whose window lies inside the map
+        // (its slopes, or NaN), the band its pixels within `h` of the map's edge (NaN).
+        let (ny, h) = (map.ny(), k / 2);
+        let mut slopes = vec![[0.0_f64; 2]; nx * ny];
         let usable: usize = slopes
             .par_chunks_mut(band_rows * nx)
             .zip(bands.par_iter())
             .map_init(Scratch::default, |scratch, (band, band_tiles)| {
-                band.fill([f64::NAN; 2]);
                 let r0 = band_tiles[0].r0;
+                for (i, row) in band.chunks_mut(nx).enumerate() {
+                    if r0 + i < h || r0 + i >= ny - h {
+                        row.fill([f64::NAN; 2]);
+                    } else {
+                        row[..h].fill([f64::NAN; 2]);
+                        row[nx - h..].fill([f64::NAN; 2]);
+                    }
+                }
                 let mut usable = 0;
                 for &rect in *band_tiles {
-                    usable += tile_slopes(map, k / 2, rect, scratch, |r, c, a, b| {
+                    usable += tile_slopes::<true>(map, h, rect, scratch, |r, c, a, b| {
                         band[(r - r0) * nx + c] = [a, b];
                     });
                 }
@@ -873,7 +883,7 @@ fn trace_tile<A: Accumulator>(
             p,
         });
     };
-    let usable = tile_slopes(
+    let usable = tile_slopes::<false>(
         map,
         setup.options.window / 2,
         rect,

@@ -175,7 +175,10 @@ pub(crate) fn direct_slopes(map: &HeightMap, h: usize, row: usize, col: usize) -
 }
 
 /// Calls `emit(row, col, a, b)` for every usable pixel of `rect`, in row-major order,
-/// and returns how many there were. `k = 2h + 1` is the window side.
+/// and with `NAN_BAD` also `emit(row, col, NaN, NaN)` for every other pixel of `rect`
+/// whose window lies inside the map (one that holds an invalid point); returns how many
+/// usable pixels there were. Pixels of `rect` closer than `h` to the map's edge are
+/// never emitted. `k = 2h + 1` is the window side.
 ///
 /// Two passes over the tile's region (output rectangle plus the window halo), each a
 /// direct sum over the window rather than a running one, so that the loops over
@@ -189,7 +192,7 @@ pub(crate) fn direct_slopes(map: &HeightMap, h: usize, row: usize, col: usize) -
 /// [`pulp::Arch::dispatch`], so the compiler vectorises them for the processor's
 /// instruction set (additions and multiplications only, no fused multiply–add: the
 /// same bits in every build); `emit` is called outside it.
-pub(crate) fn tile_slopes(
+pub(crate) fn tile_slopes<const NAN_BAD: bool>(
     map: &HeightMap,
     h: usize,
     rect: Rect,
@@ -236,6 +239,8 @@ pub(crate) fn tile_slopes(
             if nbad == 0 {
                 emit(r, oc0 + oc, m * inv_x, js * inv_y);
                 emitted += 1;
+            } else if NAN_BAD {
+                emit(r, oc0 + oc, f64::NAN, f64::NAN);
             }
         }
     }

@@ -146,7 +146,7 @@ impl TopoModel {
                 let pixel_area = map.dx() * map.dy();
                 let mut t = TileTilts::default();
                 let mut bins = Vec::new();
-                tile_slopes(map, h, rect, scratch, |row, col, _, _| {
+                tile_slopes::<false>(map, h, rect, scratch, |row, col, _, _| {
                     let (a, b) = direct_slopes(map, h, row, col);
                     let r2 = a * a + b * b;
                     let theta = r2.sqrt().atan();
