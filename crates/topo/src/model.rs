@@ -297,7 +297,7 @@ impl Accumulator for Scalar {
         1
     }
 
-    #[inline]
+    #[inline(always)]
     fn weigh(&self, opts: &TopoOptions, inc: &Inc, ray: &Ray) -> f64 {
         let f = path_factor(opts, inc, ray);
         if opts.weighting == Weighting::Physical {
@@ -313,34 +313,38 @@ impl Accumulator for Scalar {
     }
 }
 
-/// The Jones path of a ray ([`flakescatter_optics::jones`]) with its amplitudes.
-#[inline]
-pub(crate) fn ray_path(opts: &TopoOptions, inc: &Inc, ray: &Ray) -> (RayPath, PathAmplitudes) {
-    let n = opts.n;
-    let path = RayPath {
+/// The directions of a ray's Jones path ([`flakescatter_optics::jones`]).
+#[inline(always)]
+fn ray_directions(inc: &Inc, ray: &Ray) -> RayPath {
+    RayPath {
         k_in: inc.k_in,
         k1: Vec3::new(inc.k1x, 0.0, inc.k1z),
         m: Vec3::new(ray.m[0], ray.m[1], ray.m[2]),
         k2: ray.k2,
         k_out: ray.k_out,
-    };
+    }
+}
+
+/// The Jones path of a ray ([`flakescatter_optics::jones`]) with its amplitudes.
+#[inline(always)]
+pub(crate) fn ray_path(opts: &TopoOptions, inc: &Inc, ray: &Ray) -> (RayPath, PathAmplitudes) {
+    let n = opts.n;
     let amps = PathAmplitudes {
         entry: (inc.amplitudes[2], inc.amplitudes[3]),
         flake: opts.flake.amplitudes(ray.gamma, n),
         exit: jones::exit_amplitudes(ray.k_out.z, ray.k2.z, n),
     };
-    (path, amps)
+    (ray_directions(inc, ray), amps)
 }
 
 /// The path factor `F` of a ray (module docs, step 3).
-#[inline]
+#[inline(always)]
 fn path_factor(opts: &TopoOptions, inc: &Inc, ray: &Ray) -> f64 {
-    let (path, _) = ray_path(opts, inc, ray);
     path_factor_of(
         opts,
         &inc.entry,
         (inc.amplitudes[2], inc.amplitudes[3]),
-        &path,
+        &ray_directions(inc, ray),
         ray.gamma,
     )
 }
@@ -350,7 +354,7 @@ fn path_factor(opts: &TopoOptions, inc: &Inc, ray: &Ray) -> f64 {
 /// at each crossing; otherwise the exact first row of the ray's Mueller matrix
 /// ([`flakescatter_optics::jones`]), `m00` for an unpolarised beam, `m00 ± m01` for s
 /// or p. `entry_t` are the entry amplitudes `(ts, tp)`, `gamma = −k1·m`.
-#[inline]
+#[inline(always)]
 pub(crate) fn path_factor_of(
     opts: &TopoOptions,
     entry: &FresnelPower,

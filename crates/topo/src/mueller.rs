@@ -88,7 +88,7 @@ impl Accumulator for MuellerSums<'_> {
         CHANNELS
     }
 
-    #[inline]
+    #[inline(always)]
     fn weigh(&self, opts: &TopoOptions, inc: &Inc, ray: &Ray) -> Mueller {
         let (path, amps) = ray_path(opts, inc, ray);
         let t = path.transfer(&amps);
