@@ -927,9 +927,11 @@ impl<A: Accumulator> pulp::WithSimd for ChunkTrace<'_, '_, A> {
 }
 
 /// The weight of a ray that enters at least one detector and the binder's absorption
-/// along its path ([`trace_chunk`]). Always inlined, so that it is compiled with the
-/// instruction set [`pulp::Arch::dispatch`] chose for the chunk (a closure that the
-/// compiler kept out of line ran as baseline SSE2 code, a quarter of the run's time).
+/// along its path ([`trace_chunk`]). Always inlined, as are the accumulators' `weigh`
+/// and the path factor it calls, so that all of it is compiled with the instruction set
+/// [`pulp::Arch::dispatch`] chose for the chunk (code the compiler kept out of line, a
+/// closure here and then `Scalar::weigh`, ran as baseline SSE2, a quarter of the run's
+/// time).
 #[inline(always)]
 fn weigh_ray<A: Accumulator>(
     setup: &Setup<'_>,
