@@ -1055,7 +1055,9 @@ impl TopoModel {
                 entry_t: (amps[2], amps[3]),
                 k_in: *detector::incident_direction(t),
                 axes: all.iter().map(Axis::new).collect(),
-                index: ConeIndex::with_margin(&all, margin),
+                // Cells of the narrowest chord: the index serves a few samples per node,
+                // and five fine ones (one per incidence) cost more to build than they save.
+                index: ConeIndex::with_margin(&all, margin, 1.0),
                 scale,
                 cones: all,
             });
@@ -1487,7 +1489,7 @@ mod tests {
                 },
                 k_in: *detector::incident_direction(theta_i),
                 axes: cones.iter().map(Axis::new).collect(),
-                index: ConeIndex::with_margin(cones, 0.6 * alpha_min),
+                index: ConeIndex::with_margin(cones, 0.6 * alpha_min, 1.0),
                 scale: vec![1.0; cones.len()],
                 cones: cones.to_vec(),
             }],
