@@ -94,10 +94,20 @@ def test_signal_interrupts_a_long_call(workload):
 
 
 def test_keyboard_interrupt_from_ctrl_c(workload):
-    """The default SIGINT handler: Ctrl-C gives KeyboardInterrupt."""
+    """The default SIGINT handler: Ctrl-C gives KeyboardInterrupt.
+
+    Python installs `default_int_handler` at start-up unless SIGINT is ignored when it
+    starts (a process launched in the background by a non-interactive shell, or under
+    `nohup`, inherits SIG_IGN); the module must leave the handler as it found it, and
+    for an inherited SIG_IGN the test installs the default one itself.
+    """
     maps, ti, took = workload
     long_maps = maps * 50
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    else:
+        assert previous is signal.default_int_handler
     timer = threading.Timer(min(0.2, took / 2), os.kill, (os.getpid(), signal.SIGINT))
     got = None
     try:
@@ -110,5 +120,6 @@ def test_keyboard_interrupt_from_ctrl_c(workload):
         elapsed = time.perf_counter() - t0
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert isinstance(got, KeyboardInterrupt)
     assert elapsed < 10 * took + 2.0, (elapsed, took)
