@@ -133,7 +133,7 @@ use gauss_quad::legendre::GaussLegendre;
 use rayon::prelude::*;
 
 use crate::TopoError;
-use crate::index::ConeIndex;
+use crate::index::{self, ConeIndex};
 use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of};
 use crate::normals::{Rect, Scratch, direct_slopes, tile_slopes};
 
@@ -1055,9 +1055,7 @@ impl TopoModel {
                 entry_t: (amps[2], amps[3]),
                 k_in: *detector::incident_direction(t),
                 axes: all.iter().map(Axis::new).collect(),
-                // Cells of the narrowest chord: the index serves a few samples per node,
-                // and five fine ones (one per incidence) cost more to build than they save.
-                index: ConeIndex::with_margin(&all, margin, 1.0),
+                index: ConeIndex::with_margin(&all, margin, index::COARSE),
                 scale,
                 cones: all,
             });
@@ -1489,7 +1487,7 @@ mod tests {
                 },
                 k_in: *detector::incident_direction(theta_i),
                 axes: cones.iter().map(Axis::new).collect(),
-                index: ConeIndex::with_margin(cones, 0.6 * alpha_min, 1.0),
+                index: ConeIndex::with_margin(cones, 0.6 * alpha_min, index::COARSE),
                 scale: vec![1.0; cones.len()],
                 cones: cones.to_vec(),
             }],
