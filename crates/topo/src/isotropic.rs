@@ -135,7 +135,7 @@ use rayon::prelude::*;
 use crate::TopoError;
 use crate::index::{self, ConeIndex};
 use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of};
-use crate::normals::{Rect, Scratch, direct_slopes, tile_slopes};
+use crate::normals::{DirectRow, Rect, Scratch, tile_slopes};
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
 /// is `δ = α_min / DEFAULT_NODES_PER_APERTURE` (0.0117° for α = 1.5°).
@@ -904,6 +904,7 @@ fn cell_edges(rows: &[Row], c: usize) -> Vec<Edge> {
 #[derive(Debug, Default)]
 struct TileScratch {
     normals: Scratch,
+    direct: DirectRow,
     g: Vec<f64>,
     gn: Vec<f64>,
     hat: Vec<f64>,
@@ -1310,6 +1311,7 @@ fn deposit_tile(
     }
     let TileScratch {
         normals,
+        direct,
         g,
         gn,
         hat,
@@ -1325,8 +1327,10 @@ fn deposit_tile(
     touched_cells.clear();
     let mut usable = 0u64;
     let mut pixels = Vec::new();
+    // The columns whose window lies inside the map, where usable pixels are.
+    let cols = rect.c0.max(h)..rect.c1.min(map.nx().saturating_sub(h));
     tile_slopes::<false>(map, h, rect, normals, |row, col, _, _| {
-        let (a, b) = direct_slopes(map, h, row, col);
+        let (a, b) = direct.slopes(map, h, row, col, cols.clone());
         let w = if physical {
             (1.0 + a * a + b * b).sqrt()
         } else {

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 use crate::TopoError;
 use crate::model::TopoModel;
-use crate::normals::{Scratch, direct_slopes, tile_slopes};
+use crate::normals::{DirectRow, Scratch, tile_slopes};
 
 /// Sums of one statistics tile.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -141,23 +141,27 @@ impl TopoModel {
             .collect();
         let per_tile: Vec<(TileTilts, Vec<(usize, f64)>)> = jobs
             .par_iter()
-            .map_init(Scratch::default, |scratch, &(mi, rect)| {
-                let map = maps[mi];
-                let pixel_area = map.dx() * map.dy();
-                let mut t = TileTilts::default();
-                let mut bins = Vec::new();
-                tile_slopes::<false>(map, h, rect, scratch, |row, col, _, _| {
-                    let (a, b) = direct_slopes(map, h, row, col);
-                    let r2 = a * a + b * b;
-                    let theta = r2.sqrt().atan();
-                    let area = pixel_area * (1.0 + r2).sqrt();
-                    t.pixels += 1;
-                    t.area_um2 += area;
-                    t.area_theta2 += area * theta * theta;
-                    bins.push((((theta / bin_width) as usize).min(nb - 1), area));
-                });
-                (t, bins)
-            })
+            .map_init(
+                || (Scratch::default(), DirectRow::default()),
+                |(scratch, direct), &(mi, rect)| {
+                    let map = maps[mi];
+                    let cols = rect.c0.max(h)..rect.c1.min(map.nx().saturating_sub(h));
+                    let pixel_area = map.dx() * map.dy();
+                    let mut t = TileTilts::default();
+                    let mut bins = Vec::new();
+                    tile_slopes::<false>(map, h, rect, scratch, |row, col, _, _| {
+                        let (a, b) = direct.slopes(map, h, row, col, cols.clone());
+                        let r2 = a * a + b * b;
+                        let theta = r2.sqrt().atan();
+                        let area = pixel_area * (1.0 + r2).sqrt();
+                        t.pixels += 1;
+                        t.area_um2 += area;
+                        t.area_theta2 += area * theta * theta;
+                        bins.push((((theta / bin_width) as usize).min(nb - 1), area));
+                    });
+                    (t, bins)
+                },
+            )
             .collect();
         let mut bin_area_um2 = vec![0.0; nb];
         let mut tiles = Vec::with_capacity(per_tile.len());
