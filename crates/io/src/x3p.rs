@@ -79,6 +79,15 @@ pub enum X3pError {
     /// The zip container is unreadable (truncated, corrupt).
     #[error("not a readable zip archive, so not a usable X3P file: {0}")]
     Zip(String),
+    /// Reading the archive failed part-way for a reason outside it (the system's I/O: a
+    /// disk, network or permission error), not because of what it holds.
+    #[error("reading {what} failed ({reason}); the file itself may be intact")]
+    Read {
+        /// What was being read: `member "bindata/data.bin"`, or `the archive`.
+        what: String,
+        /// The system's error.
+        reason: String,
+    },
     /// A required member is not in the archive.
     #[error("archive has no member {0:?}")]
     MissingMember(String),
@@ -166,6 +175,31 @@ fn hex(bytes: &[u8]) -> String {
 
 fn md5_hex(bytes: &[u8]) -> String {
     hex(&Md5::digest(bytes))
+}
+
+/// The error of a failed read of `what` (`member "…"` or `the archive`): a damaged
+/// archive (a corrupt deflate stream, a wrong CRC-32, a truncated file: the I/O error
+/// kinds `InvalidData`, `InvalidInput` and `UnexpectedEof` that the zip crate and
+/// flate2 give for them) is [`X3pError::Zip`]; any other failure is the system's,
+/// [`X3pError::Read`].
+fn io_error(what: &str, e: &std::io::Error) -> X3pError {
+    use std::io::ErrorKind::{InvalidData, InvalidInput, UnexpectedEof};
+    match e.kind() {
+        InvalidData | InvalidInput | UnexpectedEof => X3pError::Zip(format!("{what}: {e}")),
+        _ => X3pError::Read {
+            what: what.to_string(),
+            reason: e.to_string(),
+        },
+    }
+}
+
+/// [`io_error`] of a zip crate error: its I/O errors as there, the others (an invalid
+/// or unsupported archive) [`X3pError::Zip`].
+fn zip_error(what: &str, e: &zip::result::ZipError) -> X3pError {
+    match e {
+        zip::result::ZipError::Io(io) => io_error(what, io),
+        other => X3pError::Zip(format!("{what}: {other}")),
+    }
 }
 
 /// Whether `bytes` start like a zip archive (a local file header or an empty archive).
@@ -545,9 +579,9 @@ fn read_f64_member<R: Read + Seek>(
     let mut file = match archive.by_name(name) {
         Ok(f) => f,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
-        Err(e) => return Err(X3pError::Zip(format!("member {name:?}: {e}"))),
+        Err(e) => return Err(zip_error(&format!("member {name:?}"), &e)),
     };
-    let zip_err = |e: std::io::Error| X3pError::Zip(format!("member {name:?}: {e}"));
+    let zip_err = |e: std::io::Error| io_error(&format!("member {name:?}"), &e);
     // Sized by the header, which the caller has checked against the compressed size
     // and the archive's declared size; zeroed pages are mapped as they are first
     // written, so a member shorter than that costs only what it holds.
@@ -729,7 +763,7 @@ fn whole_member<'b, R: Read + Seek>(
     };
     let f = archive
         .by_index_raw(index)
-        .map_err(|e| X3pError::Zip(format!("member {name:?}: {e}")))?;
+        .map_err(|e| zip_error(&format!("member {name:?}"), &e))?;
     if f.compression() != zip::CompressionMethod::Deflated
         || f.encrypted()
         || f.compressed_size() > whole_limit(f.size())
@@ -742,7 +776,7 @@ fn whole_member<'b, R: Read + Seek>(
         let mut packed = Vec::with_capacity(usize::try_from(capacity).unwrap_or(0));
         let mut f = f;
         f.read_to_end(&mut packed)
-            .map_err(|e| X3pError::Zip(format!("member {name:?}: {e}")))?;
+            .map_err(|e| io_error(&format!("member {name:?}"), &e))?;
         return Ok(Some((std::borrow::Cow::Owned(packed), crc)));
     };
     let packed = f.data_start().and_then(|start| {
@@ -900,9 +934,9 @@ fn stream_member<R: Read + Seek>(
     let file = match archive.by_name(name) {
         Ok(f) => f,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
-        Err(e) => return Err(X3pError::Zip(format!("member {name:?}: {e}"))),
+        Err(e) => return Err(zip_error(&format!("member {name:?}"), &e)),
     };
-    let zip_err = |e: std::io::Error| X3pError::Zip(format!("member {name:?}: {e}"));
+    let zip_err = |e: std::io::Error| io_error(&format!("member {name:?}"), &e);
     // The declared size is only a capacity hint (it may lie in a corrupt file): bounded
     // by what the compressed bytes can inflate to (deflate's ratio is below 1032:1).
     let declared = file.size();
@@ -1037,7 +1071,10 @@ fn check_md5(
 /// (the shallowest one that is not macOS junk): the archive, the folder prefix of the
 /// members (`""` or `"name/"`) and the XML bytes.
 fn open<R: Read + Seek>(reader: R) -> Result<(zip::ZipArchive<R>, String, Vec<u8>), X3pError> {
-    let mut archive = zip::ZipArchive::new(reader).map_err(|e| X3pError::Zip(e.to_string()))?;
+    let mut archive = zip::ZipArchive::new(reader).map_err(|e| match e {
+        zip::result::ZipError::Io(io) => io_error("the archive", &io),
+        other => X3pError::Zip(other.to_string()),
+    })?;
     let mut names = Vec::new();
     for name in archive.file_names() {
         names.push(name.map_err(|e| X3pError::Zip(e.to_string()))?.into_owned());
@@ -1155,7 +1192,7 @@ fn read_with<R: Read + Seek>(
         None => reader
             .seek(std::io::SeekFrom::End(0))
             .and_then(|len| reader.rewind().map(|()| len))
-            .map_err(|e| X3pError::Zip(format!("cannot find the archive's length: {e}")))?,
+            .map_err(|e| io_error("the archive's length", &e))?,
     };
     let (mut archive, prefix, xml_bytes) = open(reader)?;
     let doc = parse_xml(&xml_bytes)?;

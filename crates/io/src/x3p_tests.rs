@@ -343,3 +343,85 @@ fn wrong_md5_is_a_mismatch_on_every_path() {
         }
     }
 }
+
+/// A reader over an archive whose reads of the bytes `bad` fail, as a disk or network
+/// error would (a read that starts before them stops short of them; the rest of the
+/// archive, its central directory included, reads as usual).
+struct FailingReader {
+    inner: std::io::Cursor<Vec<u8>>,
+    bad: std::ops::Range<u64>,
+}
+
+impl std::io::Read for FailingReader {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let at = self.inner.position();
+        if self.bad.contains(&at) {
+            return Err(std::io::Error::other("simulated disk error"));
+        }
+        let room = if at < self.bad.start {
+            usize::try_from(self.bad.start - at).unwrap_or(usize::MAX)
+        } else {
+            usize::MAX
+        };
+        let n = buf.len().min(room);
+        self.inner.read(&mut buf[..n])
+    }
+}
+
+impl std::io::Seek for FailingReader {
+    fn seek(&mut self, to: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.inner.seek(to)
+    }
+}
+
+#[test]
+fn a_read_that_fails_mid_member_is_a_read_error_not_a_damaged_archive() {
+    // The system's error half-way through data.bin's compressed bytes, on every way
+    // of reading it (the archive's bytes not in memory, as from a file), small and
+    // large (several 1 MiB chunks, the MD5 on a second thread): the error names the
+    // member and carries the system's reason, and does not call the archive damaged.
+    for (nx, ny) in [(1024, 1024), (40, 25)] {
+        // Values that do not compress (the low bits of an LCG), so that data.bin's
+        // compressed bytes lie well before the end of the archive, where opening it reads.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let data: Vec<u8> = (0..nx * ny)
+            .flat_map(|_| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                f64::from(u32::try_from(state >> 40).unwrap()).to_le_bytes()
+            })
+            .collect();
+        let bytes = archive(nx, ny, "D", &data, Some(&md5_hex(&data)), deflated());
+        // The second quarter of data.bin's compressed bytes (their size from its local
+        // header) fails to read: away from the archive's last kilobytes, which opening
+        // it reads.
+        let start = data_start(&bytes) as u64;
+        let (local, _) = headers(&bytes);
+        let packed = u32::from_le_bytes(bytes[local + 18..local + 22].try_into().unwrap());
+        let quarter = u64::from(packed) / 4;
+        let bad = start + quarter..start + 2 * quarter;
+        for path in [Path::Auto, Path::Whole, Path::Stream, Path::Points] {
+            let reader = FailingReader {
+                inner: std::io::Cursor::new(bytes.clone()),
+                bad: bad.clone(),
+            };
+            let e = read_with(
+                reader,
+                None,
+                &ReadOptions::default(),
+                ValueKind::Height,
+                path,
+            )
+            .map(|_| ())
+            .expect_err("a failing read");
+            assert!(
+                matches!(&e, X3pError::Read { what, reason }
+                    if what.contains(&format!("{DATA:?}")) && reason.contains("simulated disk error")),
+                "{nx}x{ny} {path:?}: {e:?}"
+            );
+            let shown = e.to_string();
+            assert!(!shown.contains("not a readable zip"), "{shown}");
+        }
+    }
+}

@@ -35,6 +35,11 @@ pub struct Map {
 fn map_error(py: Python<'_>, e: &ReadMapError) -> PyErr {
     match e {
         ReadMapError::Io { .. } => to_py(py, Kind::File, e),
+        // The system's error part-way through an X3P member: the file, not its content.
+        ReadMapError::Format {
+            error: MapError::X3p(flakescatter::io::x3p::X3pError::Read { .. }),
+            ..
+        } => to_py(py, Kind::File, e),
         // A channel the file does not have is the caller's parameter at fault.
         ReadMapError::Format {
             error: MapError::Channel(_),
