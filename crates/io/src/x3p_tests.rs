@@ -6,6 +6,7 @@
 use std::io::Write;
 
 use md5::{Digest, Md5};
+use rand::{RngExt, SeedableRng};
 
 use super::{Path, X3pError, read_with};
 use crate::reader::{ReadOptions, ValueKind};
@@ -381,16 +382,11 @@ fn a_read_that_fails_mid_member_is_a_read_error_not_a_damaged_archive() {
     // large (several 1 MiB chunks, the MD5 on a second thread): the error names the
     // member and carries the system's reason, and does not call the archive damaged.
     for (nx, ny) in [(1024, 1024), (40, 25)] {
-        // Values that do not compress (the low bits of an LCG), so that data.bin's
+        // Values that do not compress (seeded uniform ones), so that data.bin's
         // compressed bytes lie well before the end of the archive, where opening it reads.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let data: Vec<u8> = (0..nx * ny)
-            .flat_map(|_| {
-                state = state
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                f64::from(u32::try_from(state >> 40).unwrap()).to_le_bytes()
-            })
+            .flat_map(|_| rng.random_range(-1.0f64..1.0).to_le_bytes())
             .collect();
         let bytes = archive(nx, ny, "D", &data, Some(&md5_hex(&data)), deflated());
         // The second quarter of data.bin's compressed bytes (their size from its local

@@ -500,18 +500,20 @@ mod tests {
         )
     }
 
-    /// Heights of a plane `z = p x + q y + c` plus, with `rough`, a pseudo-random part
-    /// (a 64-bit LCG, top 53 bits), on an `nx × ny` map of pitch 0.3 × 0.4 µm.
+    /// Heights of a plane `z = p x + q y + c` plus, with `rough`, a seeded uniform part
+    /// in ±0.5 µm, on an `nx × ny` map of pitch 0.3 × 0.4 µm.
     fn map(nx: usize, ny: usize, p: f64, q: f64, rough: bool) -> HeightMap {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let z = (0..nx * ny)
             .map(|i| {
                 let (row, col) = (i / nx, i % nx);
-                state = state
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                let noise = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-                p * col as f64 * 0.3 + q * row as f64 * 0.4 + 7.0 + if rough { noise } else { 0.0 }
+                let noise = if rough {
+                    rng.random_range(-0.5..0.5)
+                } else {
+                    0.0
+                };
+                p * col as f64 * 0.3 + q * row as f64 * 0.4 + 7.0 + noise
             })
             .collect();
         HeightMap::new(nx, ny, 0.3, 0.4, z).unwrap()
