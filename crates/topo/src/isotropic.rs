@@ -1329,8 +1329,9 @@ fn deposit_tile(
     let mut pixels = Vec::new();
     // The columns whose window lies inside the map, where usable pixels are.
     let cols = rect.c0.max(h)..rect.c1.min(map.nx().saturating_sub(h));
+    let mut direct = direct.tile(map, h, cols);
     tile_slopes::<false>(map, h, rect, normals, |row, col, _, _| {
-        let (a, b) = direct.slopes(map, h, row, col, cols.clone());
+        let (a, b) = direct.slopes(row, col);
         let w = if physical {
             (1.0 + a * a + b * b).sqrt()
         } else {

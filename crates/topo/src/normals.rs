@@ -154,7 +154,7 @@ pub(crate) struct Scratch {
 /// heights give; callers read only usable pixels.
 #[derive(Debug, Default)]
 pub(crate) struct DirectRow {
-    /// The row held (meaningful once `a` is not empty).
+    /// The row held (meaningful while `a` is not empty; [`DirectRow::tile`] empties it).
     row: usize,
     /// First column held; `a`, `b` hold the run's columns from here.
     c0: usize,
@@ -164,23 +164,22 @@ pub(crate) struct DirectRow {
 }
 
 impl DirectRow {
-    /// The slopes of pixel `(row, col)`, where `cols` (containing `col`) is the run of
-    /// columns to fill when it is not the run held; every window of the run lies
-    /// inside the map.
-    #[inline]
-    pub(crate) fn slopes(
-        &mut self,
-        map: &HeightMap,
+    /// Starts a tile of `map` whose usable pixels lie in the columns `cols` (every
+    /// window of the run inside the map): the row held before, of whatever map, is
+    /// forgotten, so that the buffers can be reused from tile to tile and map to map.
+    pub(crate) fn tile<'a>(
+        &'a mut self,
+        map: &'a HeightMap,
         h: usize,
-        row: usize,
-        col: usize,
         cols: std::ops::Range<usize>,
-    ) -> (f64, f64) {
-        if self.row != row || self.c0 != cols.start || self.a.len() != cols.len() {
-            self.fill(map, h, row, cols);
+    ) -> TileRows<'a> {
+        self.a.clear();
+        TileRows {
+            run: self,
+            map,
+            h,
+            cols,
         }
-        let i = col - self.c0;
-        (self.a[i], self.b[i])
     }
 
     fn fill(&mut self, map: &HeightMap, h: usize, row: usize, cols: std::ops::Range<usize>) {
@@ -199,6 +198,27 @@ impl DirectRow {
             c0: cols.start,
             run: self,
         });
+    }
+}
+
+/// The [`DirectRow`] of one tile ([`DirectRow::tile`]).
+pub(crate) struct TileRows<'a> {
+    run: &'a mut DirectRow,
+    map: &'a HeightMap,
+    h: usize,
+    cols: std::ops::Range<usize>,
+}
+
+impl TileRows<'_> {
+    /// The slopes of pixel `(row, col)`, `col` in the tile's columns; the row is filled
+    /// when it is not the one held.
+    #[inline]
+    pub(crate) fn slopes(&mut self, row: usize, col: usize) -> (f64, f64) {
+        if self.run.a.is_empty() || self.run.row != row {
+            self.run.fill(self.map, self.h, row, self.cols.clone());
+        }
+        let i = col - self.run.c0;
+        (self.run.a[i], self.run.b[i])
     }
 }
 
@@ -526,13 +546,32 @@ mod tests {
         let m = map(13, 11, 0.37, -1.25, false);
         let mut run = DirectRow::default();
         for h in 1..=3 {
-            for (a, b) in [
-                direct_slopes(&m, h, 5, 6),
-                run.slopes(&m, h, 5, 6, h..13 - h),
-            ] {
+            let row = run.tile(&m, h, h..13 - h).slopes(5, 6);
+            for (a, b) in [direct_slopes(&m, h, 5, 6), row] {
                 assert!((a - 0.37).abs() < 1e-12, "h = {h}: a = {a}");
                 assert!((b + 1.25).abs() < 1e-12, "h = {h}: b = {b}");
             }
+        }
+    }
+
+    #[test]
+    fn a_tile_of_another_map_gets_its_own_rows() {
+        // The buffers are reused from tile to tile and map to map: a tile of another
+        // map (or window) asking for the same row and columns as the last one must not
+        // get the last one's slopes (closed form: the planes' gradients).
+        let (flat, steep) = (map(20, 9, 0.1, 0.0, false), map(20, 9, 0.8, -0.3, false));
+        let mut run = DirectRow::default();
+        for (m, h, p, q) in [
+            (&flat, 2, 0.1, 0.0),
+            (&steep, 2, 0.8, -0.3),
+            (&steep, 1, 0.8, -0.3),
+            (&flat, 1, 0.1, 0.0),
+        ] {
+            let (a, b) = run.tile(m, h, 2..18).slopes(4, 7);
+            assert!(
+                (a - p).abs() < 1e-12 && (b - q).abs() < 1e-12,
+                "h {h}: ({a}, {b})"
+            );
         }
     }
 
@@ -551,9 +590,10 @@ mod tests {
         let mut run = DirectRow::default();
         for h in 1..=3 {
             for &(c0, c1) in &[(h, nx - h), (h, h + 1), (h + 3, nx - h - 5), (20, 21)] {
+                let mut tile = run.tile(&m, h, c0..c1);
                 for row in (h..ny - h).rev().chain(h..ny - h) {
                     for col in c0..c1 {
-                        let got = run.slopes(&m, h, row, col, c0..c1);
+                        let got = tile.slopes(row, col);
                         if bad(h, row, col) {
                             continue;
                         }

@@ -146,11 +146,12 @@ impl TopoModel {
                 |(scratch, direct), &(mi, rect)| {
                     let map = maps[mi];
                     let cols = rect.c0.max(h)..rect.c1.min(map.nx().saturating_sub(h));
+                    let mut direct = direct.tile(map, h, cols);
                     let pixel_area = map.dx() * map.dy();
                     let mut t = TileTilts::default();
                     let mut bins = Vec::new();
                     tile_slopes::<false>(map, h, rect, scratch, |row, col, _, _| {
-                        let (a, b) = direct.slopes(map, h, row, col, cols.clone());
+                        let (a, b) = direct.slopes(row, col);
                         let r2 = a * a + b * b;
                         let theta = r2.sqrt().atan();
                         let area = pixel_area * (1.0 + r2).sqrt();

@@ -38,6 +38,51 @@ fn tilted_planes_give_their_tilt_and_true_area() {
     assert!((o.mass_between(0.0, 8f64.to_radians()) - a1 / (a1 + a2)).abs() < 1e-12);
 }
 
+/// Maps one window tall give one usable row each, the same row and columns in every
+/// map, so a row of slopes held over from the last tile would be the wrong map's
+/// (a review found that the first version of the row-at-a-time slopes did just that).
+/// Sixteen such maps, alternately tilted by 5.5° and 20.5°, in one call: each plane's 36
+/// usable pixels have true area `dx dy / cos θ` and land in their own 1° bin, and each
+/// tile holds its own plane's tilt.
+#[test]
+fn one_row_maps_in_a_row_each_keep_their_own_slopes() {
+    let model = TopoModel::new(TopoOptions::default()).unwrap();
+    let (t1, t2) = (5.5f64.to_radians(), 20.5f64.to_radians());
+    let flat = plane(40, 5, 0.5, 0.5, t1.tan(), 0.0);
+    let steep = plane(40, 5, 0.5, 0.5, t2.tan(), 0.0);
+    let maps: Vec<&HeightMap> = (0..16)
+        .map(|i| if i % 2 == 0 { &flat } else { &steep })
+        .collect();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let tilts = pool
+            .install(|| model.pixel_tilts(&maps, 1f64.to_radians()))
+            .unwrap();
+        let n = 36.0 * 0.25;
+        let (a1, a2) = (8.0 * n / t1.cos(), 8.0 * n / t2.cos());
+        assert!(
+            (tilts.bin_area_um2[5] - a1).abs() < 1e-9 * a1,
+            "{threads} threads"
+        );
+        assert!(
+            (tilts.bin_area_um2[20] - a2).abs() < 1e-9 * a2,
+            "{threads} threads"
+        );
+        assert!((tilts.total_area_um2() - (a1 + a2)).abs() < 1e-9 * (a1 + a2));
+        for (i, tile) in tilts.tiles.iter().enumerate() {
+            let t = if i % 2 == 0 { t1 } else { t2 };
+            let mean = (tile.area_theta2 / tile.area_um2).sqrt();
+            assert!(
+                (mean - t).abs() < 1e-9,
+                "{threads} threads, tile {i}: {mean}"
+            );
+        }
+    }
+}
+
 /// Tile standard error of the mean square tilt: two tiles of one plane each, so the
 /// ratio estimator's spread is known in closed form. With tiles `A_t`, `S_t = A_t θ_t²`
 /// and `m2 = ΣS/ΣA`: `se = sqrt(2 Σ (S_t − m2 A_t)²)/ΣA`.
