@@ -663,9 +663,10 @@ fn x3p_file_channels(
 /// Back to the start of a file read more than once ([`Source`]).
 fn rewind(reader: &mut std::io::BufReader<std::fs::File>) -> Result<(), MapError> {
     reader.rewind().map_err(|e| {
-        MapError::X3p(X3pError::Zip(format!(
-            "cannot go back to the start of the file: {e}"
-        )))
+        MapError::X3p(X3pError::Read {
+            what: "the file's start (seeking back to it)".into(),
+            reason: e.to_string(),
+        })
     })
 }
 

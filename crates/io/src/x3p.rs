@@ -83,7 +83,8 @@ pub enum X3pError {
     /// disk, network or permission error), not because of what it holds.
     #[error("reading {what} failed ({reason}); the file itself may be intact")]
     Read {
-        /// What was being read: `member "bindata/data.bin"`, or `the archive`.
+        /// What was being read: `member "bindata/data.bin"`, `the archive`, `the
+        /// archive's length` or `the file's start (seeking back to it)`.
         what: String,
         /// The system's error.
         reason: String,
@@ -183,14 +184,20 @@ fn md5_hex(bytes: &[u8]) -> String {
 /// flate2 give for them) is [`X3pError::Zip`]; any other failure is the system's,
 /// [`X3pError::Read`].
 fn io_error(what: &str, e: &std::io::Error) -> X3pError {
-    use std::io::ErrorKind::{InvalidData, InvalidInput, UnexpectedEof};
-    match e.kind() {
-        InvalidData | InvalidInput | UnexpectedEof => X3pError::Zip(format!("{what}: {e}")),
-        _ => X3pError::Read {
+    if is_system(e) {
+        X3pError::Read {
             what: what.to_string(),
             reason: e.to_string(),
-        },
+        }
+    } else {
+        X3pError::Zip(format!("{what}: {e}"))
     }
+}
+
+/// Whether an I/O error is the system's, not about the archive's content ([`io_error`]).
+fn is_system(e: &std::io::Error) -> bool {
+    use std::io::ErrorKind::{InvalidData, InvalidInput, UnexpectedEof};
+    !matches!(e.kind(), InvalidData | InvalidInput | UnexpectedEof)
 }
 
 /// [`io_error`] of a zip crate error: its I/O errors as there, the others (an invalid
@@ -1108,7 +1115,8 @@ pub fn channels(bytes: &[u8], options: &ReadOptions) -> Result<Vec<Channel>, X3p
 /// [`channels`] of an X3P archive read through `reader` (a file, say).
 ///
 /// # Errors
-/// As [`channels`], and [`X3pError::Zip`] for a read that fails.
+/// As [`channels`], and [`X3pError::Read`] for a read that fails for the system's
+/// reason (a damaged archive stays [`X3pError::Zip`]).
 pub fn channels_from<R: Read + Seek>(
     reader: R,
     options: &ReadOptions,
@@ -1148,7 +1156,8 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
 /// of its compressed size).
 ///
 /// # Errors
-/// As [`read`], and [`X3pError::Zip`] for a read that fails.
+/// As [`read`], and [`X3pError::Read`] for a read that fails for the system's reason
+/// (a damaged archive stays [`X3pError::Zip`]).
 pub fn read_from<R: Read + Seek>(
     reader: R,
     options: &ReadOptions,
@@ -1247,6 +1256,11 @@ fn read_with<R: Read + Seek>(
     // refused before a byte is allocated for it.
     let (compressed, declared_size) = match archive.by_name(&data_name) {
         Ok(f) => (Some(f.compressed_size()), Some(f.size())),
+        // The system's error is reported now; the others (no such member, an
+        // unsupported one) by the read below, as they always were.
+        Err(zip::result::ZipError::Io(e)) if is_system(&e) => {
+            return Err(io_error(&format!("member {data_name:?}"), &e));
+        }
         Err(_) => (None, None),
     };
     if let Some(compressed) = compressed

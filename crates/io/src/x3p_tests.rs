@@ -377,7 +377,7 @@ impl std::io::Seek for FailingReader {
 
 #[test]
 fn a_read_that_fails_mid_member_is_a_read_error_not_a_damaged_archive() {
-    // The system's error half-way through data.bin's compressed bytes, on every way
+    // The system's error in the second quarter of data.bin's compressed bytes, on every way
     // of reading it (the archive's bytes not in memory, as from a file), small and
     // large (several 1 MiB chunks, the MD5 on a second thread): the error names the
     // member and carries the system's reason, and does not call the archive damaged.
