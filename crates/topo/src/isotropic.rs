@@ -1327,9 +1327,7 @@ fn deposit_tile(
     touched_cells.clear();
     let mut usable = 0u64;
     let mut pixels = Vec::new();
-    // The columns whose window lies inside the map, where usable pixels are.
-    let cols = rect.c0.max(h)..rect.c1.min(map.nx().saturating_sub(h));
-    let mut direct = direct.tile(map, h, cols);
+    let mut direct = direct.tile(map, h, rect);
     tile_slopes::<false>(map, h, rect, normals, |row, col, _, _| {
         let (a, b) = direct.slopes(row, col);
         let w = if physical {

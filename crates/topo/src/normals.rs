@@ -164,21 +164,17 @@ pub(crate) struct DirectRow {
 }
 
 impl DirectRow {
-    /// Starts a tile of `map` whose usable pixels lie in the columns `cols` (every
-    /// window of the run inside the map): the row held before, of whatever map, is
-    /// forgotten, so that the buffers can be reused from tile to tile and map to map.
-    pub(crate) fn tile<'a>(
-        &'a mut self,
-        map: &'a HeightMap,
-        h: usize,
-        cols: std::ops::Range<usize>,
-    ) -> TileRows<'a> {
+    /// Starts a tile `rect` of `map` ([`tile_slopes`]'s rectangle): rows are filled over
+    /// the tile's columns whose window lies inside the map ([`inside_cols`]), and the
+    /// row held before, of whatever map, is forgotten, so that the buffers can be
+    /// reused from tile to tile and map to map.
+    pub(crate) fn tile<'a>(&'a mut self, map: &'a HeightMap, h: usize, rect: Rect) -> TileRows<'a> {
         self.a.clear();
         TileRows {
             run: self,
             map,
             h,
-            cols,
+            cols: inside_cols(map, h, rect),
         }
     }
 
@@ -287,6 +283,13 @@ impl pulp::WithSimd for RowSums<'_> {
     }
 }
 
+/// The columns of `rect` whose `k × k` window (`k = 2h + 1`) lies inside the map
+/// horizontally: where [`tile_slopes`] may emit pixels (empty when the map is too
+/// narrow for a window).
+fn inside_cols(map: &HeightMap, h: usize, rect: Rect) -> std::ops::Range<usize> {
+    rect.c0.max(h)..rect.c1.min(map.nx().saturating_sub(h))
+}
+
 /// Calls `emit(row, col, a, b)` for every usable pixel of `rect`, in row-major order,
 /// and with `NAN_BAD` also `emit(row, col, NaN, NaN)` for every other pixel of `rect`
 /// whose window lies inside the map (one that holds an invalid point); returns how many
@@ -318,7 +321,8 @@ pub(crate) fn tile_slopes<const NAN_BAD: bool>(
     }
     // Output pixels whose whole window lies inside the map.
     let (or0, or1) = (rect.r0.max(h), rect.r1.min(ny - h));
-    let (oc0, oc1) = (rect.c0.max(h), rect.c1.min(nx - h));
+    let cols = inside_cols(map, h, rect);
+    let (oc0, oc1) = (cols.start, cols.end);
     if or0 >= or1 || oc0 >= oc1 {
         return 0;
     }
@@ -546,7 +550,13 @@ mod tests {
         let m = map(13, 11, 0.37, -1.25, false);
         let mut run = DirectRow::default();
         for h in 1..=3 {
-            let row = run.tile(&m, h, h..13 - h).slopes(5, 6);
+            let rect = Rect {
+                r0: 0,
+                r1: 11,
+                c0: 0,
+                c1: 13,
+            };
+            let row = run.tile(&m, h, rect).slopes(5, 6);
             for (a, b) in [direct_slopes(&m, h, 5, 6), row] {
                 assert!((a - 0.37).abs() < 1e-12, "h = {h}: a = {a}");
                 assert!((b + 1.25).abs() < 1e-12, "h = {h}: b = {b}");
@@ -567,7 +577,13 @@ mod tests {
             (&steep, 1, 0.8, -0.3),
             (&flat, 1, 0.1, 0.0),
         ] {
-            let (a, b) = run.tile(m, h, 2..18).slopes(4, 7);
+            let rect = Rect {
+                r0: 0,
+                r1: 9,
+                c0: 2,
+                c1: 18,
+            };
+            let (a, b) = run.tile(m, h, rect).slopes(4, 7);
             assert!(
                 (a - p).abs() < 1e-12 && (b - q).abs() < 1e-12,
                 "h {h}: ({a}, {b})"
@@ -590,7 +606,13 @@ mod tests {
         let mut run = DirectRow::default();
         for h in 1..=3 {
             for &(c0, c1) in &[(h, nx - h), (h, h + 1), (h + 3, nx - h - 5), (20, 21)] {
-                let mut tile = run.tile(&m, h, c0..c1);
+                let rect = Rect {
+                    r0: 0,
+                    r1: ny,
+                    c0,
+                    c1,
+                };
+                let mut tile = run.tile(&m, h, rect);
                 for row in (h..ny - h).rev().chain(h..ny - h) {
                     for col in c0..c1 {
                         let got = tile.slopes(row, col);

@@ -145,8 +145,7 @@ impl TopoModel {
                 || (Scratch::default(), DirectRow::default()),
                 |(scratch, direct), &(mi, rect)| {
                     let map = maps[mi];
-                    let cols = rect.c0.max(h)..rect.c1.min(map.nx().saturating_sub(h));
-                    let mut direct = direct.tile(map, h, cols);
+                    let mut direct = direct.tile(map, h, rect);
                     let pixel_area = map.dx() * map.dy();
                     let mut t = TileTilts::default();
                     let mut bins = Vec::new();
