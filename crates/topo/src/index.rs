@@ -24,6 +24,44 @@ pub(crate) struct Entry {
     pub index: u32,
 }
 
+/// Lanes of a [`Block`]: one AVX-512 register of `f64`, two of AVX2.
+pub(crate) const LANES: usize = 8;
+
+/// Up to [`LANES`] consecutive entries of one cell's list, field by field, so that a
+/// direction is tested against all of them in one loop of fixed length (vector
+/// compares). Unused lanes have a zero axis and `cos_alpha = +∞`, which no direction
+/// passes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Block {
+    ax: [f64; LANES],
+    ay: [f64; LANES],
+    az: [f64; LANES],
+    cos_alpha: [f64; LANES],
+    /// Detector of each lane ([`Entry::index`]; 0 in unused lanes).
+    index: [u32; LANES],
+}
+
+impl Block {
+    /// The detector of lane `l`.
+    #[inline(always)]
+    pub fn detector(&self, l: usize) -> u32 {
+        self.index[l % LANES]
+    }
+
+    /// Bit `l` set when `k` is inside lane `l`'s cone, `ax·x + ay·y + az·z > cos α`
+    /// (the test of [`Entry`], the same operations in the same order).
+    #[inline(always)]
+    pub fn inside(&self, x: f64, y: f64, z: f64) -> u64 {
+        let dot: [f64; LANES] =
+            std::array::from_fn(|l| self.ax[l] * x + self.ay[l] * y + self.az[l] * z);
+        let mut mask = 0u64;
+        for (l, (d, c)) in dot.iter().zip(&self.cos_alpha).enumerate() {
+            mask |= u64::from(d > c) << l;
+        }
+        mask
+    }
+}
+
 /// The geometry of a [`ConeIndex`]'s grid.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Grid {
@@ -101,6 +139,10 @@ pub(crate) struct ConeIndex {
     /// Per cell, the empty one past the grid included, the cell itself if it lists
     /// cones, else the empty cell.
     listed: Vec<u32>,
+    /// Per cell, its entries in blocks of [`LANES`] (entry `k` of the cell is lane
+    /// `k % LANES` of block `k / LANES`), CSR layout with `block_offsets`.
+    blocks: Vec<Block>,
+    block_offsets: Vec<u32>,
 }
 
 impl ConeIndex {
@@ -196,12 +238,35 @@ impl ConeIndex {
                 }
             })
             .collect();
+        let mut blocks = Vec::new();
+        let mut block_offsets = Vec::with_capacity(offsets.len());
+        block_offsets.push(0u32);
+        for c in 0..=side * side {
+            let list = &entries[offsets[c] as usize..offsets[c + 1] as usize];
+            for part in list.chunks(LANES) {
+                let mut b = Block {
+                    ax: [0.0; LANES],
+                    ay: [0.0; LANES],
+                    az: [0.0; LANES],
+                    cos_alpha: [f64::INFINITY; LANES],
+                    index: [0; LANES],
+                };
+                for (l, e) in part.iter().enumerate() {
+                    (b.ax[l], b.ay[l], b.az[l], b.cos_alpha[l]) = (e.ax, e.ay, e.az, e.cos_alpha);
+                    b.index[l] = e.index;
+                }
+                blocks.push(b);
+            }
+            block_offsets.push(blocks.len() as u32);
+        }
         Self {
             side,
             inv_cell,
             offsets,
             entries,
             listed,
+            blocks,
+            block_offsets,
         }
     }
 
@@ -245,6 +310,28 @@ impl ConeIndex {
         (self.side * self.side) as u32
     }
 
+    /// The entries of `cell` in blocks of [`LANES`] ([`Block`]).
+    #[inline]
+    pub fn cell_blocks(&self, cell: usize) -> &[Block] {
+        &self.blocks[self.block_offsets[cell] as usize..self.block_offsets[cell + 1] as usize]
+    }
+
+    /// The mask of the cones of `cell` (bit `k` for its entry `k`) that contain the
+    /// direction `(x, y, z)`, for a cell of at most 64 entries (a larger one gives
+    /// all ones: its caller tests the entries one by one).
+    #[inline(always)]
+    pub fn inside_mask(&self, cell: usize, x: f64, y: f64, z: f64) -> u64 {
+        let blocks = self.cell_blocks(cell);
+        if blocks.len() > 64 / LANES {
+            return u64::MAX;
+        }
+        let mut mask = 0u64;
+        for (b, block) in blocks.iter().enumerate() {
+            mask |= block.inside(x, y, z) << (b * LANES);
+        }
+        mask
+    }
+
     /// The cones listed in `cell` (from [`ConeIndex::cell`]).
     #[inline]
     pub fn cell_entries(&self, cell: usize) -> &[Entry] {
@@ -286,7 +373,7 @@ mod tests {
         }
         for (margin, per_chord) in [(0.0, FINE), (0.0, COARSE), (0.01, COARSE), (0.01, FINE)] {
             let index = ConeIndex::with_margin(&cones, margin, per_chord);
-            let mut hits = 0;
+            let (mut hits, mut blocked) = (0, 0);
             for _ in 0..40_000 {
                 let c = &cones[rng.random_range(0..cones.len())];
                 let (u, v) = flakescatter_optics::detector::orthonormal_frame(c.axis());
@@ -323,10 +410,32 @@ mod tests {
                     found, truth,
                     "margin {margin}, {per_chord} cells per chord, k = {kk:?}"
                 );
+                // The blocked lists give the same cones without a margin: bit `e` of the
+                // mask for entry `e` of the cell, its detector from the block.
+                let cell = index.cell(k.x, k.y);
+                let mask = index.inside_mask(cell, k.x, k.y, kz);
+                if margin == 0.0 && mask != u64::MAX {
+                    let blocks = index.cell_blocks(cell);
+                    assert_eq!(blocks.len(), index.cell_entries(cell).len().div_ceil(LANES));
+                    let mut by_mask: Vec<u32> = (0..64)
+                        .filter(|e| mask >> e & 1 == 1)
+                        .map(|e| blocks[e / LANES].detector(e))
+                        .collect();
+                    by_mask.sort_unstable();
+                    assert_eq!(
+                        by_mask, truth,
+                        "blocks, {per_chord} cells per chord, k = {kk:?}"
+                    );
+                    blocked += 1;
+                }
             }
             assert!(
                 hits > 20_000,
                 "the test must exercise many containments ({hits})"
+            );
+            assert!(
+                margin > 0.0 || blocked > 20_000,
+                "blocked lists tested {blocked} times"
             );
         }
     }

@@ -87,7 +87,7 @@ use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
 use crate::TopoError;
-use crate::index::ConeIndex;
+use crate::index::{ConeIndex, LANES};
 use crate::normals::{Normals, Rect, Scratch, tile_slopes};
 
 /// Side of the square statistics tiles, µm (see the module docs on uncertainty).
@@ -259,6 +259,22 @@ pub(crate) struct Inc {
     pub amplitudes: [f64; 4],
 }
 
+impl Inc {
+    /// The constants of incidence `theta_i` (rad) on a coating of index `n`.
+    fn new(theta_i: f64, n: f64) -> Self {
+        let k_in = detector::incident_direction(theta_i);
+        let k1 = refraction::into_coating(&k_in, n);
+        Self {
+            k_in: k_in.into_inner(),
+            k1x: k1.x,
+            k1z: k1.z,
+            cos_t: -k1.z,
+            entry: fresnel::air_to_coating(theta_i, n),
+            amplitudes: fresnel::amplitudes_air_to_coating(theta_i, n),
+        }
+    }
+}
+
 /// One ray that leaves the coating, as the accumulators see it.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Ray {
@@ -285,6 +301,96 @@ pub(crate) trait Accumulator: Sync {
     /// Adds `weight` to the `channels()` sums of detector `cone` (whose paper-printed
     /// factor is `scale`).
     fn add(&self, weight: &Self::Weight, ray: &Ray, cone: &Cone, scale: f64, sums: &mut [f64]);
+    /// The weights of the first `n` rays of `rays` into `out` (cleared first): `weigh`
+    /// of each, unless an accumulator has a faster form with the same bits (the scalar
+    /// model's vectorised loop).
+    #[inline(always)]
+    fn weigh_hits(
+        &self,
+        options: &TopoOptions,
+        inc: &Inc,
+        rays: &HitRays,
+        n: usize,
+        out: &mut Vec<Self::Weight>,
+    ) {
+        out.clear();
+        out.extend((0..n).map(|k| self.weigh(options, inc, &rays.get(k))));
+    }
+}
+
+/// The rays of one chunk of [`trace_chunk`] that may enter some detector, at one
+/// incidence, field by field (a structure of arrays, so that a weight loop over them
+/// runs in vector registers); slots are overwritten, never cleared.
+#[derive(Debug, Default)]
+pub(crate) struct HitRays {
+    mx: Vec<f64>,
+    my: Vec<f64>,
+    mz: Vec<f64>,
+    q: Vec<f64>,
+    gamma: Vec<f64>,
+    k2x: Vec<f64>,
+    k2y: Vec<f64>,
+    k2z: Vec<f64>,
+    ox: Vec<f64>,
+    oy: Vec<f64>,
+    oz: Vec<f64>,
+}
+
+impl HitRays {
+    /// Room for `len` rays. Each field's length is `len` plus a different odd number
+    /// of cache lines, so that the fields of one ray do not all fall in the same cache
+    /// set (with 512 rays every field would be 4 KiB long, and ray `k`'s eleven fields
+    /// eleven lines of one set).
+    fn reserve(&mut self, len: usize) {
+        for (f, v) in [
+            &mut self.mx,
+            &mut self.my,
+            &mut self.mz,
+            &mut self.q,
+            &mut self.gamma,
+            &mut self.k2x,
+            &mut self.k2y,
+            &mut self.k2z,
+            &mut self.ox,
+            &mut self.oy,
+            &mut self.oz,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let want = len + 8 * (2 * f + 1);
+            if v.len() < want {
+                v.resize(want, 0.0);
+            }
+        }
+    }
+
+    /// Ray `k`.
+    #[inline(always)]
+    fn get(&self, k: usize) -> Ray {
+        Ray {
+            m: [self.mx[k], self.my[k], self.mz[k], self.q[k]],
+            gamma: self.gamma[k],
+            k2: Vec3::new(self.k2x[k], self.k2y[k], self.k2z[k]),
+            k_out: Vec3::new(self.ox[k], self.oy[k], self.oz[k]),
+        }
+    }
+
+    /// Stores `ray` as ray `k`.
+    #[inline(always)]
+    fn set(&mut self, k: usize, ray: &Ray) {
+        self.mx[k] = ray.m[0];
+        self.my[k] = ray.m[1];
+        self.mz[k] = ray.m[2];
+        self.q[k] = ray.m[3];
+        self.gamma[k] = ray.gamma;
+        self.k2x[k] = ray.k2.x;
+        self.k2y[k] = ray.k2.y;
+        self.k2z[k] = ray.k2.z;
+        self.ox[k] = ray.k_out.x;
+        self.oy[k] = ray.k_out.y;
+        self.oz[k] = ray.k_out.z;
+    }
 }
 
 /// The scalar model: one sum per detector, `w = F γ/(m.z cos θt)` (module docs).
@@ -310,6 +416,101 @@ impl Accumulator for Scalar {
     #[inline]
     fn add(&self, w: &f64, _: &Ray, _: &Cone, scale: f64, sums: &mut [f64]) {
         sums[0] += w * scale;
+    }
+
+    /// For a perfectly conducting flake and an exact transmission, one loop of the
+    /// same operations per ray without calls, which the compiler vectorises; `weigh`
+    /// ray by ray otherwise.
+    #[inline(always)]
+    fn weigh_hits(
+        &self,
+        opts: &TopoOptions,
+        inc: &Inc,
+        rays: &HitRays,
+        n: usize,
+        out: &mut Vec<f64>,
+    ) {
+        out.clear();
+        if !opts.flake.is_perfect() || opts.transmission == Transmission::Paper {
+            out.extend((0..n).map(|k| self.weigh(opts, inc, &rays.get(k))));
+            return;
+        }
+        out.resize(n, 0.0);
+        let flake = opts.flake.amplitudes(1.0, opts.n);
+        // One loop per (transmission, weighting), each without branches.
+        let physical = opts.weighting == Weighting::Physical;
+        match (opts.transmission, physical) {
+            (Transmission::S, false) => {
+                exact_weights(Transmission::S, false, opts.n, inc, flake, rays, out)
+            }
+            (Transmission::S, true) => {
+                exact_weights(Transmission::S, true, opts.n, inc, flake, rays, out)
+            }
+            (Transmission::P, false) => {
+                exact_weights(Transmission::P, false, opts.n, inc, flake, rays, out)
+            }
+            (Transmission::P, true) => {
+                exact_weights(Transmission::P, true, opts.n, inc, flake, rays, out)
+            }
+            (_, false) => exact_weights(
+                Transmission::ExactUnpolarized,
+                false,
+                opts.n,
+                inc,
+                flake,
+                rays,
+                out,
+            ),
+            (_, true) => exact_weights(
+                Transmission::ExactUnpolarized,
+                true,
+                opts.n,
+                inc,
+                flake,
+                rays,
+                out,
+            ),
+        }
+    }
+}
+
+/// [`Scalar::weigh`] of the first `out.len()` rays of `rays` for transmission `t`
+/// (not `paper`), weighting physical or not and flake amplitudes `flake` (the same for
+/// every ray: a perfect conductor), in one loop over the rays' fields.
+#[inline(always)]
+fn exact_weights(
+    t: Transmission,
+    physical: bool,
+    n: f64,
+    inc: &Inc,
+    flake: (jones::C64, jones::C64),
+    rays: &HitRays,
+    out: &mut [f64],
+) {
+    let len = out.len();
+    let (mx, my, mz, q) = (
+        &rays.mx[..len],
+        &rays.my[..len],
+        &rays.mz[..len],
+        &rays.q[..len],
+    );
+    let gamma = &rays.gamma[..len];
+    let (k2x, k2y, k2z) = (&rays.k2x[..len], &rays.k2y[..len], &rays.k2z[..len]);
+    let (ox, oy, oz) = (&rays.ox[..len], &rays.oy[..len], &rays.oz[..len]);
+    let entry_t = (inc.amplitudes[2], inc.amplitudes[3]);
+    for k in 0..len {
+        let ray = Ray {
+            m: [mx[k], my[k], mz[k], q[k]],
+            gamma: gamma[k],
+            k2: Vec3::new(k2x[k], k2y[k], k2z[k]),
+            k_out: Vec3::new(ox[k], oy[k], oz[k]),
+        };
+        let f = exact_path_factor(t, n, entry_t, &ray_directions(inc, &ray), flake);
+        out[k] = if physical {
+            f * ray.gamma * ray.m[3] * (1.0 / inc.cos_t)
+        } else {
+            f * ray.gamma
+        };
     }
 }
 
@@ -368,9 +569,22 @@ pub(crate) fn path_factor_of(
         let flake = opts.flake.power(gamma, n);
         return t.path_factor(entry, flake, &exit);
     }
+    exact_path_factor(t, n, entry_t, path, opts.flake.amplitudes(gamma, n))
+}
+
+/// The exact path factor (`t` not `paper`) of a ray with flake amplitudes `flake`
+/// ([`path_factor_of`]).
+#[inline(always)]
+fn exact_path_factor(
+    t: Transmission,
+    n: f64,
+    entry_t: (f64, f64),
+    path: &RayPath,
+    flake: (jones::C64, jones::C64),
+) -> f64 {
     let amps = PathAmplitudes {
         entry: entry_t,
-        flake: opts.flake.amplitudes(gamma, n),
+        flake,
         exit: jones::exit_amplitudes(path.k_out.z, path.k2.z, n),
     };
     let row = path.first_row(&amps);
@@ -713,21 +927,7 @@ impl TopoModel {
                 }
             })
             .collect();
-        let incs: Vec<Inc> = theta_i
-            .iter()
-            .map(|&t| {
-                let k_in = detector::incident_direction(t);
-                let k1 = refraction::into_coating(&k_in, n);
-                Inc {
-                    k_in: k_in.into_inner(),
-                    k1x: k1.x,
-                    k1z: k1.z,
-                    cos_t: -k1.z,
-                    entry: fresnel::air_to_coating(t, n),
-                    amplitudes: fresnel::amplitudes_air_to_coating(t, n),
-                }
-            })
-            .collect();
+        let incs: Vec<Inc> = theta_i.iter().map(|&t| Inc::new(t, n)).collect();
         let setup = Setup {
             incs,
             index: ConeIndex::new(&all),
@@ -846,6 +1046,11 @@ struct Chunk {
     mz: Vec<f64>,
     q: Vec<f64>,
     cells: Vec<u32>,
+    /// The chunk's rays that may enter a detector, at one incidence: their index in
+    /// the chunk and the mask of candidate cones they enter, then their directions.
+    hits: Vec<(u16, u64)>,
+    kept: Vec<u16>,
+    found: HitRays,
 }
 
 /// Normals handled together, incidence by incidence: 26 KiB with their slopes, so that
@@ -926,31 +1131,23 @@ impl<A: Accumulator> pulp::WithSimd for ChunkTrace<'_, '_, A> {
     }
 }
 
-/// The weight of a ray that enters at least one detector and the binder's absorption
-/// along its path ([`trace_chunk`]). Always inlined, as are the accumulators' `weigh`
-/// and the path factor it calls, so that all of it is compiled with the instruction set
-/// [`pulp::Arch::dispatch`] chose for the chunk (code the compiler kept out of line, a
-/// closure here and then `Scalar::weigh`, ran as baseline SSE2, a quarter of the run's
-/// time).
-#[inline(always)]
-fn weigh_ray<A: Accumulator>(
-    setup: &Setup<'_>,
-    acc: &A,
-    inc: &Inc,
-    ray: &Ray,
-) -> (A::Weight, Option<f64>) {
-    let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, ray.k2.z));
-    (acc.weigh(setup.options, inc, ray), absorbed)
-}
-
 /// One ray per pixel of `slopes` and incidence, added to `p`.
 ///
 /// The normals first, then per incidence: a pass without branches (which the compiler
 /// vectorises) computes every ray's exit and its cell of the cone index, counting the
 /// lost rays and giving them, and rays whose cell lists no cone (most for in-plane
-/// detectors), the empty cell; then, 64 rays at a time, the others are found through a
-/// bit mask, their candidate cones tested into another and, when some contain the ray,
-/// it is weighed once and added to them in the cell's order.
+/// detectors), the empty cell. The other rays, the kept ones, are listed in ray order;
+/// a second pass without branches gives their exit directions field by field
+/// ([`HitRays`]); a third tests each against its cell's candidate cones, eight at a
+/// time ([`ConeIndex::inside_mask`]); the weights of all kept rays follow in one loop
+/// ([`Accumulator::weigh_hits`], vectorised for the scalar model), and last each ray
+/// that some cone contains is added to those cones in the cell's order.
+///
+/// Always inlined into [`ChunkTrace::with_simd`], with everything it calls in the hot
+/// loops (the accumulators' `weigh`, `weigh_hits` and the path factor), so that all of
+/// it is compiled for the instruction set [`pulp::Arch::dispatch`] chose: code the
+/// compiler kept out of line ran as baseline SSE2 (a closure and `Scalar::weigh`, once a
+/// quarter of a run's time; `RayPath::first_row`, which kept the weight loop scalar).
 #[inline(always)]
 fn trace_chunk<A: Accumulator>(
     setup: &Setup<'_>,
@@ -972,6 +1169,9 @@ fn trace_chunk<A: Accumulator>(
         mz,
         q,
         cells,
+        hits,
+        kept,
+        found,
     } = chunk;
     for v in [&mut *mx, &mut *my, &mut *mz, &mut *q] {
         v.clear();
@@ -1006,13 +1206,11 @@ fn trace_chunk<A: Accumulator>(
     // Phase-two records of one group of 64 rays (below), filled before they are read;
     // made once per chunk, not once per group (a memset of 6 KiB per 64 rays was 4 % of
     // a run).
-    let mut hits = [(0u8, 0u64); 64];
-    let mut found = [Ray {
-        m: [0.0; 4],
-        gamma: 0.0,
-        k2: Vec3::new(0.0, 0.0, 0.0),
-        k_out: Vec3::new(0.0, 0.0, 0.0),
-    }; 64];
+    hits.clear();
+    hits.resize(len, (0, 0));
+    kept.clear();
+    kept.resize(len, 0);
+    let mut weights: Vec<A::Weight> = Vec::with_capacity(len);
     for (ii, inc) in setup.incs.iter().enumerate() {
         let base = ii * ndet;
         let sums = &mut p.sums[base * channels..(base + ndet) * channels];
@@ -1038,86 +1236,174 @@ fn trace_chunk<A: Accumulator>(
         }
         p.lost_down += u64::from(down);
         p.lost_tir += u64::from(tir);
-        for (g, group) in cells.chunks(64).enumerate() {
-            let mut rays = 0u64;
-            for (j, &c) in group.iter().enumerate() {
-                rays |= u64::from(listed[(c as usize).min(last)] != empty) << j;
-            }
-            // Two phases per group, so that the branchy part (which cone a ray enters)
-            // and the arithmetic part (the weight, the sums) each run as one loop: first
-            // the kept rays' exit directions and masks of the candidate cones they
-            // enter, then, for the rays that enter any, the weight and the additions, in
-            // ray order (the sums' order, and so their bits, are those of one ray at a
-            // time).
-            let mut nhit = 0;
-            while rays != 0 {
-                let j = rays.trailing_zeros() as usize;
-                rays &= rays - 1;
-                let i = g * 64 + j;
-                let (gamma, k2, ox, oy) = exit(inc, mx[i], my[i], mz[i]);
-                let oz = (1.0 - (ox * ox + oy * oy)).sqrt();
-                let candidates = index.cell_entries(group[j] as usize);
-                let inside =
-                    |e: &crate::index::Entry| e.ax * ox + e.ay * oy + e.az * oz > e.cos_alpha;
-                // A cell of more than 64 candidates (mask all ones) is tested in phase two.
-                let mask = if candidates.len() <= 64 {
-                    let mut mask = 0u64;
-                    for (k, e) in candidates.iter().enumerate() {
-                        mask |= u64::from(inside(e)) << k;
-                    }
-                    mask
-                } else {
-                    u64::MAX
-                };
-                hits[nhit] = (j as u8, mask);
-                found[nhit] = Ray {
+        // The kept rays (whose cell lists a cone), in ray order: their positions in the
+        // chunk, then their exit directions in a loop without branches (vectorised),
+        // then which of their cell's candidate cones they enter, then their weights
+        // (vectorised) and the additions, in ray order (the sums' order, and so their
+        // bits, are those of one ray at a time).
+        let mut nkept = 0;
+        for (i, &c) in cells.iter().enumerate() {
+            // `i < len ≤ RAY_CHUNK`, which fits in 16 bits.
+            kept[nkept] = i as u16;
+            nkept += usize::from(listed[(c as usize).min(last)] != empty);
+        }
+        let kept = &kept[..nkept];
+        found.reserve(nkept);
+        for (k, &i) in kept.iter().enumerate() {
+            let i = usize::from(i).min(len - 1);
+            let (gamma, k2, ox, oy) = exit(&here, mx[i], my[i], mz[i]);
+            let oz = (1.0 - (ox * ox + oy * oy)).sqrt();
+            found.set(
+                k,
+                &Ray {
                     m: [mx[i], my[i], mz[i], q[i]],
                     gamma,
                     k2,
                     k_out: Vec3::new(ox, oy, oz),
+                },
+            );
+        }
+        let mut nhit = 0;
+        for (k, &i) in kept.iter().enumerate() {
+            let cell = cells[usize::from(i)] as usize;
+            // All ones for a cell of more than 64 candidates, tested in the additions.
+            let mask = index.inside_mask(cell, found.ox[k], found.oy[k], found.oz[k]);
+            hits[nhit] = (k as u16, mask);
+            nhit += usize::from(mask != 0);
+        }
+        // The weights of the kept rays (once each).
+        acc.weigh_hits(opts, inc, found, nkept, &mut weights);
+        for &(k, mut mask) in &hits[..nhit] {
+            let k = usize::from(k);
+            let (ray, w) = (&found.get(k), &weights[k]);
+            let cell = cells[usize::from(kept[k])] as usize;
+            let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, ray.k2.z));
+            let mut add = |w: &A::Weight, d: u32| {
+                let d = d as usize;
+                let scale = match absorbed {
+                    Some(a) => setup.scale[d] * a,
+                    None => setup.scale[d],
                 };
-                nhit += usize::from(mask != 0);
+                acc.add(
+                    w,
+                    ray,
+                    &setup.cones[d],
+                    scale,
+                    &mut sums[d * channels..(d + 1) * channels],
+                );
+                counts[d] += 1;
+            };
+            let blocks = index.cell_blocks(cell);
+            if blocks.len() <= 64 / LANES {
+                while mask != 0 {
+                    let e = mask.trailing_zeros() as usize;
+                    add(w, blocks[e / LANES].detector(e));
+                    mask &= mask - 1;
+                }
+            } else {
+                let k = ray.k_out;
+                for e in index
+                    .cell_entries(cell)
+                    .iter()
+                    .filter(|e| e.ax * k.x + e.ay * k.y + e.az * k.z > e.cos_alpha)
+                {
+                    add(w, e.index);
+                }
             }
-            for (&(j, mut mask), ray) in hits[..nhit].iter().zip(&found[..nhit]) {
-                let candidates = index.cell_entries(group[j as usize] as usize);
-                let mut add = |(w, absorbed): &(A::Weight, Option<f64>),
-                               e: &crate::index::Entry| {
-                    let d = e.index as usize;
-                    let scale = match absorbed {
-                        Some(a) => setup.scale[d] * a,
-                        None => setup.scale[d],
-                    };
-                    acc.add(
-                        w,
-                        ray,
-                        &setup.cones[d],
-                        scale,
-                        &mut sums[d * channels..(d + 1) * channels],
-                    );
-                    counts[d] += 1;
-                };
-                if candidates.len() <= 64 {
-                    // The weight and the binder's absorption along the path, once per ray.
-                    let w = weigh_ray(setup, acc, inc, ray);
-                    while mask != 0 {
-                        add(&w, &candidates[mask.trailing_zeros() as usize]);
-                        mask &= mask - 1;
-                    }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// The scalar model's vectorised `weigh_hits` gives, bit for bit, `weigh` of each
+    /// ray (the reference, ray by ray through `path_factor_of`), for every transmission
+    /// and weighting, a perfect and a metal flake, and batch lengths that leave vector
+    /// remainders (1, 7, 9, 64, 333). The rays are those of random flake normals at
+    /// several incidences, built as `trace_chunk` builds them; ray 0 of each batch
+    /// leaves along the zenith (`k_out.x = k_out.y = 0`, the special case of the Jones
+    /// frames).
+    #[test]
+    fn batch_weights_equal_the_weights_ray_by_ray() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let n = 1.5;
+        let mut checked = 0;
+        for theta in [0.0, 0.3, 0.8, 1.3] {
+            let inc = Inc::new(theta, n);
+            let mut rays = Vec::new();
+            // A normal halfway between k1 and the zenith sends the ray straight up.
+            let up = Vec3::new(-inc.k1x, 0.0, 1.0 - inc.k1z).normalize();
+            let mut tries = 0;
+            while rays.len() < 333 {
+                tries += 1;
+                assert!(tries < 100_000, "too few rays leave at θi = {theta}");
+                let m = if rays.is_empty() {
+                    up
                 } else {
-                    let k = ray.k_out;
-                    let mut weight = None;
-                    for e in candidates
-                        .iter()
-                        .filter(|e| e.ax * k.x + e.ay * k.y + e.az * k.z > e.cos_alpha)
-                    {
-                        let w = match &weight {
-                            Some(w) => w,
-                            None => weight.insert(weigh_ray(setup, acc, inc, ray)),
+                    let (a, b): (f64, f64) =
+                        (rng.random_range(-0.5..0.5), rng.random_range(-0.5..0.5));
+                    Vec3::new(-a, -b, 1.0) / (1.0 + a * a + b * b).sqrt()
+                };
+                let gamma = -(inc.k1x * m.x + inc.k1z * m.z);
+                let k2 = Vec3::new(inc.k1x, 0.0, inc.k1z) + m * (2.0 * gamma);
+                let (ox, oy) = (n * k2.x, n * k2.y);
+                let r2 = ox * ox + oy * oy;
+                if gamma <= 0.0 || k2.z <= 0.0 || r2 >= 1.0 {
+                    continue;
+                }
+                rays.push(Ray {
+                    m: [m.x, m.y, m.z, 1.0 / m.z],
+                    gamma,
+                    k2,
+                    k_out: Vec3::new(ox, oy, (1.0 - r2).sqrt()),
+                });
+            }
+            // Up to rounding: made exact below, as the special case needs.
+            assert!(
+                rays[0].k_out.x.abs() < 1e-15 && rays[0].k_out.y == 0.0,
+                "{:?}",
+                rays[0].k_out
+            );
+            rays[0].k_out = Vec3::new(0.0, 0.0, 1.0);
+            let mut soa = HitRays::default();
+            soa.reserve(rays.len());
+            for (k, r) in rays.iter().enumerate() {
+                soa.set(k, r);
+            }
+            for transmission in Transmission::ALL {
+                for weighting in [Weighting::Physical, Weighting::PaperPrinted] {
+                    for flake in [
+                        FlakeReflectance::PerfectConductor,
+                        FlakeReflectance::aluminium_550nm(),
+                    ] {
+                        let opts = TopoOptions {
+                            transmission,
+                            weighting,
+                            flake,
+                            ..TopoOptions::default()
                         };
-                        add(w, e);
+                        for len in [1, 7, 9, 64, rays.len()] {
+                            let mut out = vec![f64::NAN; 3];
+                            Scalar.weigh_hits(&opts, &inc, &soa, len, &mut out);
+                            assert_eq!(out.len(), len);
+                            for (k, (w, ray)) in out.iter().zip(&rays).enumerate() {
+                                let want = Scalar.weigh(&opts, &inc, ray);
+                                assert!(want.is_finite() && want > 0.0, "{want}");
+                                assert_eq!(
+                                    w.to_bits(),
+                                    want.to_bits(),
+                                    "ray {k} of {len}, {transmission}, {weighting:?}, {flake:?}, θi = {theta}"
+                                );
+                                checked += 1;
+                            }
+                        }
                     }
                 }
             }
         }
+        assert!(checked > 10_000, "{checked}");
     }
 }
