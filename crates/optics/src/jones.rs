@@ -166,7 +166,7 @@ pub fn exit_frame(k: &Vec3, reference: &Vec3) -> (f64, f64) {
 /// Snell-related: `ts = 2n c2/(n c2 + co)`, `tp = 2n c2/(c2 + n co)` (module docs with
 /// `n1 = n`, `n2 = 1`).
 #[must_use]
-#[inline(always)]
+#[inline]
 pub fn exit_amplitudes(cos_outside: f64, cos_inside: f64, n: f64) -> (f64, f64) {
     let a = 2.0 * n * cos_inside;
     (
@@ -313,7 +313,7 @@ impl RayPath {
     }
 
     /// `(cos θt / cos θi)(cos θo / cos θ2)`.
-    #[inline(always)]
+    #[inline]
     fn power_scale(&self) -> f64 {
         (self.k1.z * self.k_out.z) / (self.k_in.z * self.k2.z)
     }
@@ -323,7 +323,7 @@ impl RayPath {
     /// to the exit basis `(so, k2 × so)`, each `[[c, d], [−d, c]]`), built from the
     /// unnormalised vectors `z × k_in`, `z × k_out`, `k1 × m`, with the factor
     /// `K² = 1/(|z × k_in|² |z × k_out|² |k1 × m|⁴)` that normalises their squares.
-    #[inline(always)]
+    #[inline]
     fn rotations(&self) -> ([f64; 4], f64) {
         let (ki, k1, m, k2, ko) = (&self.k_in, &self.k1, &self.m, &self.k2, &self.k_out);
         // Horizontal s vectors z × k = (−k.y, k.x, 0) and their squared lengths
