@@ -1046,10 +1046,13 @@ struct Chunk {
     mz: Vec<f64>,
     q: Vec<f64>,
     cells: Vec<u32>,
-    /// The chunk's rays that may enter a detector, at one incidence: their index in
-    /// the chunk and the mask of candidate cones they enter, then their directions.
+    /// At one incidence, the kept rays that enter some cone: their position in
+    /// `kept` and the mask of their cell's cones that contain them.
     hits: Vec<(u16, u64)>,
+    /// At one incidence, the positions in the chunk of the kept rays (whose cell lists
+    /// cones), in ray order.
     kept: Vec<u16>,
+    /// The kept rays' normals and directions, in the order of `kept`.
     found: HitRays,
 }
 
