@@ -301,20 +301,26 @@ pub(crate) trait Accumulator: Sync {
     /// Adds `weight` to the `channels()` sums of detector `cone` (whose paper-printed
     /// factor is `scale`).
     fn add(&self, weight: &Self::Weight, ray: &Ray, cone: &Cone, scale: f64, sums: &mut [f64]);
-    /// The weights of the first `n` rays of `rays` into `out` (cleared first): `weigh`
-    /// of each, unless an accumulator has a faster form with the same bits (the scalar
-    /// model's vectorised loop).
+    /// The weights of the rays that enter some cone into `out` (cleared first):
+    /// `out[j]` is `weigh` of ray `hits[j].0` of `rays`, whose first `kept` rays are
+    /// set (positions increasing, below `kept`). An accumulator may have a faster form
+    /// with the same bits (the scalar model's vectorised loop).
     #[inline(always)]
     fn weigh_hits(
         &self,
         options: &TopoOptions,
         inc: &Inc,
         rays: &HitRays,
-        n: usize,
+        kept: usize,
+        hits: &[(u16, u64)],
         out: &mut Vec<Self::Weight>,
     ) {
+        let _ = kept;
         out.clear();
-        out.extend((0..n).map(|k| self.weigh(options, inc, &rays.get(k))));
+        out.extend(
+            hits.iter()
+                .map(|&(k, _)| self.weigh(options, inc, &rays.get(usize::from(k)))),
+        );
     }
 }
 
@@ -337,11 +343,12 @@ pub(crate) struct HitRays {
 }
 
 impl HitRays {
-    /// Room for `len` rays. Each field's length is `len` plus a different odd number
-    /// of cache lines, so that the fields of one ray do not all fall in the same cache
-    /// set (with 512 rays every field would be 4 KiB long, and ray `k`'s eleven fields
-    /// eleven lines of one set).
-    fn reserve(&mut self, len: usize) {
+    /// Makes every field hold at least `len` rays (slots `0..len` may then be set and
+    /// read). Each field's length is `len` plus a different odd number of cache lines,
+    /// so that the fields of one ray do not all fall in the same cache set (with 512
+    /// rays every field would be 4 KiB long, and ray `k`'s eleven fields eleven lines
+    /// of one set); [`trace_chunk`] sizes them once, for [`RAY_CHUNK`] rays.
+    fn fit(&mut self, len: usize) {
         for (f, v) in [
             &mut self.mx,
             &mut self.my,
@@ -427,50 +434,63 @@ impl Accumulator for Scalar {
         opts: &TopoOptions,
         inc: &Inc,
         rays: &HitRays,
-        n: usize,
+        kept: usize,
+        hits: &[(u16, u64)],
         out: &mut Vec<f64>,
     ) {
         out.clear();
-        if !opts.flake.is_perfect() || opts.transmission == Transmission::Paper {
-            out.extend((0..n).map(|k| self.weigh(opts, inc, &rays.get(k))));
+        let flake = opts.flake.amplitudes(1.0, opts.n);
+        let physical = opts.weighting == Weighting::Physical;
+        let t = opts.transmission;
+        if !opts.flake.is_perfect() || t == Transmission::Paper {
+            out.extend(
+                hits.iter()
+                    .map(|&(k, _)| self.weigh(opts, inc, &rays.get(usize::from(k)))),
+            );
             return;
         }
-        out.resize(n, 0.0);
-        let flake = opts.flake.amplitudes(1.0, opts.n);
-        // One loop per (transmission, weighting), each without branches.
-        let physical = opts.weighting == Weighting::Physical;
-        match (opts.transmission, physical) {
+        // Every kept ray, in one loop per (transmission, weighting), each without
+        // branches; then the hits' weights moved to the front (`hits[j].0 ≥ j`).
+        out.resize(kept, 0.0);
+        let n = opts.n;
+        match (t, physical) {
             (Transmission::S, false) => {
-                exact_weights(Transmission::S, false, opts.n, inc, flake, rays, out)
+                exact_weights(Transmission::S, false, n, inc, flake, rays, out)
             }
             (Transmission::S, true) => {
-                exact_weights(Transmission::S, true, opts.n, inc, flake, rays, out)
+                exact_weights(Transmission::S, true, n, inc, flake, rays, out)
             }
             (Transmission::P, false) => {
-                exact_weights(Transmission::P, false, opts.n, inc, flake, rays, out)
+                exact_weights(Transmission::P, false, n, inc, flake, rays, out)
             }
             (Transmission::P, true) => {
-                exact_weights(Transmission::P, true, opts.n, inc, flake, rays, out)
+                exact_weights(Transmission::P, true, n, inc, flake, rays, out)
             }
-            (_, false) => exact_weights(
+            (Transmission::ExactUnpolarized, false) => exact_weights(
                 Transmission::ExactUnpolarized,
                 false,
-                opts.n,
+                n,
                 inc,
                 flake,
                 rays,
                 out,
             ),
-            (_, true) => exact_weights(
+            (Transmission::ExactUnpolarized, true) => exact_weights(
                 Transmission::ExactUnpolarized,
                 true,
-                opts.n,
+                n,
                 inc,
                 flake,
                 rays,
                 out,
             ),
+            // Taken above: the path factor is not the Mueller row's.
+            (Transmission::Paper, _) => {}
         }
+        for (j, &(k, _)) in hits.iter().enumerate() {
+            out[j] = out[usize::from(k)];
+        }
+        out.truncate(hits.len());
     }
 }
 
@@ -1047,7 +1067,8 @@ struct Chunk {
     q: Vec<f64>,
     cells: Vec<u32>,
     /// At one incidence, the kept rays that enter some cone: their position in
-    /// `kept` and the mask of their cell's cones that contain them.
+    /// `kept` and the mask of their cell's cones that contain them (all ones, whether
+    /// any contains them or not, for a cell of more than 64 cones).
     hits: Vec<(u16, u64)>,
     /// At one incidence, the positions in the chunk of the kept rays (whose cell lists
     /// cones), in ray order.
@@ -1059,6 +1080,9 @@ struct Chunk {
 /// Normals handled together, incidence by incidence: 26 KiB with their slopes, so that
 /// they stay in the L1 cache for every incidence.
 const RAY_CHUNK: usize = 512;
+
+// Positions in a chunk are stored as `u16`.
+const _: () = assert!(RAY_CHUNK <= 1 << 16);
 
 /// Normals of one tile, then one ray per usable pixel and incidence.
 ///
@@ -1142,9 +1166,10 @@ impl<A: Accumulator> pulp::WithSimd for ChunkTrace<'_, '_, A> {
 /// detectors), the empty cell. The other rays, the kept ones, are listed in ray order;
 /// a second pass without branches gives their exit directions field by field
 /// ([`HitRays`]); a third tests each against its cell's candidate cones, eight at a
-/// time ([`ConeIndex::inside_mask`]); the weights of all kept rays follow in one loop
-/// ([`Accumulator::weigh_hits`], vectorised for the scalar model), and last each ray
-/// that some cone contains is added to those cones in the cell's order.
+/// time ([`ConeIndex::inside_mask`]); the weights of the rays that some cone contains
+/// follow ([`Accumulator::weigh_hits`]: for the scalar model with a perfectly
+/// conducting flake and an exact transmission, one vectorised loop over all kept
+/// rays), and last each such ray is added to its cones in the cell's order.
 ///
 /// Always inlined into [`ChunkTrace::with_simd`], with everything it calls in the hot
 /// loops (the accumulators' `weigh`, `weigh_hits` and the path factor), so that all of
@@ -1206,13 +1231,10 @@ fn trace_chunk<A: Accumulator>(
         let (k2x, k2y) = (inc.k1x + g2 * mx, g2 * my);
         (gamma, Vec3::new(k2x, k2y, k2z), n * k2x, n * k2y)
     };
-    // Phase-two records of one group of 64 rays (below), filled before they are read;
-    // made once per chunk, not once per group (a memset of 6 KiB per 64 rays was 4 % of
-    // a run).
-    hits.clear();
-    hits.resize(len, (0, 0));
-    kept.clear();
-    kept.resize(len, 0);
+    // Per-incidence records (below), every slot written before it is read.
+    hits.resize(len.max(hits.len()), (0, 0));
+    kept.resize(len.max(kept.len()), 0);
+    found.fit(RAY_CHUNK.max(len));
     let mut weights: Vec<A::Weight> = Vec::with_capacity(len);
     for (ii, inc) in setup.incs.iter().enumerate() {
         let base = ii * ndet;
@@ -1241,8 +1263,8 @@ fn trace_chunk<A: Accumulator>(
         p.lost_tir += u64::from(tir);
         // The kept rays (whose cell lists a cone), in ray order: their positions in the
         // chunk, then their exit directions in a loop without branches (vectorised),
-        // then which of their cell's candidate cones they enter, then their weights
-        // (vectorised) and the additions, in ray order (the sums' order, and so their
+        // then which of their cell's candidate cones they enter, then the weights of
+        // those that enter any and the additions, in ray order (the sums' order, and so their
         // bits, are those of one ray at a time).
         let mut nkept = 0;
         for (i, &c) in cells.iter().enumerate() {
@@ -1251,7 +1273,6 @@ fn trace_chunk<A: Accumulator>(
             nkept += usize::from(listed[(c as usize).min(last)] != empty);
         }
         let kept = &kept[..nkept];
-        found.reserve(nkept);
         for (k, &i) in kept.iter().enumerate() {
             let i = usize::from(i).min(len - 1);
             let (gamma, k2, ox, oy) = exit(&here, mx[i], my[i], mz[i]);
@@ -1274,11 +1295,11 @@ fn trace_chunk<A: Accumulator>(
             hits[nhit] = (k as u16, mask);
             nhit += usize::from(mask != 0);
         }
-        // The weights of the kept rays (once each).
-        acc.weigh_hits(opts, inc, found, nkept, &mut weights);
-        for &(k, mut mask) in &hits[..nhit] {
+        // The weights of the rays that enter some cone (once each).
+        acc.weigh_hits(opts, inc, found, nkept, &hits[..nhit], &mut weights);
+        for (&(k, mut mask), w) in hits[..nhit].iter().zip(&weights) {
             let k = usize::from(k);
-            let (ray, w) = (&found.get(k), &weights[k]);
+            let ray = &found.get(k);
             let cell = cells[usize::from(kept[k])] as usize;
             let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, ray.k2.z));
             let mut add = |w: &A::Weight, d: u32| {
@@ -1296,19 +1317,21 @@ fn trace_chunk<A: Accumulator>(
                 );
                 counts[d] += 1;
             };
+            // All ones: a cell whose cones are tested one by one here (of more than 64,
+            // or 64 that all contain the ray, which gives the same cones in order).
             let blocks = index.cell_blocks(cell);
-            if blocks.len() <= 64 / LANES {
+            if mask != u64::MAX {
                 while mask != 0 {
                     let e = mask.trailing_zeros() as usize;
                     add(w, blocks[e / LANES].detector(e));
                     mask &= mask - 1;
                 }
             } else {
-                let k = ray.k_out;
+                let o = ray.k_out;
                 for e in index
                     .cell_entries(cell)
                     .iter()
-                    .filter(|e| e.ax * k.x + e.ay * k.y + e.az * k.z > e.cos_alpha)
+                    .filter(|e| e.ax * o.x + e.ay * o.y + e.az * o.z > e.cos_alpha)
                 {
                     add(w, e.index);
                 }
@@ -1323,12 +1346,12 @@ mod tests {
     use rand::{RngExt, SeedableRng};
 
     /// The scalar model's vectorised `weigh_hits` gives, bit for bit, `weigh` of each
-    /// ray (the reference, ray by ray through `path_factor_of`), for every transmission
+    /// hit (the reference, ray by ray through `path_factor_of`), for every transmission
     /// and weighting, a perfect and a metal flake, and batch lengths that leave vector
-    /// remainders (1, 7, 9, 64, 333). The rays are those of random flake normals at
-    /// several incidences, built as `trace_chunk` builds them; ray 0 of each batch
-    /// leaves along the zenith (`k_out.x = k_out.y = 0`, the special case of the Jones
-    /// frames).
+    /// remainders (1, 7, 9, 64 and 333 kept rays, all or every third of them hits). The
+    /// rays are those of random flake normals at several incidences, with the exit of
+    /// `trace_chunk`; ray 0 of each batch leaves along the zenith (`k_out.x = k_out.y =
+    /// 0`, the special case of the Jones frames).
     #[test]
     fn batch_weights_equal_the_weights_ray_by_ray() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
@@ -1372,7 +1395,7 @@ mod tests {
             );
             rays[0].k_out = Vec3::new(0.0, 0.0, 1.0);
             let mut soa = HitRays::default();
-            soa.reserve(rays.len());
+            soa.fit(rays.len());
             for (k, r) in rays.iter().enumerate() {
                 soa.set(k, r);
             }
@@ -1389,18 +1412,25 @@ mod tests {
                             ..TopoOptions::default()
                         };
                         for len in [1, 7, 9, 64, rays.len()] {
-                            let mut out = vec![f64::NAN; 3];
-                            Scalar.weigh_hits(&opts, &inc, &soa, len, &mut out);
-                            assert_eq!(out.len(), len);
-                            for (k, (w, ray)) in out.iter().zip(&rays).enumerate() {
-                                let want = Scalar.weigh(&opts, &inc, ray);
-                                assert!(want.is_finite() && want > 0.0, "{want}");
-                                assert_eq!(
-                                    w.to_bits(),
-                                    want.to_bits(),
-                                    "ray {k} of {len}, {transmission}, {weighting:?}, {flake:?}, θi = {theta}"
-                                );
-                                checked += 1;
+                            // All kept rays hit, or every third one and the last.
+                            for step in [1, 3] {
+                                let hits: Vec<(u16, u64)> = (0..len)
+                                    .filter(|k| k % step == 0 || k + 1 == len)
+                                    .map(|k| (k as u16, 1))
+                                    .collect();
+                                let mut out = vec![f64::NAN; 3];
+                                Scalar.weigh_hits(&opts, &inc, &soa, len, &hits, &mut out);
+                                assert_eq!(out.len(), hits.len());
+                                for (w, &(k, _)) in out.iter().zip(&hits) {
+                                    let want = Scalar.weigh(&opts, &inc, &rays[usize::from(k)]);
+                                    assert!(want.is_finite() && want > 0.0, "{want}");
+                                    assert_eq!(
+                                        w.to_bits(),
+                                        want.to_bits(),
+                                        "ray {k} of {len}, {transmission}, {weighting:?}, {flake:?}, θi = {theta}"
+                                    );
+                                    checked += 1;
+                                }
                             }
                         }
                     }
