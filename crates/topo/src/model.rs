@@ -311,11 +311,10 @@ pub(crate) trait Accumulator: Sync {
         options: &TopoOptions,
         inc: &Inc,
         rays: &HitRays,
-        kept: usize,
+        _kept: usize,
         hits: &[(u16, u64)],
         out: &mut Vec<Self::Weight>,
     ) {
-        let _ = kept;
         out.clear();
         out.extend(
             hits.iter()
@@ -439,8 +438,6 @@ impl Accumulator for Scalar {
         out: &mut Vec<f64>,
     ) {
         out.clear();
-        let flake = opts.flake.amplitudes(1.0, opts.n);
-        let physical = opts.weighting == Weighting::Physical;
         let t = opts.transmission;
         if !opts.flake.is_perfect() || t == Transmission::Paper {
             out.extend(
@@ -452,6 +449,9 @@ impl Accumulator for Scalar {
         // Every kept ray, in one loop per (transmission, weighting), each without
         // branches; then the hits' weights moved to the front (`hits[j].0 ≥ j`).
         out.resize(kept, 0.0);
+        // The perfect conductor's constant amplitudes.
+        let flake = opts.flake.amplitudes(1.0, opts.n);
+        let physical = opts.weighting == Weighting::Physical;
         let n = opts.n;
         match (t, physical) {
             (Transmission::S, false) => {
@@ -1264,8 +1264,8 @@ fn trace_chunk<A: Accumulator>(
         // The kept rays (whose cell lists a cone), in ray order: their positions in the
         // chunk, then their exit directions in a loop without branches (vectorised),
         // then which of their cell's candidate cones they enter, then the weights of
-        // those that enter any and the additions, in ray order (the sums' order, and so their
-        // bits, are those of one ray at a time).
+        // those that enter any and the additions, in ray order (the sums' order, and so
+        // their bits, are those of one ray at a time).
         let mut nkept = 0;
         for (i, &c) in cells.iter().enumerate() {
             // `i < len ≤ RAY_CHUNK`, which fits in 16 bits.
