@@ -24,6 +24,15 @@ pub(crate) struct Entry {
     pub index: u32,
 }
 
+impl Entry {
+    /// Whether the cone contains the direction `(x, y, z)`: `ax·x + ay·y + az·z >
+    /// cos α` ([`Cone::contains`] on the models' exit directions).
+    #[inline(always)]
+    pub fn contains(&self, x: f64, y: f64, z: f64) -> bool {
+        self.ax * x + self.ay * y + self.az * z > self.cos_alpha
+    }
+}
+
 /// Lanes of a [`Block`]: one AVX-512 register of `f64`, two of AVX2.
 pub(crate) const LANES: usize = 8;
 
@@ -50,7 +59,7 @@ impl Block {
     }
 
     /// Bit `l` set when `k` is inside lane `l`'s cone, `ax·x + ay·y + az·z > cos α`
-    /// (the test of [`Entry`], the same operations in the same order).
+    /// ([`Entry::contains`], the same operations in the same order).
     #[inline(always)]
     pub fn inside(&self, x: f64, y: f64, z: f64) -> u64 {
         let dot: [f64; LANES] =
@@ -444,7 +453,7 @@ mod tests {
                     let in_order: Vec<u32> = index
                         .cell_entries(cell)
                         .iter()
-                        .filter(|e| e.ax * k.x + e.ay * k.y + e.az * kz > e.cos_alpha)
+                        .filter(|e| e.contains(k.x, k.y, kz))
                         .map(|e| e.index)
                         .collect();
                     assert_eq!(by_mask, in_order, "order of the blocks, k = {kk:?}");

@@ -1274,6 +1274,7 @@ fn trace_chunk<A: Accumulator>(
         }
         let kept = &kept[..nkept];
         for (k, &i) in kept.iter().enumerate() {
+            // `i < len` already: the `min` lets the compiler drop the bounds checks.
             let i = usize::from(i).min(len - 1);
             let (gamma, k2, ox, oy) = exit(&here, mx[i], my[i], mz[i]);
             let oz = (1.0 - (ox * ox + oy * oy)).sqrt();
@@ -1319,8 +1320,8 @@ fn trace_chunk<A: Accumulator>(
             };
             // All ones: a cell whose cones are tested one by one here (of more than 64,
             // or 64 that all contain the ray, which gives the same cones in order).
-            let blocks = index.cell_blocks(cell);
             if mask != u64::MAX {
+                let blocks = index.cell_blocks(cell);
                 while mask != 0 {
                     let e = mask.trailing_zeros() as usize;
                     add(w, blocks[e / LANES].detector(e));
@@ -1331,7 +1332,7 @@ fn trace_chunk<A: Accumulator>(
                 for e in index
                     .cell_entries(cell)
                     .iter()
-                    .filter(|e| e.ax * o.x + e.ay * o.y + e.az * o.z > e.cos_alpha)
+                    .filter(|e| e.contains(o.x, o.y, o.z))
                 {
                     add(w, e.index);
                 }
