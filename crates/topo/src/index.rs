@@ -72,7 +72,49 @@ impl Block {
     }
 }
 
-/// The geometry of a [`ConeIndex`]'s grid.
+/// How a [`Block`] is tested: [`Portable`] code that the compiler vectorises as it
+/// can, or one AVX-512 compare of eight lanes ([`pulp::x86::V4`]); the same operations
+/// in the same order, so the same bits.
+pub(crate) trait Lanes: Copy {
+    /// [`Block::inside`].
+    fn inside(self, block: &Block, x: f64, y: f64, z: f64) -> u64;
+}
+
+/// [`Block::inside`] as written.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Portable;
+
+impl Lanes for Portable {
+    #[inline(always)]
+    fn inside(self, block: &Block, x: f64, y: f64, z: f64) -> u64 {
+        block.inside(x, y, z)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Lanes for pulp::x86::V4 {
+    /// `(ax·x + ay·y) + az·z > cos α` in eight lanes at once: products and sums
+    /// rounded one by one, as [`Entry::contains`] (no fused multiply–add).
+    #[inline(always)]
+    fn inside(self, block: &Block, x: f64, y: f64, z: f64) -> u64 {
+        let (ax, ay, az, c): (pulp::f64x8, pulp::f64x8, pulp::f64x8, pulp::f64x8) = (
+            pulp::cast(block.ax),
+            pulp::cast(block.ay),
+            pulp::cast(block.az),
+            pulp::cast(block.cos_alpha),
+        );
+        let dot = self.add_f64x8(
+            self.add_f64x8(
+                self.mul_f64x8(ax, self.splat_f64x8(x)),
+                self.mul_f64x8(ay, self.splat_f64x8(y)),
+            ),
+            self.mul_f64x8(az, self.splat_f64x8(z)),
+        );
+        u64::from(self.cmp_gt_f64x8(dot, c).0)
+    }
+}
+
+/// The geometry of a [`ConeIndex`]'s grid, and the box of its cells that list cones.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Grid {
     /// Cells per unit of `x` or `y` (`side/2`).
@@ -81,6 +123,14 @@ pub(crate) struct Grid {
     last: f64,
     /// Cells per axis.
     side: f64,
+    /// The cells that list cones have columns `ix` in `[x_lo, x_hi)` and rows `iy` in
+    /// `[y_lo, y_hi)` (integers; an empty range when no cell lists a cone).
+    x_lo: f64,
+    x_hi: f64,
+    y_lo: f64,
+    y_hi: f64,
+    /// [`ConeIndex::empty_cell`].
+    empty: u32,
 }
 
 impl Grid {
@@ -91,9 +141,35 @@ impl Grid {
     /// of `as`.
     #[inline(always)]
     pub fn cell(self, x: f64, y: f64) -> u32 {
+        self.combine(self.at(x).trunc(), self.at(y).trunc())
+    }
+
+    /// The cell of `(x, y)` ([`Grid::cell`]) if it lies in the box of the cells that list
+    /// cones, else the empty cell: a cheap first filter, without a table lookup (a cell
+    /// inside the box may still list nothing). `⌊t⌋` is in `[lo, hi)` exactly when `t`
+    /// is, for integers `lo`, `hi` and `t ≥ 0`, so the test is made on the clamped `t`.
+    #[inline(always)]
+    pub fn boxed_cell(self, x: f64, y: f64) -> u32 {
+        let (tx, ty) = (self.at(x), self.at(y));
+        let inside = (tx >= self.x_lo) & (tx < self.x_hi) & (ty >= self.y_lo) & (ty < self.y_hi);
+        if inside {
+            self.combine(tx.trunc(), ty.trunc())
+        } else {
+            self.empty
+        }
+    }
+
+    /// `(v + 1)·side/2` clamped to `[0, side − 1]` (NaN to 0).
+    #[inline(always)]
+    fn at(self, v: f64) -> f64 {
+        ((v + 1.0) * self.inv_cell).max(0.0).min(self.last)
+    }
+
+    /// `iy·side + ix` for integer-valued `ix`, `iy` in `[0, side)`.
+    #[inline(always)]
+    fn combine(self, ix: f64, iy: f64) -> u32 {
         const INT: f64 = 4_503_599_627_370_496.0;
-        let at = |v: f64| ((v + 1.0) * self.inv_cell).max(0.0).min(self.last).trunc();
-        (at(y) * self.side + at(x) + INT).to_bits() as u32
+        (iy * self.side + ix + INT).to_bits() as u32
     }
 }
 
@@ -157,6 +233,8 @@ pub(crate) struct ConeIndex {
     /// (`cos_alpha`) would not honour.
     blocks: Vec<Block>,
     block_offsets: Vec<u32>,
+    /// The box of the cells that list cones, `[x_lo, x_hi, y_lo, y_hi]` ([`Grid`]).
+    listed_box: [f64; 4],
 }
 
 impl ConeIndex {
@@ -259,6 +337,15 @@ impl ConeIndex {
                 }
             })
             .collect();
+        // The box of the cells that list cones (an empty one when none does).
+        let mut listed_box = [side as f64, 0.0, side as f64, 0.0];
+        for &(cell, _) in &pairs {
+            let (ix, iy) = ((cell as usize % side) as f64, (cell as usize / side) as f64);
+            listed_box[0] = listed_box[0].min(ix);
+            listed_box[1] = listed_box[1].max(ix + 1.0);
+            listed_box[2] = listed_box[2].min(iy);
+            listed_box[3] = listed_box[3].max(iy + 1.0);
+        }
         let mut blocks = Vec::new();
         let mut block_offsets = Vec::with_capacity(offsets.len());
         block_offsets.push(0u32);
@@ -293,6 +380,7 @@ impl ConeIndex {
             listed,
             blocks,
             block_offsets,
+            listed_box,
         }
     }
 
@@ -323,10 +411,16 @@ impl ConeIndex {
     /// The grid's geometry.
     #[inline]
     fn grid(&self) -> Grid {
+        let [x_lo, x_hi, y_lo, y_hi] = self.listed_box;
         Grid {
             inv_cell: self.inv_cell,
             last: (self.side - 1) as f64,
             side: self.side as f64,
+            x_lo,
+            x_hi,
+            y_lo,
+            y_hi,
+            empty: self.empty_cell(),
         }
     }
 
@@ -348,14 +442,14 @@ impl ConeIndex {
     /// the entries one by one (which gives the same cones, in the same order, for a
     /// mask that is all ones because all 64 contain the direction).
     #[inline(always)]
-    pub fn inside_mask(&self, cell: usize, x: f64, y: f64, z: f64) -> u64 {
+    pub fn inside_mask<L: Lanes>(&self, lanes: L, cell: usize, x: f64, y: f64, z: f64) -> u64 {
         let blocks = self.cell_blocks(cell);
         if blocks.is_empty() && self.offsets[cell] < self.offsets[cell + 1] {
             return u64::MAX;
         }
         let mut mask = 0u64;
         for (b, block) in blocks.iter().enumerate() {
-            mask |= block.inside(x, y, z) << (b * LANES);
+            mask |= lanes.inside(block, x, y, z) << (b * LANES);
         }
         mask
     }
@@ -402,6 +496,7 @@ mod tests {
         for (margin, per_chord) in [(0.0, FINE), (0.0, COARSE), (0.01, COARSE), (0.01, FINE)] {
             let index = ConeIndex::with_margin(&cones, margin, per_chord);
             let (mut hits, mut blocked, mut multi) = (0, 0, 0);
+            let mut wide_checked = 0;
             for _ in 0..40_000 {
                 let c = &cones[rng.random_range(0..cones.len())];
                 let (u, v) = flakescatter_optics::detector::orthonormal_frame(c.axis());
@@ -441,7 +536,20 @@ mod tests {
                 // The blocked lists give the same cones without a margin: bit `e` of the
                 // mask for entry `e` of the cell, its detector from the block.
                 let cell = index.cell(k.x, k.y);
-                let mask = index.inside_mask(cell, k.x, k.y, kz);
+                let mask = index.inside_mask(Portable, cell, k.x, k.y, kz);
+                // The box filter keeps every direction that some cone contains.
+                let (grid, _) = index.listed();
+                if !truth.is_empty() {
+                    assert_eq!(grid.boxed_cell(k.x, k.y) as usize, cell, "k = {kk:?}");
+                }
+                // The AVX-512 test of the blocks gives the portable one's bits.
+                #[cfg(target_arch = "x86_64")]
+                if let Some(v4) = pulp::x86::V4::try_new() {
+                    let wide =
+                        pulp::Simd::vectorize(v4, || index.inside_mask(v4, cell, k.x, k.y, kz));
+                    assert_eq!(wide, mask, "AVX-512 blocks, k = {kk:?}");
+                    wide_checked += 1;
+                }
                 if margin == 0.0 && mask != u64::MAX {
                     let blocks = index.cell_blocks(cell);
                     assert_eq!(blocks.len(), index.cell_entries(cell).len().div_ceil(LANES));
@@ -474,6 +582,14 @@ mod tests {
                 margin > 0.0 || (blocked > 20_000 && multi > 1000),
                 "blocked lists tested {blocked} times, {multi} of more than one block"
             );
+            #[cfg(target_arch = "x86_64")]
+            if pulp::x86::V4::try_new().is_some() {
+                assert!(
+                    wide_checked > 20_000,
+                    "AVX-512 masks tested {wide_checked} times"
+                );
+            }
+            let _ = wide_checked;
         }
     }
 
@@ -540,11 +656,37 @@ mod tests {
         let mut values: Vec<f64> = (0..20_000).map(|_| rng.random_range(-1.2..1.2)).collect();
         values.extend([f64::NAN, -1.0, 1.0, 0.0, -0.0, 1e300, -1e300, f64::INFINITY]);
         values.extend((0..=side).map(|k| 2.0 * k as f64 / side as f64 - 1.0));
+        // Directions near the two cones' axes, for the box filter.
+        let (a, b) = (*corner.axis(), *Cone::in_plane(0.3, 0.05).unwrap().axis());
+        for _ in 0..20_000 {
+            let (x, y) = if rng.random_range(0..2) == 0 {
+                (a.x, a.y)
+            } else {
+                (b.x, b.y)
+            };
+            values.push(x + rng.random_range(-0.6..0.6));
+            values.push(y + rng.random_range(-0.6..0.6));
+        }
+        let (mut boxed, mut outside) = (0, 0);
         for pair in values.chunks(2) {
             let (x, y) = (pair[0], pair[pair.len() - 1]);
             let want = formula(y) * side + formula(x);
             assert_eq!(grid.cell(x, y) as usize, want, "({x}, {y})");
             assert_eq!(index.cell(x, y), want);
+            // The box filter gives the cell, or the empty cell for a cell that lists
+            // nothing.
+            let in_box = grid.boxed_cell(x, y);
+            if in_box == empty {
+                assert_eq!(listed[want], empty, "({x}, {y}) left out of the box");
+                outside += 1;
+            } else {
+                assert_eq!(in_box as usize, want, "({x}, {y})");
+                boxed += 1;
+            }
         }
+        assert!(
+            boxed > 1000 && outside > 1000,
+            "{boxed} in the box, {outside} outside"
+        );
     }
 }

@@ -87,7 +87,7 @@ use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
 use crate::TopoError;
-use crate::index::{ConeIndex, LANES};
+use crate::index::{ConeIndex, LANES, Lanes, Portable};
 use crate::normals::{Normals, Rect, Scratch, tile_slopes};
 
 /// Side of the square statistics tiles, µm (see the module docs on uncertainty).
@@ -301,6 +301,12 @@ pub(crate) trait Accumulator: Sync {
     /// Adds `weight` to the `channels()` sums of detector `cone` (whose paper-printed
     /// factor is `scale`).
     fn add(&self, weight: &Self::Weight, ray: &Ray, cone: &Cone, scale: f64, sums: &mut [f64]);
+    /// The weight as one number, for an accumulator of one channel whose `add` is
+    /// `sums[0] += weight · scale`.
+    #[inline(always)]
+    fn plain(&self, _weight: &Self::Weight) -> Option<f64> {
+        None
+    }
     /// The weights of the rays that enter some cone into `out` (cleared first):
     /// `out[j]` is `weigh` of ray `hits[j].0` of `rays`, whose first `kept` rays are
     /// set (positions increasing, below `kept`). An accumulator may have a faster form
@@ -422,6 +428,11 @@ impl Accumulator for Scalar {
     #[inline]
     fn add(&self, w: &f64, _: &Ray, _: &Cone, scale: f64, sums: &mut [f64]) {
         sums[0] += w * scale;
+    }
+
+    #[inline(always)]
+    fn plain(&self, w: &f64) -> Option<f64> {
+        Some(*w)
     }
 
     /// For a perfectly conducting flake and an exact transmission, one loop of the
@@ -629,6 +640,9 @@ struct Setup<'a> {
     cones: &'a [Cone],
     /// Per internal detector: 1 (physical) or `cos ϑ'/cos ϑ` (paper-printed).
     scale: Vec<f64>,
+    /// Whether every ray adds its weight unchanged: every `scale` is 1 and there is no
+    /// binder absorption.
+    unit: bool,
     ndet: usize,
     options: &'a TopoOptions,
     absorption: Option<PathAbsorption>,
@@ -952,6 +966,7 @@ impl TopoModel {
             incs,
             index: ConeIndex::new(&all),
             cones: &all,
+            unit: self.absorption.is_none() && scale.iter().all(|&s| s == 1.0),
             scale,
             ndet,
             options: &self.options,
@@ -1110,14 +1125,27 @@ fn trace_tile<A: Accumulator>(
         chunk,
     } = scratch;
     slopes.clear();
-    let mut trace = |slopes: &[[f64; 2]], p: &mut Partial| {
-        pulp::Arch::new().dispatch(ChunkTrace {
+    let mut trace = |slopes: &[[f64; 2]], p: &mut Partial| match pulp::Arch::new() {
+        #[cfg(target_arch = "x86_64")]
+        pulp::Arch::V4(v4) => pulp::Simd::vectorize(
+            v4,
+            ChunkTrace {
+                setup,
+                slopes,
+                chunk,
+                acc,
+                p,
+                lanes: v4,
+            },
+        ),
+        arch => arch.dispatch(ChunkTrace {
             setup,
             slopes,
             chunk,
             acc,
             p,
-        });
+            lanes: Portable,
+        }),
     };
     let usable = tile_slopes::<false>(
         map,
@@ -1137,24 +1165,33 @@ fn trace_tile<A: Accumulator>(
     p
 }
 
-/// One chunk's rays, handed to [`pulp::Arch::dispatch`] so that [`trace_chunk`] is
+/// One chunk's rays, handed to [`pulp::Arch::dispatch`] (or to [`pulp::x86::V4`]
+/// directly, which then also tests the cone blocks: `lanes`) so that [`trace_chunk`] is
 /// compiled for the processor's instruction set (SSE2, AVX2 or AVX-512 encodings of the
 /// same operations in the same order, without fused multiply–add: the results do not
 /// depend on it).
-struct ChunkTrace<'a, 's, A> {
+struct ChunkTrace<'a, 's, A, L> {
     setup: &'a Setup<'s>,
     slopes: &'a [[f64; 2]],
     chunk: &'a mut Chunk,
     acc: &'a A,
     p: &'a mut Partial,
+    lanes: L,
 }
 
-impl<A: Accumulator> pulp::WithSimd for ChunkTrace<'_, '_, A> {
+impl<A: Accumulator, L: Lanes> pulp::WithSimd for ChunkTrace<'_, '_, A, L> {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        trace_chunk(self.setup, self.slopes, self.chunk, self.acc, self.p);
+        trace_chunk(
+            self.setup,
+            self.slopes,
+            self.chunk,
+            self.acc,
+            self.p,
+            self.lanes,
+        );
     }
 }
 
@@ -1162,27 +1199,32 @@ impl<A: Accumulator> pulp::WithSimd for ChunkTrace<'_, '_, A> {
 ///
 /// The normals first, then per incidence: a pass without branches (which the compiler
 /// vectorises) computes every ray's exit and its cell of the cone index, counting the
-/// lost rays and giving them, and rays whose cell lists no cone (most for in-plane
-/// detectors), the empty cell. The other rays, the kept ones, are listed in ray order;
-/// a second pass without branches gives their exit directions field by field
-/// ([`HitRays`]); a third tests each against its cell's candidate cones, eight at a
-/// time ([`ConeIndex::inside_mask`]); the weights of the rays that some cone contains
-/// follow ([`Accumulator::weigh_hits`]: for the scalar model with a perfectly
-/// conducting flake and an exact transmission, one vectorised loop over all kept
-/// rays), and last each such ray is added to its cones in the cell's order.
+/// lost rays and giving them, and rays outside the box of the cells that list cones
+/// (most for in-plane detectors), the empty cell ([`crate::index::Grid::boxed_cell`]).
+/// The other rays whose cell lists cones, the kept ones, are listed in ray order, from
+/// a mask of 64 rays at a time; a second pass without branches gives their exit
+/// directions field by field ([`HitRays`]); a third tests each against its cell's
+/// candidate cones, eight at a time ([`ConeIndex::inside_mask`]: one AVX-512 compare per
+/// eight where the processor has it, the same bits); the weights of the rays that some
+/// cone contains follow ([`Accumulator::weigh_hits`]: for the scalar model with a
+/// perfectly conducting flake and an exact transmission, one vectorised loop over all
+/// kept rays), and last each such ray is added to its cones in the cell's order (for
+/// the scalar model without detector factors, `sums[d] += w` in a loop of a few
+/// instructions).
 ///
-/// Always inlined into [`ChunkTrace::with_simd`], with everything it calls in the hot
+/// Always inlined into [`ChunkTrace`]'s `with_simd`, with everything it calls in the hot
 /// loops (the accumulators' `weigh`, `weigh_hits` and the path factor), so that all of
 /// it is compiled for the instruction set [`pulp::Arch::dispatch`] chose: code the
 /// compiler kept out of line ran as baseline SSE2 (a closure and `Scalar::weigh`, once a
 /// quarter of a run's time; `RayPath::first_row`, which kept the weight loop scalar).
 #[inline(always)]
-fn trace_chunk<A: Accumulator>(
+fn trace_chunk<A: Accumulator, L: Lanes>(
     setup: &Setup<'_>,
     slopes: &[[f64; 2]],
     chunk: &mut Chunk,
     acc: &A,
     p: &mut Partial,
+    lanes: L,
 ) {
     let opts = setup.options;
     let n = opts.n;
@@ -1253,10 +1295,12 @@ fn trace_chunk<A: Accumulator>(
             let is_tir = !is_down & (ox * ox + oy * oy >= 1.0);
             down += u32::from(is_down);
             tir += u32::from(is_tir);
+            // The empty cell, or the cell if it lies in the box of the cells that
+            // list cones (most rays of in-plane detectors fall outside it).
             *cell = if is_down | is_tir {
                 empty
             } else {
-                grid.cell(ox, oy)
+                grid.boxed_cell(ox, oy)
             };
         }
         p.lost_down += u64::from(down);
@@ -1266,13 +1310,25 @@ fn trace_chunk<A: Accumulator>(
         // then which of their cell's candidate cones they enter, then the weights of
         // those that enter any and the additions, in ray order (the sums' order, and so
         // their bits, are those of one ray at a time).
+        // Sixty-four rays at a time: the mask of those in the box (a vectorised
+        // compare), then one step per such ray, kept if its cell lists cones.
         let mut nkept = 0;
-        for (i, &c) in cells.iter().enumerate() {
-            // `i < len ≤ RAY_CHUNK`, which fits in 16 bits.
-            kept[nkept] = i as u16;
-            nkept += usize::from(listed[(c as usize).min(last)] != empty);
+        let slots = &mut kept[..len];
+        for (g, group) in cells.chunks(64).enumerate() {
+            let mut boxed = 0u64;
+            for (j, &c) in group.iter().enumerate() {
+                boxed |= u64::from(c != empty) << j;
+            }
+            while boxed != 0 {
+                let j = boxed.trailing_zeros() as usize;
+                boxed &= boxed - 1;
+                // `i < len ≤ RAY_CHUNK`, which fits in 16 bits.
+                slots[nkept] = (g * 64 + j) as u16;
+                nkept += usize::from(listed[(group[j] as usize).min(last)] != empty);
+            }
         }
         let kept = &kept[..nkept];
+
         for (k, &i) in kept.iter().enumerate() {
             // `i < len` already: the `min` lets the compiler drop the bounds checks.
             let i = usize::from(i).min(len - 1);
@@ -1292,7 +1348,7 @@ fn trace_chunk<A: Accumulator>(
         for (k, &i) in kept.iter().enumerate() {
             let cell = cells[usize::from(i)] as usize;
             // All ones for a cell of more than 64 candidates, tested in the additions.
-            let mask = index.inside_mask(cell, found.ox[k], found.oy[k], found.oz[k]);
+            let mask = index.inside_mask(lanes, cell, found.ox[k], found.oy[k], found.oz[k]);
             hits[nhit] = (k as u16, mask);
             nhit += usize::from(mask != 0);
         }
@@ -1320,7 +1376,22 @@ fn trace_chunk<A: Accumulator>(
             };
             // All ones: a cell whose cones are tested one by one here (of more than 64,
             // or 64 that all contain the ray, which gives the same cones in order).
-            if mask != u64::MAX {
+            if mask != u64::MAX
+                && setup.unit
+                && let Some(wv) = acc.plain(w)
+            {
+                // The scalar model without detector factors: `sums[d] += w` (the
+                // generic `w · 1.0`, the same number) in few instructions per cone.
+                let blocks = index.cell_blocks(cell);
+                let (sums, counts) = (&mut sums[..ndet], &mut counts[..ndet]);
+                while mask != 0 {
+                    let e = mask.trailing_zeros() as usize;
+                    let d = blocks[e / LANES].detector(e) as usize;
+                    sums[d] += wv;
+                    counts[d] += 1;
+                    mask &= mask - 1;
+                }
+            } else if mask != u64::MAX {
                 let blocks = index.cell_blocks(cell);
                 while mask != 0 {
                     let e = mask.trailing_zeros() as usize;
