@@ -38,26 +38,19 @@ pub(crate) const LANES: usize = 8;
 
 /// Up to [`LANES`] consecutive entries of one cell's list, field by field, so that a
 /// direction is tested against all of them in one loop of fixed length (vector
-/// compares). Unused lanes have a zero axis and `cos_alpha = +∞`, which no direction
-/// passes.
+/// compares): four cache lines, aligned to them. Unused lanes have a zero axis and
+/// `cos_alpha = +∞`, which no direction passes. The lanes' detectors are apart, in
+/// [`ConeIndex::detectors`] (only a ray that enters some cone needs them).
 #[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
 pub(crate) struct Block {
     ax: [f64; LANES],
     ay: [f64; LANES],
     az: [f64; LANES],
     cos_alpha: [f64; LANES],
-    /// Detector of each lane ([`Entry::index`]; 0 in unused lanes).
-    index: [u32; LANES],
 }
 
 impl Block {
-    /// The detector of entry `e` of the cell (lane `e % LANES`; the block is entry
-    /// `e`'s when `e / LANES` is its position among the cell's blocks).
-    #[inline(always)]
-    pub fn detector(&self, e: usize) -> u32 {
-        self.index[e % LANES]
-    }
-
     /// Bit `l` set when `k` is inside lane `l`'s cone, `ax·x + ay·y + az·z > cos α`
     /// ([`Entry::contains`], the same operations in the same order).
     #[inline(always)]
@@ -233,6 +226,9 @@ pub(crate) struct ConeIndex {
     /// (`cos_alpha`) would not honour.
     blocks: Vec<Block>,
     block_offsets: Vec<u32>,
+    /// The detector of each block's lanes: lane `l` of block `b` at `LANES·b + l`
+    /// ([`Entry::index`]; 0 in unused lanes).
+    block_detectors: Vec<u32>,
     /// The box of the cells that list cones, `[x_lo, x_hi, y_lo, y_hi]` ([`Grid`]).
     listed_box: [f64; 4],
 }
@@ -259,7 +255,8 @@ impl ConeIndex {
         // hold more than `MAX_ENTRIES` in all (wide cones beside a narrow one).
         let with_blocks = margin == 0.0;
         let per_entry = if with_blocks {
-            1.0 + (std::mem::size_of::<Block>() as f64 / std::mem::size_of::<Entry>() as f64)
+            let block = std::mem::size_of::<Block>() + LANES * std::mem::size_of::<u32>();
+            1.0 + (block as f64 / std::mem::size_of::<Entry>() as f64)
         } else {
             1.0
         };
@@ -347,6 +344,7 @@ impl ConeIndex {
             listed_box[3] = listed_box[3].max(iy + 1.0);
         }
         let mut blocks = Vec::new();
+        let mut block_detectors = Vec::new();
         let mut block_offsets = Vec::with_capacity(offsets.len());
         block_offsets.push(0u32);
         for c in 0..=side * side {
@@ -362,13 +360,14 @@ impl ConeIndex {
                     ay: [0.0; LANES],
                     az: [0.0; LANES],
                     cos_alpha: [f64::INFINITY; LANES],
-                    index: [0; LANES],
                 };
+                let mut detectors = [0; LANES];
                 for (l, e) in part.iter().enumerate() {
                     (b.ax[l], b.ay[l], b.az[l], b.cos_alpha[l]) = (e.ax, e.ay, e.az, e.cos_alpha);
-                    b.index[l] = e.index;
+                    detectors[l] = e.index;
                 }
                 blocks.push(b);
+                block_detectors.extend(detectors);
             }
             block_offsets.push(blocks.len() as u32);
         }
@@ -380,6 +379,7 @@ impl ConeIndex {
             listed,
             blocks,
             block_offsets,
+            block_detectors,
             listed_box,
         }
     }
@@ -431,9 +431,23 @@ impl ConeIndex {
     }
 
     /// The entries of `cell` in blocks of [`LANES`] ([`Block`]).
-    #[inline]
+    #[cfg(test)]
     pub fn cell_blocks(&self, cell: usize) -> &[Block] {
-        &self.blocks[self.block_offsets[cell] as usize..self.block_offsets[cell + 1] as usize]
+        &self.blocks[self.block_range(cell)]
+    }
+
+    /// The positions of `cell`'s blocks among all blocks (empty for a cell without).
+    #[inline(always)]
+    pub fn block_range(&self, cell: usize) -> std::ops::Range<usize> {
+        self.block_offsets[cell] as usize..self.block_offsets[cell + 1] as usize
+    }
+
+    /// The detectors of the entries of the blocks from position `first` on: entry `e`
+    /// of a cell whose blocks start at `first` ([`ConeIndex::block_range`]) is detector
+    /// `detectors(first)[e]`, bit `e` of its [`ConeIndex::inside_mask`].
+    #[inline(always)]
+    pub fn detectors(&self, first: usize) -> &[u32] {
+        &self.block_detectors[first * LANES..]
     }
 
     /// The mask of the cones of `cell` (bit `k` for its entry `k`) that contain the
@@ -441,14 +455,27 @@ impl ConeIndex {
     /// 64 entries in an index without margin; otherwise all ones, and the caller tests
     /// the entries one by one (which gives the same cones, in the same order, for a
     /// mask that is all ones because all 64 contain the direction).
-    #[inline(always)]
+    #[cfg(test)]
     pub fn inside_mask<L: Lanes>(&self, lanes: L, cell: usize, x: f64, y: f64, z: f64) -> u64 {
-        let blocks = self.cell_blocks(cell);
-        if blocks.is_empty() && self.offsets[cell] < self.offsets[cell + 1] {
+        self.inside_mask_of(lanes, cell, self.block_range(cell), x, y, z)
+    }
+
+    /// [`ConeIndex::inside_mask`] of `cell` whose [`ConeIndex::block_range`] is `range`.
+    #[inline(always)]
+    pub fn inside_mask_of<L: Lanes>(
+        &self,
+        lanes: L,
+        cell: usize,
+        range: std::ops::Range<usize>,
+        x: f64,
+        y: f64,
+        z: f64,
+    ) -> u64 {
+        if range.is_empty() && self.offsets[cell] < self.offsets[cell + 1] {
             return u64::MAX;
         }
         let mut mask = 0u64;
-        for (b, block) in blocks.iter().enumerate() {
+        for (b, block) in self.blocks[range].iter().enumerate() {
             mask |= lanes.inside(block, x, y, z) << (b * LANES);
         }
         mask
@@ -553,9 +580,10 @@ mod tests {
                 if margin == 0.0 && mask != u64::MAX {
                     let blocks = index.cell_blocks(cell);
                     assert_eq!(blocks.len(), index.cell_entries(cell).len().div_ceil(LANES));
+                    let detectors = index.detectors(index.block_range(cell).start);
                     let mut by_mask: Vec<u32> = (0..64)
                         .filter(|e| mask >> e & 1 == 1)
-                        .map(|e| blocks[e / LANES].detector(e))
+                        .map(|e| detectors[e])
                         .collect();
                     // In the cell's order, which the sums' bits depend on.
                     let in_order: Vec<u32> = index

@@ -87,7 +87,7 @@ use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
 use crate::TopoError;
-use crate::index::{ConeIndex, LANES, Lanes, Portable};
+use crate::index::{ConeIndex, Lanes, Portable};
 use crate::normals::{Normals, Rect, Scratch, tile_slopes};
 
 /// Side of the square statistics tiles, µm (see the module docs on uncertainty).
@@ -388,6 +388,43 @@ impl HitRays {
         }
     }
 
+    /// Slots `0..n` of every field, to be set ray by ray.
+    #[inline(always)]
+    fn slots(&mut self, n: usize) -> HitSlots<'_> {
+        HitSlots {
+            mx: &mut self.mx[..n],
+            my: &mut self.my[..n],
+            mz: &mut self.mz[..n],
+            q: &mut self.q[..n],
+            gamma: &mut self.gamma[..n],
+            k2x: &mut self.k2x[..n],
+            k2y: &mut self.k2y[..n],
+            k2z: &mut self.k2z[..n],
+            ox: &mut self.ox[..n],
+            oy: &mut self.oy[..n],
+            oz: &mut self.oz[..n],
+        }
+    }
+}
+
+/// The first slots of a [`HitRays`], as slices of one length: a loop over them keeps
+/// the slices in registers and needs no bounds check per field (through the vectors,
+/// every store reloaded the vector's pointer and length).
+struct HitSlots<'a> {
+    mx: &'a mut [f64],
+    my: &'a mut [f64],
+    mz: &'a mut [f64],
+    q: &'a mut [f64],
+    gamma: &'a mut [f64],
+    k2x: &'a mut [f64],
+    k2y: &'a mut [f64],
+    k2z: &'a mut [f64],
+    ox: &'a mut [f64],
+    oy: &'a mut [f64],
+    oz: &'a mut [f64],
+}
+
+impl HitSlots<'_> {
     /// Stores `ray` as ray `k`.
     #[inline(always)]
     fn set(&mut self, k: usize, ray: &Ray) {
@@ -742,7 +779,7 @@ impl TopoModel {
                 ny: map.ny(),
             });
         }
-        if map.valid_count() == 0 {
+        if !map.valid().iter().any(|&v| v) {
             return Err(TopoError::NoValidPixels {
                 map: i,
                 pixels: map.len(),
@@ -988,13 +1025,11 @@ impl TopoModel {
         let mut rays = vec![0u64; theta_i.len() * ndet];
         let (mut usable, mut lost_tir, mut lost_down) = (0u64, 0u64, 0u64);
         let mut seen = 0u64;
-        for batch in jobs.chunks(BATCH) {
-            let partials: Vec<Partial> = batch
-                .par_iter()
-                .map_init(TraceScratch::default, |scratch, &(mi, rect)| {
-                    trace_tile(&setup, maps[mi], rect, scratch, acc)
-                })
-                .collect();
+        // Each batch's partial sums are reduced, in tile order, while the next batch is
+        // traced (`rayon::join`), so that the reduction does not leave the other cores
+        // idle; `progress` is called between the joins, on the calling thread (module
+        // docs), with the tiles reduced so far.
+        let mut reduce = |partials: Vec<Partial>| {
             for p in partials {
                 seen += 1;
                 let inv_seen = 1.0 / seen as f64;
@@ -1012,8 +1047,24 @@ impl TopoModel {
                     *r += u64::from(c);
                 }
             }
-            progress(seen, total_tiles);
+            seen
+        };
+        let trace = |batch: &[(usize, Rect)]| -> Vec<Partial> {
+            batch
+                .par_iter()
+                .map_init(TraceScratch::default, |scratch, &(mi, rect)| {
+                    trace_tile(&setup, maps[mi], rect, scratch, acc)
+                })
+                .collect()
+        };
+        let mut pending = Vec::new();
+        for batch in jobs.chunks(BATCH) {
+            let done = std::mem::take(&mut pending);
+            let reduced;
+            (reduced, pending) = rayon::join(|| reduce(done), || trace(batch));
+            progress(reduced, total_tiles);
         }
+        progress(reduce(pending), total_tiles);
 
         let pixels: u64 = maps.iter().map(|m| m.len() as u64).sum();
         if usable == 0 {
@@ -1085,6 +1136,8 @@ struct Chunk {
     /// `kept` and the mask of their cell's cones that contain them (all ones, whether
     /// any contains them or not, for a cell of more than 64 cones).
     hits: Vec<(u16, u64)>,
+    /// Per hit, the position of its cell's first block ([`ConeIndex::block_range`]).
+    firsts: Vec<u32>,
     /// At one incidence, the positions in the chunk of the kept rays (whose cell lists
     /// cones), in ray order.
     kept: Vec<u16>,
@@ -1240,6 +1293,7 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
         q,
         cells,
         hits,
+        firsts,
         kept,
         found,
     } = chunk;
@@ -1275,6 +1329,7 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
     };
     // Per-incidence records (below), every slot written before it is read.
     hits.resize(len.max(hits.len()), (0, 0));
+    firsts.resize(len.max(firsts.len()), 0);
     kept.resize(len.max(kept.len()), 0);
     found.fit(RAY_CHUNK.max(len));
     let mut weights: Vec<A::Weight> = Vec::with_capacity(len);
@@ -1329,12 +1384,13 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
         }
         let kept = &kept[..nkept];
 
+        let mut slots = found.slots(nkept);
         for (k, &i) in kept.iter().enumerate() {
             // `i < len` already: the `min` lets the compiler drop the bounds checks.
             let i = usize::from(i).min(len - 1);
             let (gamma, k2, ox, oy) = exit(&here, mx[i], my[i], mz[i]);
             let oz = (1.0 - (ox * ox + oy * oy)).sqrt();
-            found.set(
+            slots.set(
                 k,
                 &Ray {
                     m: [mx[i], my[i], mz[i], q[i]],
@@ -1345,19 +1401,42 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
             );
         }
         let mut nhit = 0;
+        let (ox, oy, oz) = (&found.ox[..nkept], &found.oy[..nkept], &found.oz[..nkept]);
+        let (hits_out, firsts_out) = (&mut hits[..nkept], &mut firsts[..nkept]);
         for (k, &i) in kept.iter().enumerate() {
             let cell = cells[usize::from(i)] as usize;
+            let range = index.block_range(cell);
+            // `range.start < 2³²`: the index's offsets are u32.
+            firsts_out[nhit] = range.start as u32;
             // All ones for a cell of more than 64 candidates, tested in the additions.
-            let mask = index.inside_mask(lanes, cell, found.ox[k], found.oy[k], found.oz[k]);
-            hits[nhit] = (k as u16, mask);
+            let mask = index.inside_mask_of(lanes, cell, range, ox[k], oy[k], oz[k]);
+            hits_out[nhit] = (k as u16, mask);
             nhit += usize::from(mask != 0);
         }
         // The weights of the rays that enter some cone (once each).
         acc.weigh_hits(opts, inc, found, nkept, &hits[..nhit], &mut weights);
-        for (&(k, mut mask), w) in hits[..nhit].iter().zip(&weights) {
+        for ((&(k, mut mask), w), &first) in hits[..nhit].iter().zip(&weights).zip(&firsts[..nhit])
+        {
+            // All ones: a cell whose cones are tested one by one below (of more than 64,
+            // or 64 that all contain the ray, which gives the same cones in order).
+            if mask != u64::MAX
+                && setup.unit
+                && let Some(w) = acc.plain(w)
+            {
+                // The scalar model without detector factors: `sums[d] += w` (the
+                // generic `w · 1.0`, the same number) in a few instructions per cone.
+                let detectors = index.detectors(first as usize);
+                let (sums, counts) = (&mut sums[..ndet], &mut counts[..ndet]);
+                while mask != 0 {
+                    let d = detectors[mask.trailing_zeros() as usize] as usize;
+                    sums[d] += w;
+                    counts[d] += 1;
+                    mask &= mask - 1;
+                }
+                continue;
+            }
             let k = usize::from(k);
             let ray = &found.get(k);
-            let cell = cells[usize::from(kept[k])] as usize;
             let absorbed = setup.absorption.map(|a| a.factor(inc.cos_t, ray.k2.z));
             let mut add = |w: &A::Weight, d: u32| {
                 let d = d as usize;
@@ -1374,31 +1453,14 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
                 );
                 counts[d] += 1;
             };
-            // All ones: a cell whose cones are tested one by one here (of more than 64,
-            // or 64 that all contain the ray, which gives the same cones in order).
-            if mask != u64::MAX
-                && setup.unit
-                && let Some(wv) = acc.plain(w)
-            {
-                // The scalar model without detector factors: `sums[d] += w` (the
-                // generic `w · 1.0`, the same number) in few instructions per cone.
-                let blocks = index.cell_blocks(cell);
-                let (sums, counts) = (&mut sums[..ndet], &mut counts[..ndet]);
+            if mask != u64::MAX {
+                let detectors = index.detectors(first as usize);
                 while mask != 0 {
-                    let e = mask.trailing_zeros() as usize;
-                    let d = blocks[e / LANES].detector(e) as usize;
-                    sums[d] += wv;
-                    counts[d] += 1;
-                    mask &= mask - 1;
-                }
-            } else if mask != u64::MAX {
-                let blocks = index.cell_blocks(cell);
-                while mask != 0 {
-                    let e = mask.trailing_zeros() as usize;
-                    add(w, blocks[e / LANES].detector(e));
+                    add(w, detectors[mask.trailing_zeros() as usize]);
                     mask &= mask - 1;
                 }
             } else {
+                let cell = cells[usize::from(kept[k])] as usize;
                 let o = ray.k_out;
                 for e in index
                     .cell_entries(cell)
@@ -1468,8 +1530,9 @@ mod tests {
             rays[0].k_out = Vec3::new(0.0, 0.0, 1.0);
             let mut soa = HitRays::default();
             soa.fit(rays.len());
+            let mut slots = soa.slots(rays.len());
             for (k, r) in rays.iter().enumerate() {
-                soa.set(k, r);
+                slots.set(k, r);
             }
             for transmission in Transmission::ALL {
                 for weighting in [Weighting::Physical, Weighting::PaperPrinted] {
