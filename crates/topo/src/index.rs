@@ -36,6 +36,9 @@ impl Entry {
 /// Lanes of a [`Block`]: one AVX-512 register of `f64`, two of AVX2.
 pub(crate) const LANES: usize = 8;
 
+/// [`ConeIndex::runs`] of a block whose detectors are not consecutive.
+pub(crate) const NO_RUN: u32 = u32::MAX;
+
 /// Up to [`LANES`] consecutive entries of one cell's list, field by field, so that a
 /// direction is tested against all of them in one loop of fixed length (vector
 /// compares): four cache lines, aligned to them. Unused lanes have a zero axis and
@@ -71,6 +74,18 @@ impl Block {
 pub(crate) trait Lanes: Copy {
     /// [`Block::inside`].
     fn inside(self, block: &Block, x: f64, y: f64, z: f64) -> u64;
+
+    /// Adds `w` to each lane of `sums` whose bit of `bits` is set, and 1 to the same
+    /// lane of `counts`: `sums[l] + w` rounded as one addition, the other lanes left as
+    /// they are (as adding −0.0 and 0 would leave them).
+    #[inline(always)]
+    fn add_hits(self, sums: &mut [f64; LANES], counts: &mut [u32; LANES], bits: u8, w: f64) {
+        for l in 0..LANES {
+            let hit = (bits >> l) & 1 != 0;
+            sums[l] += if hit { w } else { -0.0 };
+            counts[l] += u32::from(hit);
+        }
+    }
 }
 
 /// [`Block::inside`] as written.
@@ -104,6 +119,17 @@ impl Lanes for pulp::x86::V4 {
             self.mul_f64x8(az, self.splat_f64x8(z)),
         );
         u64::from(self.cmp_gt_f64x8(dot, c).0)
+    }
+
+    /// One masked addition per array.
+    #[inline(always)]
+    fn add_hits(self, sums: &mut [f64; LANES], counts: &mut [u32; LANES], bits: u8, w: f64) {
+        let hit = pulp::b8(bits);
+        let s: pulp::f64x8 = pulp::cast(*sums);
+        *sums = pulp::cast(self.select_f64x8(hit, self.add_f64x8(s, self.splat_f64x8(w)), s));
+        let c: pulp::u32x8 = pulp::cast(*counts);
+        let one = self.splat_u32x8(1);
+        *counts = pulp::cast(self.select_u32x8(hit, self.wrapping_add_u32x8(c, one), c));
     }
 }
 
@@ -229,6 +255,9 @@ pub(crate) struct ConeIndex {
     /// The detector of each block's lanes: lane `l` of block `b` at `LANES·b + l`
     /// ([`Entry::index`]; 0 in unused lanes).
     block_detectors: Vec<u32>,
+    /// Per block, its first lane's detector `j` when its used lanes hold the
+    /// consecutive detectors `j, j + 1, …` (in-plane sweeps), else [`NO_RUN`].
+    block_runs: Vec<u32>,
     /// The box of the cells that list cones, `[x_lo, x_hi, y_lo, y_hi]` ([`Grid`]).
     listed_box: [f64; 4],
 }
@@ -345,6 +374,7 @@ impl ConeIndex {
         }
         let mut blocks = Vec::new();
         let mut block_detectors = Vec::new();
+        let mut block_runs = Vec::new();
         let mut block_offsets = Vec::with_capacity(offsets.len());
         block_offsets.push(0u32);
         for c in 0..=side * side {
@@ -368,6 +398,8 @@ impl ConeIndex {
                 }
                 blocks.push(b);
                 block_detectors.extend(detectors);
+                let run = part.iter().zip(part[0].index..).all(|(e, j)| e.index == j);
+                block_runs.push(if run { part[0].index } else { NO_RUN });
             }
             block_offsets.push(blocks.len() as u32);
         }
@@ -380,6 +412,7 @@ impl ConeIndex {
             blocks,
             block_offsets,
             block_detectors,
+            block_runs,
             listed_box,
         }
     }
@@ -440,6 +473,13 @@ impl ConeIndex {
     #[inline(always)]
     pub fn block_range(&self, cell: usize) -> std::ops::Range<usize> {
         self.block_offsets[cell] as usize..self.block_offsets[cell + 1] as usize
+    }
+
+    /// Per block from position `first` on: the detector of its first lane when its
+    /// used lanes hold consecutive detectors, else [`NO_RUN`].
+    #[inline(always)]
+    pub fn runs(&self, first: usize) -> &[u32] {
+        &self.block_runs[first..]
     }
 
     /// The detectors of the entries of the blocks from position `first` on: entry `e`
@@ -523,7 +563,7 @@ mod tests {
         for (margin, per_chord) in [(0.0, FINE), (0.0, COARSE), (0.01, COARSE), (0.01, FINE)] {
             let index = ConeIndex::with_margin(&cones, margin, per_chord);
             let (mut hits, mut blocked, mut multi) = (0, 0, 0);
-            let mut wide_checked = 0;
+            let (mut wide_checked, mut in_runs) = (0, 0);
             for _ in 0..40_000 {
                 let c = &cones[rng.random_range(0..cones.len())];
                 let (u, v) = flakescatter_optics::detector::orthonormal_frame(c.axis());
@@ -593,6 +633,14 @@ mod tests {
                         .map(|e| e.index)
                         .collect();
                     assert_eq!(by_mask, in_order, "order of the blocks, k = {kk:?}");
+                    // A block with a run holds the consecutive detectors from it.
+                    let runs = index.runs(index.block_range(cell).start);
+                    for e in (0..64).filter(|e| mask >> e & 1 == 1) {
+                        if runs[e / LANES] != NO_RUN {
+                            assert_eq!(detectors[e], runs[e / LANES] + (e % LANES) as u32);
+                            in_runs += 1;
+                        }
+                    }
                     multi += usize::from(blocks.len() > 1);
                     by_mask.sort_unstable();
                     assert_eq!(
@@ -607,8 +655,9 @@ mod tests {
                 "the test must exercise many containments ({hits})"
             );
             assert!(
-                margin > 0.0 || (blocked > 20_000 && multi > 1000),
-                "blocked lists tested {blocked} times, {multi} of more than one block"
+                margin > 0.0 || (blocked > 20_000 && multi > 1000 && in_runs > 20_000),
+                "blocked lists tested {blocked} times, {multi} of more than one block, \
+                 {in_runs} cones found in runs"
             );
             #[cfg(target_arch = "x86_64")]
             if pulp::x86::V4::try_new().is_some() {
@@ -619,6 +668,51 @@ mod tests {
             }
             let _ = wide_checked;
         }
+    }
+
+    /// `Lanes::add_hits` adds `w` to the lanes whose bit is set, once each, and leaves
+    /// the others bit for bit as they were (−0.0 and +0.0 sums included), portable
+    /// and AVX-512 alike: the reference is the plain `sums[l] + w` lane by lane.
+    #[test]
+    fn add_hits_adds_to_the_set_lanes_only() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut wide_checked = 0;
+        for _ in 0..2000 {
+            let sums: [f64; LANES] = std::array::from_fn(|_| match rng.random_range(0..4) {
+                0 => -0.0,
+                1 => 0.0,
+                _ => rng.random_range(-1e3..1e3),
+            });
+            let counts: [u32; LANES] = std::array::from_fn(|_| rng.random_range(0..1000));
+            let (bits, w) = (rng.random_range(0..=255u8), rng.random_range(1e-9..1e2));
+            let want_sums: [u64; LANES] = std::array::from_fn(|l| {
+                if bits >> l & 1 == 1 {
+                    sums[l] + w
+                } else {
+                    sums[l]
+                }
+                .to_bits()
+            });
+            let want_counts: [u32; LANES] =
+                std::array::from_fn(|l| counts[l] + u32::from(bits >> l & 1));
+            let (mut s, mut c) = (sums, counts);
+            Portable.add_hits(&mut s, &mut c, bits, w);
+            assert_eq!(s.map(f64::to_bits), want_sums, "bits {bits:08b}");
+            assert_eq!(c, want_counts);
+            #[cfg(target_arch = "x86_64")]
+            if let Some(v4) = pulp::x86::V4::try_new() {
+                let (mut s, mut c) = (sums, counts);
+                pulp::Simd::vectorize(v4, || v4.add_hits(&mut s, &mut c, bits, w));
+                assert_eq!(s.map(f64::to_bits), want_sums, "AVX-512, bits {bits:08b}");
+                assert_eq!(c, want_counts);
+                wide_checked += 1;
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if pulp::x86::V4::try_new().is_some() {
+            assert_eq!(wide_checked, 2000);
+        }
+        let _ = wide_checked;
     }
 
     /// A narrow cone beside many wide ones would give lists of millions of entries at

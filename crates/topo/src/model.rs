@@ -87,7 +87,7 @@ use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
 use crate::TopoError;
-use crate::index::{ConeIndex, Lanes, Portable};
+use crate::index::{ConeIndex, LANES, Lanes, Portable};
 use crate::normals::{Normals, Rect, Scratch, tile_slopes};
 
 /// Side of the square statistics tiles, µm (see the module docs on uncertainty).
@@ -662,7 +662,9 @@ fn exact_path_factor(
 /// Sums of one tile.
 #[derive(Debug)]
 struct Partial {
+    /// Per (incidence, internal detector, channel), then [`LANES`] slots of padding.
     sums: Vec<f64>,
+    /// Rays per (incidence, internal detector), then [`LANES`] slots of padding.
     counts: Vec<u32>,
     usable: u64,
     lost_tir: u64,
@@ -1166,8 +1168,10 @@ fn trace_tile<A: Accumulator>(
     let ndet = setup.ndet;
     let channels = acc.channels();
     let mut p = Partial {
-        sums: vec![0.0; setup.incs.len() * ndet * channels],
-        counts: vec![0; setup.incs.len() * ndet],
+        // `LANES` slots of padding: the scalar model adds to eight consecutive
+        // detectors at once (`trace_chunk`).
+        sums: vec![0.0; setup.incs.len() * ndet * channels + LANES],
+        counts: vec![0; setup.incs.len() * ndet + LANES],
         usable: 0,
         lost_tir: 0,
         lost_down: 0,
@@ -1335,8 +1339,10 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
     let mut weights: Vec<A::Weight> = Vec::with_capacity(len);
     for (ii, inc) in setup.incs.iter().enumerate() {
         let base = ii * ndet;
-        let sums = &mut p.sums[base * channels..(base + ndet) * channels];
-        let counts = &mut p.counts[base..base + ndet];
+        // This incidence's sums and counts, and what follows them (the next
+        // incidence's, and the padding of `LANES` past the last).
+        let sums_all = &mut p.sums[base * channels..];
+        let counts_all = &mut p.counts[base..];
         let (mut down, mut tir) = (0u32, 0u32);
         // Local copies, which the loop keeps in registers.
         let (grid, listed) = index.listed();
@@ -1424,14 +1430,40 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
                 && let Some(w) = acc.plain(w)
             {
                 // The scalar model without detector factors: `sums[d] += w` (the
-                // generic `w · 1.0`, the same number) in a few instructions per cone.
-                let detectors = index.detectors(first as usize);
-                let (sums, counts) = (&mut sums[..ndet], &mut counts[..ndet]);
+                // generic `w · 1.0`, the same number). A block of consecutive
+                // detectors `j, j + 1, …` (in-plane sweeps) adds to eight of them at
+                // once, `w` where its lanes contain the ray and −0.0 and 0 rays, which
+                // change nothing, elsewhere (`sums` and `counts` reach `LANES` past the
+                // last detector, into the next incidence's or the padding); other
+                // blocks cone by cone.
+                let (runs, detectors) =
+                    (index.runs(first as usize), index.detectors(first as usize));
+                let (sums, counts) = (
+                    &mut sums_all[..ndet + LANES],
+                    &mut counts_all[..ndet + LANES],
+                );
+                let mut b = 0;
                 while mask != 0 {
-                    let d = detectors[mask.trailing_zeros() as usize] as usize;
-                    sums[d] += w;
-                    counts[d] += 1;
-                    mask &= mask - 1;
+                    let bits = mask as u8;
+                    // `NO_RUN` is above every detector.
+                    let j = runs[b] as usize;
+                    if j < ndet {
+                        let s: &mut [f64; LANES] =
+                            (&mut sums[j..j + LANES]).try_into().expect("LANES");
+                        let c: &mut [u32; LANES] =
+                            (&mut counts[j..j + LANES]).try_into().expect("LANES");
+                        lanes.add_hits(s, c, bits, w);
+                    } else {
+                        let mut bits = bits;
+                        while bits != 0 {
+                            let d = detectors[b * LANES + bits.trailing_zeros() as usize] as usize;
+                            sums[d] += w;
+                            counts[d] += 1;
+                            bits &= bits - 1;
+                        }
+                    }
+                    mask >>= LANES;
+                    b += 1;
                 }
                 continue;
             }
@@ -1449,9 +1481,9 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
                     ray,
                     &setup.cones[d],
                     scale,
-                    &mut sums[d * channels..(d + 1) * channels],
+                    &mut sums_all[d * channels..(d + 1) * channels],
                 );
-                counts[d] += 1;
+                counts_all[d] += 1;
             };
             if mask != u64::MAX {
                 let detectors = index.detectors(first as usize);
