@@ -332,12 +332,26 @@ pub(crate) fn tile_slopes<const NAN_BAD: bool>(
         c0: oc0,
         c1: oc1,
     };
-    pulp::Arch::new().dispatch(TileSums {
-        map,
-        h,
-        out,
-        scratch: &mut *scratch,
-    });
+    match pulp::Arch::new() {
+        #[cfg(target_arch = "x86_64")]
+        pulp::Arch::V4(v4) => pulp::Simd::vectorize(
+            v4,
+            TileSums {
+                map,
+                h,
+                out,
+                scratch: &mut *scratch,
+                prefetch: *v4,
+            },
+        ),
+        arch => arch.dispatch(TileSums {
+            map,
+            h,
+            out,
+            scratch: &mut *scratch,
+            prefetch: NoPrefetch,
+        }),
+    }
     let k = 2 * h + 1;
     let hf = h as f64;
     let s = (hf * (hf + 1.0) * (2.0 * hf + 1.0)) / 3.0;
@@ -366,27 +380,66 @@ pub(crate) fn tile_slopes<const NAN_BAD: bool>(
 
 /// The window sums of one tile ([`tile_slopes`]), handed to [`pulp::Arch::dispatch`]
 /// so that [`tile_sums`] is compiled for the processor's instruction set.
-struct TileSums<'a> {
+struct TileSums<'a, P> {
     map: &'a HeightMap,
     h: usize,
     /// The output pixels (whole windows inside the map).
     out: Rect,
     scratch: &'a mut Scratch,
+    prefetch: P,
 }
 
-impl pulp::WithSimd for TileSums<'_> {
+impl<P: Prefetch> pulp::WithSimd for TileSums<'_, P> {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        tile_sums(self.map, self.h, self.out, self.scratch);
+        tile_sums(self.map, self.h, self.out, self.scratch, self.prefetch);
+    }
+}
+
+/// Asks the processor to start loading memory that will be read soon (a hint: it
+/// changes no value, only when the bytes arrive).
+trait Prefetch: Copy {
+    /// Starts loading the cache lines of `heights` and `valid`.
+    fn rows(self, heights: &[f64], valid: &[bool]);
+}
+
+/// No hint.
+#[derive(Clone, Copy)]
+struct NoPrefetch;
+
+impl Prefetch for NoPrefetch {
+    #[inline(always)]
+    fn rows(self, _: &[f64], _: &[bool]) {}
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Prefetch for pulp::x86::V3 {
+    /// `prefetcht0` of every 64-byte line (the pointer is only a hint: it is never
+    /// dereferenced, and a prefetch cannot fault).
+    #[inline(always)]
+    fn rows(self, heights: &[f64], valid: &[bool]) {
+        const T0: i32 = core::arch::x86_64::_MM_HINT_T0;
+        for k in (0..heights.len()).step_by(8) {
+            self.sse._mm_prefetch::<T0>(heights[k..].as_ptr().cast());
+        }
+        for k in (0..valid.len()).step_by(64) {
+            self.sse._mm_prefetch::<T0>(valid[k..].as_ptr().cast());
+        }
     }
 }
 
 /// Fills `scratch.col_m`, `col_js` and `col_bad` (row-major over `out`) with each
 /// output pixel's `Σ i z`, `Σ j z` and invalid count over its window ([`tile_slopes`]).
 #[inline(always)]
-fn tile_sums(map: &HeightMap, h: usize, out: Rect, scratch: &mut Scratch) {
+fn tile_sums<P: Prefetch>(
+    map: &HeightMap,
+    h: usize,
+    out: Rect,
+    scratch: &mut Scratch,
+    prefetch: P,
+) {
     let nx = map.nx();
     let k = 2 * h + 1;
     // Region read: the output rectangle plus the window halo.
@@ -426,8 +479,19 @@ fn tile_sums(map: &HeightMap, h: usize, out: Rect, scratch: &mut Scratch) {
     col_js.resize(oh * ow, 0.0);
     col_bad.resize(oh * ow, 0);
 
-    // Row pass.
+    // Row pass, the rows `AHEAD` below asked for as each row starts (the first
+    // `AHEAD` before): each row of a tile is a few cache lines a map row apart, which
+    // the processor's own prefetch does not foresee.
+    const AHEAD: usize = 8;
+    let row_of = |r: usize| r * nx + rc0..r * nx + rc0 + rw;
+    for r in rr0..rr1.min(rr0 + AHEAD) {
+        prefetch.rows(&heights[row_of(r)], &valid[row_of(r)]);
+    }
     for (lr, r) in (rr0..rr1).enumerate() {
+        if r + AHEAD < rr1 {
+            let ahead = row_of(r + AHEAD);
+            prefetch.rows(&heights[ahead.clone()], &valid[ahead]);
+        }
         let base = r * nx + rc0;
         let (hrow, vrow) = (&heights[base..base + rw], &valid[base..base + rw]);
         for (((zz, zb), &v), &hv) in z.iter_mut().zip(z_bad.iter_mut()).zip(vrow).zip(hrow) {
