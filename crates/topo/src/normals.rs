@@ -344,6 +344,17 @@ pub(crate) fn tile_slopes<const NAN_BAD: bool>(
                 prefetch: *v4,
             },
         ),
+        #[cfg(target_arch = "x86_64")]
+        pulp::Arch::V3(v3) => pulp::Simd::vectorize(
+            v3,
+            TileSums {
+                map,
+                h,
+                out,
+                scratch: &mut *scratch,
+                prefetch: v3,
+            },
+        ),
         arch => arch.dispatch(TileSums {
             map,
             h,
