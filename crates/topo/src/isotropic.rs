@@ -747,7 +747,8 @@ fn extremum(
 type Row = NodeResponse;
 
 /// One tile's deposits (module docs): area factors and pixel counts on fine nodes,
-/// area factors times the hat of the coarse cell on odd nodes, pixels per fine cell.
+/// area factors times the hat of the coarse cell on odd nodes, pixels per fine cell;
+/// each list in ascending order of its node or cell.
 #[derive(Debug, Default)]
 struct TileDeposit {
     usable: u64,
@@ -900,7 +901,7 @@ fn cell_edges(rows: &[Row], c: usize) -> Vec<Edge> {
     out
 }
 
-/// Scratch arrays of the deposits, indexed by node.
+/// Scratch arrays of the deposits, indexed by node (all zero between tiles).
 #[derive(Debug, Default)]
 struct TileScratch {
     normals: Scratch,
@@ -909,11 +910,6 @@ struct TileScratch {
     gn: Vec<f64>,
     hat: Vec<f64>,
     cells: Vec<u32>,
-    mark: Vec<bool>,
-    mark_odd: Vec<bool>,
-    touched: Vec<u32>,
-    touched_odd: Vec<u32>,
-    touched_cells: Vec<u32>,
 }
 
 /// Sums of one tile.
@@ -1292,6 +1288,12 @@ impl TopoModel {
 /// fractions); `w · (1 − |1 − 2t'|)` on the odd node `2C + 1` of its coarse cell
 /// `C = ⌊x/2⌋`, `t' = x/2 − C` (the shape of the difference between the fine and the
 /// coarse interpolation); one pixel in cell `c`.
+///
+/// The pixels only add (no test of whether a node was touched before: a branch per
+/// node that the processor could not predict); the touched nodes and cells are then
+/// read off the pixel counts per cell, between the least and greatest cell of the
+/// tile: node `k` is touched when cell `k` or `k − 1` holds a pixel, odd node `k`
+/// when cell `k` or `k − 1` does (`⌊x/2⌋ = ⌊c/2⌋`, so a pixel's odd node is `c | 1`).
 fn deposit_tile(
     map: &HeightMap,
     rect: Rect,
@@ -1306,8 +1308,6 @@ fn deposit_tile(
         ts.gn.resize(kmax + 1, 0.0);
         ts.hat.resize(kmax + 1, 0.0);
         ts.cells.resize(kmax + 1, 0);
-        ts.mark.resize(kmax + 1, false);
-        ts.mark_odd.resize(kmax + 1, false);
     }
     let TileScratch {
         normals,
@@ -1316,18 +1316,12 @@ fn deposit_tile(
         gn,
         hat,
         cells,
-        mark,
-        mark_odd,
-        touched,
-        touched_odd,
-        touched_cells,
     } = ts;
-    touched.clear();
-    touched_odd.clear();
-    touched_cells.clear();
     let mut usable = 0u64;
-    let mut pixels = Vec::new();
+    let mut pixels = Vec::with_capacity((rect.r1 - rect.r0) * (rect.c1 - rect.c0));
     let mut direct = direct.tile(map, h, rect);
+    // The least and greatest cell of the tile's pixels.
+    let (mut lo, mut hi) = (usize::MAX, 0);
     tile_slopes::<false>(map, h, rect, normals, |row, col, _, _| {
         let (a, b) = direct.slopes(row, col);
         let w = if physical {
@@ -1339,59 +1333,52 @@ fn deposit_tile(
         let c = x as usize;
         let t = x - c as f64;
         for (k, f) in [(c, 1.0 - t), (c + 1, t)] {
-            if !mark[k] {
-                mark[k] = true;
-                touched.push(k as u32);
-            }
             g[k] += w * f;
             gn[k] += f;
-        }
-        if cells[c] == 0 {
-            touched_cells.push(c as u32);
         }
         cells[c] += 1;
         pixels.push((c as u32, t, w));
         let x2 = 0.5 * x;
         let cc = x2 as usize;
         let t2 = x2 - cc as f64;
-        let k = 2 * cc + 1;
-        if !mark_odd[k] {
-            mark_odd[k] = true;
-            touched_odd.push(k as u32);
-        }
-        hat[k] += w * (1.0 - (1.0 - 2.0 * t2).abs());
+        hat[2 * cc + 1] += w * (1.0 - (1.0 - 2.0 * t2).abs());
+        (lo, hi) = (lo.min(c), hi.max(c));
         usable += 1;
     });
     let mut d = TileDeposit {
         usable,
-        nodes: Vec::with_capacity(touched.len()),
-        odd: Vec::with_capacity(touched_odd.len()),
-        cells: Vec::with_capacity(touched_cells.len()),
+        nodes: Vec::new(),
+        odd: Vec::new(),
+        cells: Vec::new(),
         pixels,
     };
-    for &k in touched.iter() {
-        let i = k as usize;
-        d.nodes.push((k, g[i], gn[i]));
-        g[i] = 0.0;
-        gn[i] = 0.0;
-        mark[i] = false;
+    if usable == 0 {
+        return d;
     }
-    for &k in touched_odd.iter() {
-        let i = k as usize;
-        d.odd.push((k, hat[i]));
-        hat[i] = 0.0;
-        mark_odd[i] = false;
+    let held = |c: usize, cells: &[u32]| c >= lo && c <= hi && cells[c] > 0;
+    for k in lo..=hi + 1 {
+        if held(k, cells) || (k > 0 && held(k - 1, cells)) {
+            d.nodes.push((k as u32, g[k], gn[k]));
+        }
+        (g[k], gn[k]) = (0.0, 0.0);
+    }
+    for k in (lo | 1..=hi | 1).step_by(2) {
+        if held(k, cells) || held(k - 1, cells) {
+            d.odd.push((k as u32, hat[k]));
+        }
+        hat[k] = 0.0;
     }
     // Pixels grouped by cell (stable: raster order within a cell), cells ascending: a
     // counting sort, each cell's count turned into its first slot, the pixels placed
     // in the order they came.
-    touched_cells.sort_unstable();
     let mut first = 0u32;
-    for &c in touched_cells.iter() {
-        let count = cells[c as usize];
-        d.cells.push((c, count));
-        cells[c as usize] = first;
-        first += count;
+    for (c, slot) in (lo..).zip(&mut cells[lo..=hi]) {
+        let count = *slot;
+        if count > 0 {
+            d.cells.push((c as u32, count));
+            *slot = first;
+            first += count;
+        }
     }
     let mut grouped = vec![(0u32, 0.0, 0.0); d.pixels.len()];
     for &p in &d.pixels {
@@ -1400,9 +1387,7 @@ fn deposit_tile(
         *slot += 1;
     }
     d.pixels = grouped;
-    for &c in touched_cells.iter() {
-        cells[c as usize] = 0;
-    }
+    cells[lo..=hi].fill(0);
     d
 }
 
