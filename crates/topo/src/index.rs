@@ -86,6 +86,23 @@ pub(crate) trait Lanes: Copy {
             counts[l] += u32::from(hit);
         }
     }
+
+    /// `sums[l] += g · v[l]` (the product rounded, then the sum) for the first `len`
+    /// lanes (`len ≤ LANES`), the others left as they are.
+    #[inline(always)]
+    fn add_scaled(self, sums: &mut [f64; LANES], v: &[f64; LANES], g: f64, len: usize) {
+        for (s, &v) in sums.iter_mut().zip(v).take(len) {
+            *s += g * v;
+        }
+    }
+
+    /// `counts[l] += n` for the first `len` lanes (`len ≤ LANES`).
+    #[inline(always)]
+    fn add_count(self, counts: &mut [u32; LANES], n: u32, len: usize) {
+        for c in counts.iter_mut().take(len) {
+            *c += n;
+        }
+    }
 }
 
 /// [`Block::inside`] as written.
@@ -130,6 +147,24 @@ impl Lanes for pulp::x86::V4 {
         let c: pulp::u32x8 = pulp::cast(*counts);
         let one = self.splat_u32x8(1);
         *counts = pulp::cast(self.select_u32x8(hit, self.wrapping_add_u32x8(c, one), c));
+    }
+
+    /// One masked multiply–add (two roundings, as the portable form).
+    #[inline(always)]
+    fn add_scaled(self, sums: &mut [f64; LANES], v: &[f64; LANES], g: f64, len: usize) {
+        let first = pulp::b8(((1u32 << len) - 1) as u8);
+        let s: pulp::f64x8 = pulp::cast(*sums);
+        let gv = self.mul_f64x8(self.splat_f64x8(g), pulp::cast(*v));
+        *sums = pulp::cast(self.select_f64x8(first, self.add_f64x8(s, gv), s));
+    }
+
+    /// One masked addition.
+    #[inline(always)]
+    fn add_count(self, counts: &mut [u32; LANES], n: u32, len: usize) {
+        let first = pulp::b8(((1u32 << len) - 1) as u8);
+        let c: pulp::u32x8 = pulp::cast(*counts);
+        let added = self.wrapping_add_u32x8(c, self.splat_u32x8(n));
+        *counts = pulp::cast(self.select_u32x8(first, added, c));
     }
 }
 

@@ -133,7 +133,7 @@ use gauss_quad::legendre::GaussLegendre;
 use rayon::prelude::*;
 
 use crate::TopoError;
-use crate::index::{self, ConeIndex};
+use crate::index::{self, ConeIndex, LANES, Lanes, Portable};
 use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of};
 use crate::normals::{DirectRow, Rect, Scratch, tile_slopes};
 
@@ -409,8 +409,43 @@ struct RingScratch {
 #[derive(Debug, Clone, Default)]
 struct NodeResponse {
     entries: Vec<(u32, f64)>,
+    /// `entries` in runs of consecutive detectors, for the contraction.
+    runs: Vec<Run>,
     tir: f64,
     down: f64,
+}
+
+/// Up to [`LANES`] consecutive detectors `start, start + 1, …` and their values
+/// (zero past `len`): what the contraction adds to eight consecutive sums at once.
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    start: u32,
+    len: u32,
+    v: [f64; LANES],
+}
+
+/// `entries` (sorted by detector) cut into runs of consecutive detectors, at most
+/// [`LANES`] long.
+fn runs_of(entries: &[(u32, f64)]) -> Vec<Run> {
+    let mut runs: Vec<Run> = Vec::new();
+    for &(det, v) in entries {
+        match runs.last_mut() {
+            Some(r) if r.start + r.len == det && (r.len as usize) < LANES => {
+                r.v[r.len as usize] = v;
+                r.len += 1;
+            }
+            _ => {
+                let mut vs = [0.0; LANES];
+                vs[0] = v;
+                runs.push(Run {
+                    start: det,
+                    len: 1,
+                    v: vs,
+                });
+            }
+        }
+    }
+    runs
 }
 
 impl IsoSetup<'_> {
@@ -423,6 +458,7 @@ impl IsoSetup<'_> {
         let tir = (ring.fraction_below(self.kappa) - down).max(0.0);
         let mut out = NodeResponse {
             entries: Vec::new(),
+            runs: Vec::new(),
             tir,
             down,
         };
@@ -481,6 +517,7 @@ impl IsoSetup<'_> {
                     .push((det, total / TAU * inc.scale[det as usize]));
             }
         }
+        out.runs = runs_of(&out.entries);
         out
     }
 
@@ -800,16 +837,26 @@ fn square_root_edge(q1: f64, q2: f64, q3: f64) -> bool {
 /// the detectors lit at either node (for `rays`) and the edges.
 #[derive(Debug, Clone, Default)]
 struct CellInfo {
-    lit: Vec<u32>,
+    /// The lit detectors in runs `(first, count)` of at most [`LANES`] consecutive ones.
+    lit: Vec<(u32, u32)>,
     edges: Vec<Edge>,
 }
 
 /// The cell information of fine cell `c`.
 fn cell_info(rows: &[Row], c: usize) -> CellInfo {
     let (r0, r1) = (&rows[c].entries, &rows[c + 1].entries);
-    let mut lit: Vec<u32> = r0.iter().chain(r1).map(|e| e.0).collect();
-    lit.sort_unstable();
-    lit.dedup();
+    let mut dets: Vec<u32> = r0.iter().chain(r1).map(|e| e.0).collect();
+    dets.sort_unstable();
+    dets.dedup();
+    let mut lit: Vec<(u32, u32)> = Vec::new();
+    for det in dets {
+        match lit.last_mut() {
+            Some((first, count)) if *first + *count == det && (*count as usize) < LANES => {
+                *count += 1;
+            }
+            _ => lit.push((det, 1)),
+        }
+    }
     CellInfo {
         lit,
         edges: cell_edges(rows, c),
@@ -818,14 +865,16 @@ fn cell_info(rows: &[Row], c: usize) -> CellInfo {
 
 /// `|h_k − (h_{k−1} + h_{k+1})/2|` for every detector lit at all three nodes around the
 /// odd node `k` (coarse cells holding an edge are covered by the edge terms).
-fn odd_defect(rows: &[Row], k: usize) -> Vec<(u32, f64)> {
+fn odd_defect(rows: &[Row], k: usize) -> Vec<Run> {
     let (a, b, c) = (&rows[k - 1].entries, &rows[k].entries, &rows[k + 1].entries);
-    b.iter()
+    let entries: Vec<(u32, f64)> = b
+        .iter()
         .filter_map(|&(det, v)| {
             let (va, vc) = (value_in(a, det), value_in(c, det));
             (va > 0.0 && vc > 0.0).then(|| (det, (v - 0.5 * (va + vc)).abs()))
         })
-        .collect()
+        .collect();
+    runs_of(&entries)
 }
 
 /// Value of detector `det` in a sorted row (0 when absent).
@@ -1075,7 +1124,7 @@ impl TopoModel {
         let mut computed: Vec<bool> = Vec::new();
         let mut cells: Vec<Vec<CellInfo>> = (0..ninc).map(|_| Vec::new()).collect();
         let mut cells_done: Vec<bool> = Vec::new();
-        let mut defects: Vec<Vec<Vec<(u32, f64)>>> = (0..ninc).map(|_| Vec::new()).collect();
+        let mut defects: Vec<Vec<Vec<Run>>> = (0..ninc).map(|_| Vec::new()).collect();
         let mut defects_done: Vec<bool> = Vec::new();
         let mut nodes = 0usize;
 
@@ -1191,7 +1240,21 @@ impl TopoModel {
             // 4. Contraction with the table, then the ordered reduction.
             let partials: Vec<IsoPartial> = deposits
                 .par_iter()
-                .map(|d| contract_tile(d, &rows, &cells, &defects, ndet))
+                .map(|d| {
+                    let tile = ContractTile {
+                        d,
+                        rows: &rows,
+                        cells: &cells,
+                        defects: &defects,
+                        ndet,
+                        lanes: (),
+                    };
+                    match pulp::Arch::new() {
+                        #[cfg(target_arch = "x86_64")]
+                        pulp::Arch::V4(v4) => pulp::Simd::vectorize(v4, tile.with(v4)),
+                        arch => arch.dispatch(tile.with(Portable)),
+                    }
+                })
                 .collect();
             for p in partials {
                 seen += 1;
@@ -1391,51 +1454,96 @@ fn deposit_tile(
     d
 }
 
-/// Contracts one tile's deposits with the table rows (`rows[ii][k]`).
-fn contract_tile(
+/// One tile's contraction ([`contract_tile`]), handed to [`pulp::Arch::dispatch`] (or
+/// to [`pulp::x86::V4`] directly, which then adds a run of eight consecutive detectors
+/// in one masked instruction: `lanes`).
+struct ContractTile<'a, L> {
+    d: &'a TileDeposit,
+    rows: &'a [Vec<Row>],
+    cells: &'a [Vec<CellInfo>],
+    defects: &'a [Vec<Vec<Run>>],
+    ndet: usize,
+    lanes: L,
+}
+
+impl<'a> ContractTile<'a, ()> {
+    /// The same contraction with `lanes`.
+    fn with<L: Lanes>(self, lanes: L) -> ContractTile<'a, L> {
+        ContractTile {
+            d: self.d,
+            rows: self.rows,
+            cells: self.cells,
+            defects: self.defects,
+            ndet: self.ndet,
+            lanes,
+        }
+    }
+}
+
+impl<L: Lanes> pulp::WithSimd for ContractTile<'_, L> {
+    type Output = IsoPartial;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> IsoPartial {
+        contract_tile(self.d, self.rows, self.cells, self.defects, self.ndet, self.lanes)
+    }
+}
+
+/// Contracts one tile's deposits with the table rows (`rows[ii][k]`): per detector the
+/// same products and sums, in the same order, as one entry at a time; the rows, odd-node
+/// defects and lit detectors go a run of consecutive detectors at a time ([`Run`]),
+/// into sums that reach [`LANES`] past the last detector.
+#[inline(always)]
+fn contract_tile<L: Lanes>(
     d: &TileDeposit,
     rows: &[Vec<Row>],
     cells: &[Vec<CellInfo>],
-    defects: &[Vec<Vec<(u32, f64)>>],
+    defects: &[Vec<Vec<Run>>],
     ndet: usize,
+    lanes: L,
 ) -> IsoPartial {
     let ninc = rows.len();
     let mut p = IsoPartial {
-        sums: vec![0.0; ninc * ndet],
-        defect: vec![0.0; ninc * ndet],
-        counts: vec![0; ninc * ndet],
+        sums: vec![0.0; ninc * ndet + LANES],
+        defect: vec![0.0; ninc * ndet + LANES],
+        counts: vec![0; ninc * ndet + LANES],
         usable: d.usable,
         lost_tir: 0.0,
         lost_down: 0.0,
     };
+    // The eight sums from detector `j` of a slice that reaches `LANES` past the last.
+    fn eight<T>(v: &mut [T], j: u32) -> &mut [T; LANES] {
+        let j = j as usize;
+        (&mut v[j..j + LANES]).try_into().expect("LANES elements")
+    }
     for (ii, table) in rows.iter().enumerate() {
         let base = ii * ndet;
-        let sums = &mut p.sums[base..base + ndet];
+        let sums = &mut p.sums[base..base + ndet + LANES];
         for &(k, g, gn) in &d.nodes {
             let row = &table[k as usize];
-            for &(det, v) in &row.entries {
-                sums[det as usize] += g * v;
+            for r in &row.runs {
+                lanes.add_scaled(eight(sums, r.start), &r.v, g, r.len as usize);
             }
             p.lost_tir += gn * row.tir;
             p.lost_down += gn * row.down;
         }
-        let defect = &mut p.defect[base..base + ndet];
+        let defect = &mut p.defect[base..base + ndet + LANES];
         for &(k, hat) in &d.odd {
-            for &(det, v) in &defects[ii][k as usize] {
-                defect[det as usize] += hat * v;
+            for r in &defects[ii][k as usize] {
+                lanes.add_scaled(eight(defect, r.start), &r.v, hat, r.len as usize);
             }
         }
         // Per fine cell (pixels sorted by cell): pixels whose interpolated response is
         // non-zero, and the edge cells, where the edge-aware interpolation replaces the
         // linear one and the size of that correction is the error estimate.
-        let counts = &mut p.counts[base..base + ndet];
+        let counts = &mut p.counts[base..base + ndet + LANES];
         let mut start = 0;
         for &(c, nc) in &d.cells {
             let info = &cells[ii][c as usize];
             let px = &d.pixels[start..start + nc as usize];
             start += nc as usize;
-            for &det in &info.lit {
-                counts[det as usize] += nc;
+            for &(first, count) in &info.lit {
+                lanes.add_count(eight(counts, first), nc, count as usize);
             }
             for e in &info.edges {
                 let det = e.det as usize;
