@@ -750,6 +750,55 @@ mod tests {
         let _ = wide_checked;
     }
 
+    /// `Lanes::add_scaled` adds `g · v[l]` and `Lanes::add_count` adds `n` to the first
+    /// `len` lanes only, portable and AVX-512 alike, bit for bit the lane-by-lane
+    /// `sums[l] + g · v[l]`.
+    #[test]
+    fn runs_add_to_their_first_lanes_only() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let mut wide_checked = 0;
+        for _ in 0..2000 {
+            let sums: [f64; LANES] = std::array::from_fn(|_| match rng.random_range(0..4) {
+                0 => -0.0,
+                1 => 0.0,
+                _ => rng.random_range(-1e3..1e3),
+            });
+            let v: [f64; LANES] = std::array::from_fn(|_| rng.random_range(0.0..10.0));
+            let counts: [u32; LANES] = std::array::from_fn(|_| rng.random_range(0..1000));
+            let (g, n, len) = (
+                rng.random_range(1e-9..1e2),
+                rng.random_range(0..500u32),
+                rng.random_range(0..=LANES),
+            );
+            let want_sums: [u64; LANES] = std::array::from_fn(|l| {
+                if l < len { sums[l] + g * v[l] } else { sums[l] }.to_bits()
+            });
+            let want_counts: [u32; LANES] =
+                std::array::from_fn(|l| counts[l] + if l < len { n } else { 0 });
+            let (mut s, mut c) = (sums, counts);
+            Portable.add_scaled(&mut s, &v, g, len);
+            Portable.add_count(&mut c, n, len);
+            assert_eq!(s.map(f64::to_bits), want_sums, "len {len}");
+            assert_eq!(c, want_counts, "len {len}");
+            #[cfg(target_arch = "x86_64")]
+            if let Some(v4) = pulp::x86::V4::try_new() {
+                let (mut s, mut c) = (sums, counts);
+                pulp::Simd::vectorize(v4, || {
+                    v4.add_scaled(&mut s, &v, g, len);
+                    v4.add_count(&mut c, n, len);
+                });
+                assert_eq!(s.map(f64::to_bits), want_sums, "AVX-512, len {len}");
+                assert_eq!(c, want_counts, "AVX-512, len {len}");
+                wide_checked += 1;
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if pulp::x86::V4::try_new().is_some() {
+            assert_eq!(wide_checked, 2000);
+        }
+        let _ = wide_checked;
+    }
+
     /// A narrow cone beside many wide ones would give lists of millions of entries at
     /// the narrow cone's cell size (200 cones of α = 0.5 over cells of 2/1024: about
     /// 200 × (2 · 2 sin 0.25 / (2/1024))² ≈ 6 · 10⁷); the cells are made coarser until

@@ -1485,7 +1485,14 @@ impl<L: Lanes> pulp::WithSimd for ContractTile<'_, L> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> IsoPartial {
-        contract_tile(self.d, self.rows, self.cells, self.defects, self.ndet, self.lanes)
+        contract_tile(
+            self.d,
+            self.rows,
+            self.cells,
+            self.defects,
+            self.ndet,
+            self.lanes,
+        )
     }
 }
 
@@ -1563,6 +1570,26 @@ fn contract_tile<L: Lanes>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Runs hold consecutive detectors only, at most `LANES` of them, every entry once
+    /// and in order, with zeros past their length.
+    #[test]
+    fn runs_cut_rows_at_gaps_and_at_eight() {
+        let dets = [3, 4, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 40];
+        let entries: Vec<(u32, f64)> = dets.iter().map(|&d| (d, f64::from(d) + 0.5)).collect();
+        let runs = runs_of(&entries);
+        let shape: Vec<(u32, u32)> = runs.iter().map(|r| (r.start, r.len)).collect();
+        assert_eq!(shape, [(3, 2), (6, 8), (14, 3), (40, 1)]);
+        let back: Vec<(u32, f64)> = runs
+            .iter()
+            .flat_map(|r| (0..r.len).map(move |l| (r.start + l, r.v[l as usize])))
+            .collect();
+        assert_eq!(back, entries);
+        assert!(
+            runs.iter()
+                .all(|r| r.v[r.len as usize..].iter().all(|&v| v == 0.0))
+        );
+    }
 
     fn setup_for<'a>(options: &'a TopoOptions, theta_i: f64, cones: &[Cone]) -> IsoSetup<'a> {
         let n = options.n;
