@@ -135,7 +135,7 @@ use rayon::prelude::*;
 use crate::TopoError;
 use crate::index::{self, ConeIndex, LANES, Lanes, Portable};
 use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of};
-use crate::normals::{DirectRow, Rect, Scratch, tile_slopes};
+use crate::normals::{DirectRow, Rect, Scratch, tile_usable};
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
 /// is `δ = α_min / DEFAULT_NODES_PER_APERTURE` (0.0117° for α = 1.5°).
@@ -959,6 +959,10 @@ struct TileScratch {
     gn: Vec<f64>,
     hat: Vec<f64>,
     cells: Vec<u32>,
+    /// The usable pixels' direct slopes `(a, b)`, raster order.
+    slopes: Vec<(f64, f64)>,
+    /// Their node coordinates `x` and area factors `w`.
+    coords: Vec<(f64, f64)>,
 }
 
 /// Sums of one tile.
@@ -1379,20 +1383,30 @@ fn deposit_tile(
         gn,
         hat,
         cells,
+        slopes,
+        coords,
     } = ts;
-    let mut usable = 0u64;
     let mut pixels = Vec::with_capacity((rect.r1 - rect.r0) * (rect.c1 - rect.c0));
     let mut direct = direct.tile(map, h, rect);
-    // The least and greatest cell of the tile's pixels.
-    let (mut lo, mut hi) = (usize::MAX, 0);
-    tile_slopes::<false>(map, h, rect, normals, |row, col, _, _| {
-        let (a, b) = direct.slopes(row, col);
+    // The usable pixels' slopes first, then their node coordinates and area factors
+    // in a loop of independent pixels (so that the processor overlaps their `atan`s),
+    // then the deposits in raster order.
+    slopes.clear();
+    tile_usable(map, h, rect, normals, |row, col| {
+        slopes.push(direct.slopes(row, col));
+    });
+    coords.clear();
+    coords.extend(slopes.iter().map(|&(a, b)| {
         let w = if physical {
             (1.0 + a * a + b * b).sqrt()
         } else {
             1.0
         };
-        let x = node_coordinate(a, b, inv_delta);
+        (node_coordinate(a, b, inv_delta), w)
+    }));
+    // The least and greatest cell of the tile's pixels.
+    let (mut lo, mut hi) = (usize::MAX, 0);
+    for &(x, w) in coords.iter() {
         let c = x as usize;
         let t = x - c as f64;
         for (k, f) in [(c, 1.0 - t), (c + 1, t)] {
@@ -1406,8 +1420,8 @@ fn deposit_tile(
         let t2 = x2 - cc as f64;
         hat[2 * cc + 1] += w * (1.0 - (1.0 - 2.0 * t2).abs());
         (lo, hi) = (lo.min(c), hi.max(c));
-        usable += 1;
-    });
+    }
+    let usable = coords.len() as u64;
     let mut d = TileDeposit {
         usable,
         nodes: Vec::new(),

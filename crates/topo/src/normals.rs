@@ -389,6 +389,63 @@ pub(crate) fn tile_slopes<const NAN_BAD: bool>(
     emitted
 }
 
+/// Calls `emit(row, col)` for every usable pixel of `rect` (its whole `k × k` window,
+/// `k = 2h + 1`, inside the map and valid), in row-major order, and returns how many
+/// there were: the pixels [`tile_slopes::<false>`](tile_slopes) emits, found from the
+/// invalid points' counts alone (for callers that compute the slopes themselves).
+pub(crate) fn tile_usable(
+    map: &HeightMap,
+    h: usize,
+    rect: Rect,
+    scratch: &mut Scratch,
+    mut emit: impl FnMut(usize, usize),
+) -> usize {
+    let (nx, ny) = (map.nx(), map.ny());
+    let k = 2 * h + 1;
+    if nx < k || ny < k {
+        return 0;
+    }
+    let (or0, or1) = (rect.r0.max(h), rect.r1.min(ny - h));
+    let cols = inside_cols(map, h, rect);
+    if or0 >= or1 || cols.is_empty() {
+        return 0;
+    }
+    let (oc0, ow) = (cols.start, cols.len());
+    let valid = map.valid();
+    // Row pass: per region row, the invalid points of each output column's k columns.
+    let rh = or1 - or0 + 2 * h;
+    let Scratch { bad, col_bad, .. } = scratch;
+    bad.resize(rh * ow, 0);
+    col_bad.resize(ow, 0);
+    for (lr, r) in (or0 - h..or1 + h).enumerate() {
+        let row = &valid[r * nx + oc0 - h..r * nx + oc0 + ow + h];
+        let out = &mut bad[lr * ow..(lr + 1) * ow];
+        out.fill(0);
+        for t in 0..k {
+            for (acc, &v) in out.iter_mut().zip(&row[t..t + ow]) {
+                *acc += u32::from(!v);
+            }
+        }
+    }
+    // Column pass, one output row at a time.
+    let mut emitted = 0;
+    for (o, r) in (or0..or1).enumerate() {
+        col_bad.fill(0);
+        for t in 0..k {
+            for (acc, &v) in col_bad.iter_mut().zip(&bad[(o + t) * ow..(o + t + 1) * ow]) {
+                *acc += v;
+            }
+        }
+        for (oc, &nbad) in col_bad.iter().enumerate() {
+            if nbad == 0 {
+                emit(r, oc0 + oc);
+                emitted += 1;
+            }
+        }
+    }
+    emitted
+}
+
 /// The window sums of one tile ([`tile_slopes`]), handed to [`pulp::Arch::dispatch`]
 /// so that [`tile_sums`] is compiled for the processor's instruction set.
 struct TileSums<'a, P> {
@@ -616,6 +673,69 @@ mod tests {
             })
             .collect();
         HeightMap::new(nx, ny, 0.3, 0.4, z).unwrap()
+    }
+
+    /// `tile_usable` emits exactly the pixels `tile_slopes::<false>` emits (whole
+    /// window inside the map and valid), in the same order, for windows of 3, 5 and 9,
+    /// tiles inside, across and at every edge of a map with scattered invalid points
+    /// and an invalid block, and maps narrower than a window.
+    #[test]
+    fn usable_pixels_are_those_with_slopes() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let (nx, ny) = (61, 47);
+        let base = map(nx, ny, 0.2, -0.1, true);
+        let valid: Vec<bool> = (0..nx * ny)
+            .map(|i| {
+                let (row, col) = (i / nx, i % nx);
+                !(rng.random_range(0.0..1.0) < 0.02 || (20..26).contains(&row) && col < 9)
+            })
+            .collect();
+        let holed = HeightMap::with_mask(nx, ny, 0.3, 0.4, base.heights().to_vec(), valid).unwrap();
+        let narrow = map(4, 30, 0.1, 0.1, false);
+        let mut scratch = Scratch::default();
+        let mut checked = 0;
+        for m in [&base, &holed, &narrow] {
+            for h in [1, 2, 4] {
+                for rect in [
+                    Rect {
+                        r0: 0,
+                        r1: m.ny(),
+                        c0: 0,
+                        c1: m.nx(),
+                    },
+                    Rect {
+                        r0: 0,
+                        r1: 13,
+                        c0: 0,
+                        c1: 17,
+                    },
+                    Rect {
+                        r0: 10,
+                        r1: 30,
+                        c0: 5,
+                        c1: 40,
+                    },
+                    Rect {
+                        r0: m.ny().saturating_sub(9),
+                        r1: m.ny(),
+                        c0: m.nx().saturating_sub(11),
+                        c1: m.nx(),
+                    },
+                ] {
+                    let mut want = Vec::new();
+                    let n = tile_slopes::<false>(m, h, rect, &mut scratch, |r, c, _, _| {
+                        want.push((r, c));
+                    });
+                    let mut got = Vec::new();
+                    let k = tile_usable(m, h, rect, &mut scratch, |r, c| got.push((r, c)));
+                    assert_eq!(got, want, "h {h}, {rect:?}");
+                    assert_eq!((k, n), (got.len(), want.len()));
+                    checked += got.len();
+                }
+            }
+        }
+        assert!(checked > 5000, "{checked} pixels compared");
     }
 
     #[test]

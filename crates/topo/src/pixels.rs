@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 use crate::TopoError;
 use crate::model::TopoModel;
-use crate::normals::{DirectRow, Scratch, tile_slopes};
+use crate::normals::{DirectRow, Scratch, tile_usable};
 
 /// Sums of one statistics tile.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -149,7 +149,7 @@ impl TopoModel {
                     let pixel_area = map.dx() * map.dy();
                     let mut t = TileTilts::default();
                     let mut bins = Vec::new();
-                    tile_slopes::<false>(map, h, rect, scratch, |row, col, _, _| {
+                    tile_usable(map, h, rect, scratch, |row, col| {
                         let (a, b) = direct.slopes(row, col);
                         let r2 = a * a + b * b;
                         let theta = r2.sqrt().atan();
