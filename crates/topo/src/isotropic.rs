@@ -792,8 +792,10 @@ struct TileDeposit {
     nodes: Vec<(u32, f64, f64)>,
     odd: Vec<(u32, f64)>,
     cells: Vec<(u32, u32)>,
-    /// Every pixel as (fine cell, `t`, area factor), for the edge cells.
-    pixels: Vec<(u32, f64, f64)>,
+    /// Every pixel's `t` and area factor `w`, grouped by fine cell in the order of
+    /// `cells` (raster order within a cell), for the edge cells.
+    pixel_t: Vec<f64>,
+    pixel_w: Vec<f64>,
 }
 
 /// A detector whose response switches on or off inside a fine cell: `h` is zero at one
@@ -1149,15 +1151,44 @@ impl TopoModel {
         let mut rays = vec![0u64; nslots];
         let (mut lost_tir, mut lost_down, mut usable) = (0.0, 0.0, 0u64);
         let mut seen = 0u64;
+        // The ordered reduction of a batch's tile sums, run while the next batch's
+        // deposits are made (`rayon::join`); returns the tiles reduced so far.
+        let mut reduce = |partials: Vec<IsoPartial>| {
+            for p in partials {
+                seen += 1;
+                let inv_seen = 1.0 / seen as f64;
+                usable += p.usable;
+                lost_tir += p.lost_tir;
+                lost_down += p.lost_down;
+                for s in 0..nslots {
+                    let v = p.sums[s];
+                    sum[s] += v;
+                    defect[s] += p.defect[s];
+                    let d = v - mean[s];
+                    mean[s] += d * inv_seen;
+                    m2[s] += d * (v - mean[s]);
+                    rays[s] += u64::from(p.counts[s]);
+                }
+            }
+            seen
+        };
         let mut missing: Vec<usize> = Vec::new();
+        let mut pending = Vec::new();
         for batch in jobs.chunks(BATCH) {
-            // 1. Deposits of the batch's tiles.
-            let deposits: Vec<TileDeposit> = batch
-                .par_iter()
-                .map_init(TileScratch::default, |ts, &(mi, rect)| {
-                    deposit_tile(maps[mi], rect, h, physical, setup.inv_delta, kmax, ts)
-                })
-                .collect();
+            // 1. Deposits of the batch's tiles (and the previous batch's reduction).
+            let done = std::mem::take(&mut pending);
+            let (reduced, deposits): (u64, Vec<TileDeposit>) = rayon::join(
+                || reduce(done),
+                || {
+                    batch
+                        .par_iter()
+                        .map_init(TileScratch::default, |ts, &(mi, rect)| {
+                            deposit_tile(maps[mi], rect, h, physical, setup.inv_delta, kmax, ts)
+                        })
+                        .collect()
+                },
+            );
+            progress(reduced, total_tiles);
             // 2. The table nodes they need that are not computed yet, computed in
             // parallel (each node's value does not depend on when it is computed).
             missing.clear();
@@ -1208,41 +1239,45 @@ impl TopoModel {
                     rows[ii][k] = resp;
                 }
             }
-            // 3. What the contraction needs per cell and odd node, once each.
+            // 3. What the contraction needs per cell and odd node, once each: the new
+            // cells and odd nodes, then their information, one incidence per task.
+            let (mut new_cells, mut new_odd) = (Vec::new(), Vec::new());
             for d in &deposits {
                 for &(c, _) in &d.cells {
                     let c = c as usize;
                     if c >= cells_done.len() {
                         cells_done.resize(c + 1, false);
-                        for e in &mut cells {
-                            e.resize_with(c + 1, CellInfo::default);
-                        }
                     }
                     if !cells_done[c] {
                         cells_done[c] = true;
-                        for (ii, e) in cells.iter_mut().enumerate() {
-                            e[c] = cell_info(&rows[ii], c);
-                        }
+                        new_cells.push(c);
                     }
                 }
                 for &(k, _) in &d.odd {
                     let k = k as usize;
                     if k >= defects_done.len() {
                         defects_done.resize(k + 1, false);
-                        for e in &mut defects {
-                            e.resize_with(k + 1, Vec::new);
-                        }
                     }
                     if !defects_done[k] {
                         defects_done[k] = true;
-                        for (ii, e) in defects.iter_mut().enumerate() {
-                            e[k] = odd_defect(&rows[ii], k);
-                        }
+                        new_odd.push(k);
                     }
                 }
             }
+            (cells.par_iter_mut().zip(&mut defects))
+                .zip(&rows)
+                .for_each(|((cells, defects), rows)| {
+                    cells.resize_with(cells_done.len(), CellInfo::default);
+                    defects.resize_with(defects_done.len(), Vec::new);
+                    for &c in &new_cells {
+                        cells[c] = cell_info(rows, c);
+                    }
+                    for &k in &new_odd {
+                        defects[k] = odd_defect(rows, k);
+                    }
+                });
             // 4. Contraction with the table, then the ordered reduction.
-            let partials: Vec<IsoPartial> = deposits
+            pending = deposits
                 .par_iter()
                 .map(|d| {
                     let tile = ContractTile {
@@ -1260,24 +1295,8 @@ impl TopoModel {
                     }
                 })
                 .collect();
-            for p in partials {
-                seen += 1;
-                let inv_seen = 1.0 / seen as f64;
-                usable += p.usable;
-                lost_tir += p.lost_tir;
-                lost_down += p.lost_down;
-                for s in 0..nslots {
-                    let v = p.sums[s];
-                    sum[s] += v;
-                    defect[s] += p.defect[s];
-                    let d = v - mean[s];
-                    mean[s] += d * inv_seen;
-                    m2[s] += d * (v - mean[s]);
-                    rays[s] += u64::from(p.counts[s]);
-                }
-            }
-            progress(seen, total_tiles);
         }
+        progress(reduce(pending), total_tiles);
 
         let pixels: u64 = maps.iter().map(|m| m.len() as u64).sum();
         if usable == 0 {
@@ -1427,7 +1446,8 @@ fn deposit_tile(
         nodes: Vec::new(),
         odd: Vec::new(),
         cells: Vec::new(),
-        pixels,
+        pixel_t: Vec::new(),
+        pixel_w: Vec::new(),
     };
     if usable == 0 {
         return d;
@@ -1457,13 +1477,13 @@ fn deposit_tile(
             first += count;
         }
     }
-    let mut grouped = vec![(0u32, 0.0, 0.0); d.pixels.len()];
-    for &p in &d.pixels {
-        let slot = &mut cells[p.0 as usize];
-        grouped[*slot as usize] = p;
+    let (mut pixel_t, mut pixel_w) = (vec![0.0; pixels.len()], vec![0.0; pixels.len()]);
+    for &(c, t, w) in &pixels {
+        let slot = &mut cells[c as usize];
+        (pixel_t[*slot as usize], pixel_w[*slot as usize]) = (t, w);
         *slot += 1;
     }
-    d.pixels = grouped;
+    (d.pixel_t, d.pixel_w) = (pixel_t, pixel_w);
     cells[lo..=hi].fill(0);
     d
 }
@@ -1533,6 +1553,8 @@ fn contract_tile<L: Lanes>(
         lost_down: 0.0,
     };
     // The eight sums from detector `j` of a slice that reaches `LANES` past the last.
+    // The edge cells' corrections, pixel by pixel.
+    let mut dh: Vec<f64> = Vec::new();
     fn eight<T>(v: &mut [T], j: u32) -> &mut [T; LANES] {
         let j = j as usize;
         (&mut v[j..j + LANES]).try_into().expect("LANES elements")
@@ -1561,20 +1583,26 @@ fn contract_tile<L: Lanes>(
         let mut start = 0;
         for &(c, nc) in &d.cells {
             let info = &cells[ii][c as usize];
-            let px = &d.pixels[start..start + nc as usize];
+            let cell = start..start + nc as usize;
+            let (ts, ws) = (&d.pixel_t[cell.clone()], &d.pixel_w[cell]);
             start += nc as usize;
             for &(first, count) in &info.lit {
                 lanes.add_count(eight(counts, first), nc, count as usize);
             }
             for e in &info.edges {
+                // The corrections in a loop of independent pixels (vectorised), then
+                // their sums in raster order, in registers.
+                dh.clear();
+                dh.extend(ts.iter().zip(ws).map(|(&t, &w)| w * e.correction(t)));
                 let det = e.det as usize;
-                for &(_, t, w) in px {
-                    let dh = w * e.correction(t);
+                let (mut s, mut f) = (sums[det], defect[det]);
+                for &dh in dh.iter() {
                     if e.apply {
-                        sums[det] += dh;
+                        s += dh;
                     }
-                    defect[det] += dh.abs();
+                    f += dh.abs();
                 }
+                (sums[det], defect[det]) = (s, f);
             }
         }
     }
