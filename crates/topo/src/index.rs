@@ -91,6 +91,7 @@ pub(crate) trait Lanes: Copy {
     /// lanes (`len ≤ LANES`), the others left as they are.
     #[inline(always)]
     fn add_scaled(self, sums: &mut [f64; LANES], v: &[f64; LANES], g: f64, len: usize) {
+        debug_assert!(len <= LANES);
         for (s, &v) in sums.iter_mut().zip(v).take(len) {
             *s += g * v;
         }
@@ -99,6 +100,7 @@ pub(crate) trait Lanes: Copy {
     /// `counts[l] += n` for the first `len` lanes (`len ≤ LANES`).
     #[inline(always)]
     fn add_count(self, counts: &mut [u32; LANES], n: u32, len: usize) {
+        debug_assert!(len <= LANES);
         for c in counts.iter_mut().take(len) {
             *c += n;
         }
@@ -152,6 +154,7 @@ impl Lanes for pulp::x86::V4 {
     /// One masked multiply–add (two roundings, as the portable form).
     #[inline(always)]
     fn add_scaled(self, sums: &mut [f64; LANES], v: &[f64; LANES], g: f64, len: usize) {
+        debug_assert!(len <= LANES);
         let first = pulp::b8(((1u32 << len) - 1) as u8);
         let s: pulp::f64x8 = pulp::cast(*sums);
         let gv = self.mul_f64x8(self.splat_f64x8(g), pulp::cast(*v));
@@ -161,6 +164,7 @@ impl Lanes for pulp::x86::V4 {
     /// One masked addition.
     #[inline(always)]
     fn add_count(self, counts: &mut [u32; LANES], n: u32, len: usize) {
+        debug_assert!(len <= LANES);
         let first = pulp::b8(((1u32 << len) - 1) as u8);
         let c: pulp::u32x8 = pulp::cast(*counts);
         let added = self.wrapping_add_u32x8(c, self.splat_u32x8(n));
@@ -241,8 +245,8 @@ pub(crate) const COARSE: f64 = 1.0;
 
 /// The most cone entries (about 48 bytes each) the cell lists may hold in all before
 /// [`ConeIndex::with_margin`] makes its cells coarser; an index with blocks counts
-/// each entry's share of them at its worst, a block of its own (288 bytes, six
-/// entries' worth).
+/// each entry's share of them at its worst, a block of its own (292 bytes with its
+/// detectors and run, six entries' worth).
 const MAX_ENTRIES: f64 = 1_048_576.0;
 
 /// Whether some unit direction `k` (with `k.z ≥ 0`) projecting into the cell
@@ -319,7 +323,8 @@ impl ConeIndex {
         // hold more than `MAX_ENTRIES` in all (wide cones beside a narrow one).
         let with_blocks = margin == 0.0;
         let per_entry = if with_blocks {
-            let block = std::mem::size_of::<Block>() + LANES * std::mem::size_of::<u32>();
+            // A block, its lanes' detectors and its run.
+            let block = std::mem::size_of::<Block>() + (LANES + 1) * std::mem::size_of::<u32>();
             1.0 + (block as f64 / std::mem::size_of::<Entry>() as f64)
         } else {
             1.0
@@ -519,23 +524,24 @@ impl ConeIndex {
 
     /// The detectors of the entries of the blocks from position `first` on: entry `e`
     /// of a cell whose blocks start at `first` ([`ConeIndex::block_range`]) is detector
-    /// `detectors(first)[e]`, bit `e` of its [`ConeIndex::inside_mask`].
+    /// `detectors(first)[e]`, bit `e` of its [`ConeIndex::inside_mask_of`].
     #[inline(always)]
     pub fn detectors(&self, first: usize) -> &[u32] {
         &self.block_detectors[first * LANES..]
     }
 
-    /// The mask of the cones of `cell` (bit `k` for its entry `k`) that contain the
-    /// direction `(x, y, z)` (`cos_alpha`, without the margin), for a cell of at most
-    /// 64 entries in an index without margin; otherwise all ones, and the caller tests
-    /// the entries one by one (which gives the same cones, in the same order, for a
-    /// mask that is all ones because all 64 contain the direction).
+    /// [`ConeIndex::inside_mask_of`] with the cell's own block range.
     #[cfg(test)]
     pub fn inside_mask<L: Lanes>(&self, lanes: L, cell: usize, x: f64, y: f64, z: f64) -> u64 {
         self.inside_mask_of(lanes, cell, self.block_range(cell), x, y, z)
     }
 
-    /// [`ConeIndex::inside_mask`] of `cell` whose [`ConeIndex::block_range`] is `range`.
+    /// The mask of the cones of `cell` (bit `k` for its entry `k`), whose
+    /// [`ConeIndex::block_range`] is `range`, that contain the direction `(x, y, z)`
+    /// (`cos_alpha`, without the margin), for a cell of at most 64 entries in an index
+    /// without margin; otherwise all ones, and the caller tests the entries one by one
+    /// (which gives the same cones, in the same order, for a mask that is all ones
+    /// because all 64 contain the direction).
     #[inline(always)]
     pub fn inside_mask_of<L: Lanes>(
         &self,

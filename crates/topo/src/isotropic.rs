@@ -952,7 +952,9 @@ fn cell_edges(rows: &[Row], c: usize) -> Vec<Edge> {
     out
 }
 
-/// Scratch arrays of the deposits, indexed by node (all zero between tiles).
+/// Scratch arrays of the deposits: per node (`g`, `gn`, `hat`) and per fine cell
+/// (`cells`), all zero between tiles; per usable pixel of the tile (`slopes`,
+/// `coords`), overwritten by each tile.
 #[derive(Debug, Default)]
 struct TileScratch {
     normals: Scratch,
@@ -1035,7 +1037,9 @@ impl TopoModel {
     }
 
     /// As [`TopoModel::run_isotropic`] with `options`, calling `progress(done, total)`
-    /// (in tiles) from the calling thread after each batch of tiles.
+    /// (in tiles) from the calling thread after each batch of tiles, never from inside
+    /// a parallel section: `done` counts the tiles reduced so far, one batch behind (0
+    /// at the first call), and the last call has `done == total`.
     ///
     /// # Errors
     /// As [`TopoModel::run`], and [`TopoError::NodeSpacing`] for a node spacing that
@@ -1276,7 +1280,8 @@ impl TopoModel {
                         defects[k] = odd_defect(rows, k);
                     }
                 });
-            // 4. Contraction with the table, then the ordered reduction.
+            // 4. Contraction with the table (reduced with the next batch's deposits, or
+            // after the last batch).
             pending = deposits
                 .par_iter()
                 .map(|d| {
@@ -1552,9 +1557,9 @@ fn contract_tile<L: Lanes>(
         lost_tir: 0.0,
         lost_down: 0.0,
     };
-    // The eight sums from detector `j` of a slice that reaches `LANES` past the last.
-    // The edge cells' corrections, pixel by pixel.
+    // The edge corrections of one cell's pixels.
     let mut dh: Vec<f64> = Vec::new();
+    // The eight sums from detector `j` of a slice that reaches `LANES` past the last.
     fn eight<T>(v: &mut [T], j: u32) -> &mut [T; LANES] {
         let j = j as usize;
         (&mut v[j..j + LANES]).try_into().expect("LANES elements")

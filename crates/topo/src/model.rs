@@ -139,7 +139,8 @@ pub(crate) fn tile_warnings(total_tiles: u64) -> Vec<TopoWarning> {
     }
 }
 
-/// Tiles traced between two progress reports (and held in memory at once).
+/// Tiles traced between two progress reports. Two batches' partial sums are held in
+/// memory at once: one being reduced while the next is traced.
 const BATCH: usize = 256;
 
 /// Options of the topographic model.
@@ -301,8 +302,9 @@ pub(crate) trait Accumulator: Sync {
     /// Adds `weight` to the `channels()` sums of detector `cone` (whose paper-printed
     /// factor is `scale`).
     fn add(&self, weight: &Self::Weight, ray: &Ray, cone: &Cone, scale: f64, sums: &mut [f64]);
-    /// The weight as one number, for an accumulator of one channel whose `add` is
-    /// `sums[0] += weight · scale`.
+    /// The weight as one number, for an accumulator of one channel (`channels() ==
+    /// 1`) whose `add` is `sums[0] += weight · scale`; `None` for any other, which then
+    /// always goes through `add`.
     #[inline(always)]
     fn plain(&self, _weight: &Self::Weight) -> Option<f64> {
         None
@@ -882,7 +884,9 @@ impl TopoModel {
     }
 
     /// As [`TopoModel::run`], calling `progress(done, total)` (in tiles) after each batch
-    /// of tiles, from the calling thread. The library itself never prints.
+    /// of tiles, from the calling thread, never from inside a parallel section: `done`
+    /// counts the tiles reduced so far, one batch behind the tracing (0 at the first
+    /// call), and the last call has `done == total`. The library itself never prints.
     ///
     /// # Errors
     /// As [`TopoModel::run`].
@@ -1029,8 +1033,8 @@ impl TopoModel {
         let mut seen = 0u64;
         // Each batch's partial sums are reduced, in tile order, while the next batch is
         // traced (`rayon::join`), so that the reduction does not leave the other cores
-        // idle; `progress` is called between the joins, on the calling thread (module
-        // docs), with the tiles reduced so far.
+        // idle; `progress` is called between the joins, on the calling thread
+        // (`run_with_progress`), with the tiles reduced so far.
         let mut reduce = |partials: Vec<Partial>| {
             for p in partials {
                 seen += 1;
@@ -1261,12 +1265,13 @@ impl<A: Accumulator, L: Lanes> pulp::WithSimd for ChunkTrace<'_, '_, A, L> {
 /// The other rays whose cell lists cones, the kept ones, are listed in ray order, from
 /// a mask of 64 rays at a time; a second pass without branches gives their exit
 /// directions field by field ([`HitRays`]); a third tests each against its cell's
-/// candidate cones, eight at a time ([`ConeIndex::inside_mask`]: one AVX-512 compare per
-/// eight where the processor has it, the same bits); the weights of the rays that some
-/// cone contains follow ([`Accumulator::weigh_hits`]: for the scalar model with a
+/// candidate cones, eight at a time ([`ConeIndex::inside_mask_of`]: one AVX-512 compare
+/// per eight where the processor has it, the same bits); the weights of the rays that
+/// some cone contains follow ([`Accumulator::weigh_hits`]: for the scalar model with a
 /// perfectly conducting flake and an exact transmission, one vectorised loop over all
 /// kept rays), and last each such ray is added to its cones in the cell's order (for
-/// the scalar model without detector factors, `sums[d] += w` in a loop of a few
+/// the scalar model without detector factors, a block of consecutive detectors in one
+/// masked eight-lane addition, other blocks cone by cone in a loop of a few
 /// instructions).
 ///
 /// Always inlined into [`ChunkTrace`]'s `with_simd`, with everything it calls in the hot
@@ -1427,6 +1432,7 @@ fn trace_chunk<A: Accumulator, L: Lanes>(
             // or 64 that all contain the ray, which gives the same cones in order).
             if mask != u64::MAX
                 && setup.unit
+                && channels == 1
                 && let Some(w) = acc.plain(w)
             {
                 // The scalar model without detector factors: `sums[d] += w` (the

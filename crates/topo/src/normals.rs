@@ -305,9 +305,9 @@ fn inside_cols(map: &HeightMap, h: usize, rect: Rect) -> std::ops::Range<usize> 
 /// `b`) and the counts over the window's rows. Heights are relative to a reference of
 /// the region, so rounding is of the order of the heights' spread over the tile times
 /// 1e-16, with nothing accumulated from one pixel to the next. Both passes run under
-/// [`pulp::Arch::dispatch`], so the compiler vectorises them for the processor's
-/// instruction set (additions and multiplications only, no fused multiply–add: the
-/// same bits in every build); `emit` is called outside it.
+/// `pulp`'s instruction-set dispatch ([`TileSums`]), so the compiler vectorises them for
+/// the processor's instruction set (additions and multiplications only, no fused
+/// multiply–add: the same bits in every build); `emit` is called outside it.
 pub(crate) fn tile_slopes<const NAN_BAD: bool>(
     map: &HeightMap,
     h: usize,
@@ -447,7 +447,9 @@ pub(crate) fn tile_usable(
 }
 
 /// The window sums of one tile ([`tile_slopes`]), handed to [`pulp::Arch::dispatch`]
-/// so that [`tile_sums`] is compiled for the processor's instruction set.
+/// (or, on AVX2 and AVX-512 machines, to `pulp`'s V3 or V4 directly, which then also
+/// prefetch the rows: `prefetch`) so that [`tile_sums`] is compiled for the processor's
+/// instruction set.
 struct TileSums<'a, P> {
     map: &'a HeightMap,
     h: usize,
