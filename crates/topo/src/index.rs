@@ -711,6 +711,15 @@ mod tests {
         }
     }
 
+    /// Eight sums for the lane tests: a quarter −0.0, a quarter +0.0, the rest in ±1000.
+    fn test_sums(rng: &mut rand_chacha::ChaCha8Rng) -> [f64; LANES] {
+        std::array::from_fn(|_| match rng.random_range(0..4) {
+            0 => -0.0,
+            1 => 0.0,
+            _ => rng.random_range(-1e3..1e3),
+        })
+    }
+
     /// `Lanes::add_hits` adds `w` to the lanes whose bit is set, once each, and leaves
     /// the others bit for bit as they were (−0.0 and +0.0 sums included), portable
     /// and AVX-512 alike: the reference is the plain `sums[l] + w` lane by lane.
@@ -719,11 +728,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let mut wide_checked = 0;
         for _ in 0..2000 {
-            let sums: [f64; LANES] = std::array::from_fn(|_| match rng.random_range(0..4) {
-                0 => -0.0,
-                1 => 0.0,
-                _ => rng.random_range(-1e3..1e3),
-            });
+            let sums = test_sums(&mut rng);
             let counts: [u32; LANES] = std::array::from_fn(|_| rng.random_range(0..1000));
             let (bits, w) = (rng.random_range(0..=255u8), rng.random_range(1e-9..1e2));
             let want_sums: [u64; LANES] = std::array::from_fn(|l| {
@@ -764,11 +769,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
         let mut wide_checked = 0;
         for _ in 0..2000 {
-            let sums: [f64; LANES] = std::array::from_fn(|_| match rng.random_range(0..4) {
-                0 => -0.0,
-                1 => 0.0,
-                _ => rng.random_range(-1e3..1e3),
-            });
+            let sums = test_sums(&mut rng);
             let v: [f64; LANES] = std::array::from_fn(|_| rng.random_range(0.0..10.0));
             let counts: [u32; LANES] = std::array::from_fn(|_| rng.random_range(0..1000));
             let (g, n, len) = (

@@ -134,7 +134,7 @@ use rayon::prelude::*;
 
 use crate::TopoError;
 use crate::index::{self, ConeIndex, LANES, Lanes, Portable};
-use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of};
+use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of, welford};
 use crate::normals::{DirectRow, Rect, Scratch, tile_usable};
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
@@ -1164,13 +1164,9 @@ impl TopoModel {
                 usable += p.usable;
                 lost_tir += p.lost_tir;
                 lost_down += p.lost_down;
+                welford(&mut sum, &mut mean, &mut m2, &p.sums[..nslots], inv_seen);
                 for s in 0..nslots {
-                    let v = p.sums[s];
-                    sum[s] += v;
                     defect[s] += p.defect[s];
-                    let d = v - mean[s];
-                    mean[s] += d * inv_seen;
-                    m2[s] += d * (v - mean[s]);
                     rays[s] += u64::from(p.counts[s]);
                 }
             }

@@ -1042,13 +1042,7 @@ impl TopoModel {
                 usable += p.usable;
                 lost_tir += p.lost_tir;
                 lost_down += p.lost_down;
-                for s in 0..nslots {
-                    let v = p.sums[s];
-                    sum[s] += v;
-                    let delta = v - mean[s];
-                    mean[s] += delta * inv_seen;
-                    m2[s] += delta * (v - mean[s]);
-                }
+                welford(&mut sum, &mut mean, &mut m2, &p.sums[..nslots], inv_seen);
                 for (r, &c) in rays.iter_mut().zip(&p.counts) {
                     *r += u64::from(c);
                 }
@@ -1107,6 +1101,24 @@ impl TopoModel {
                 warnings: tile_warnings(total_tiles),
             },
         })
+    }
+}
+
+/// Adds one tile's sums `v` to the running `sum` and to Welford's running `mean` and
+/// `m2` (sum of squared deviations) of the tile sums, slot by slot; `inv_seen` is one
+/// over the number of tiles including this one.
+#[inline]
+pub(crate) fn welford(sum: &mut [f64], mean: &mut [f64], m2: &mut [f64], v: &[f64], inv_seen: f64) {
+    for (((s, m), q), &v) in sum
+        .iter_mut()
+        .zip(mean.iter_mut())
+        .zip(m2.iter_mut())
+        .zip(v)
+    {
+        *s += v;
+        let delta = v - *m;
+        *m += delta * inv_seen;
+        *q += delta * (v - *m);
     }
 }
 
