@@ -134,7 +134,7 @@ use rayon::prelude::*;
 
 use crate::TopoError;
 use crate::index::{self, ConeIndex, LANES, Lanes, Portable};
-use crate::model::{TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of, welford};
+use crate::model::{TileStats, TopoModel, TopoOptions, TopoPoint, TopoWarning, path_factor_of};
 use crate::normals::{DirectRow, Rect, Scratch, tile_usable};
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
@@ -1148,29 +1148,24 @@ impl TopoModel {
         let physical = opts.weighting == Weighting::Physical;
 
         let nslots = ninc * ndet;
-        let mut sum = vec![0.0; nslots];
+        let mut stats = TileStats::new(nslots);
         let mut defect = vec![0.0; nslots];
-        let mut mean = vec![0.0; nslots];
-        let mut m2 = vec![0.0; nslots];
         let mut rays = vec![0u64; nslots];
         let (mut lost_tir, mut lost_down, mut usable) = (0.0, 0.0, 0u64);
-        let mut seen = 0u64;
         // The ordered reduction of a batch's tile sums, run while the next batch's
         // deposits are made (`rayon::join`); returns the tiles reduced so far.
         let mut reduce = |partials: Vec<IsoPartial>| {
             for p in partials {
-                seen += 1;
-                let inv_seen = 1.0 / seen as f64;
+                stats.add(&p.sums[..nslots]);
                 usable += p.usable;
                 lost_tir += p.lost_tir;
                 lost_down += p.lost_down;
-                welford(&mut sum, &mut mean, &mut m2, &p.sums[..nslots], inv_seen);
                 for s in 0..nslots {
                     defect[s] += p.defect[s];
                     rays[s] += u64::from(p.counts[s]);
                 }
             }
-            seen
+            stats.tiles
         };
         let mut missing: Vec<usize> = Vec::new();
         let mut pending = Vec::new();
@@ -1322,10 +1317,10 @@ impl TopoModel {
             let value = |d: usize| {
                 let s = ii * ndet + d;
                 let seen_cc = opts.clearcoat && inc.cones[d].contains(&specular);
-                let rho = sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
+                let rho = stats.sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
                 let se = se_factor
                     .filter(|_| rays[s] > 0)
-                    .map(|f| (f * m2[s]).sqrt() * inv_n);
+                    .map(|f| (f * stats.m2[s]).sqrt() * inv_n);
                 (rho, se, seen_cc)
             };
             for (j, cone) in cones.iter().enumerate() {

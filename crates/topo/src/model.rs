@@ -1025,29 +1025,24 @@ impl TopoModel {
         let channels = acc.channels();
         let nslots = theta_i.len() * ndet * channels;
         // Ordered reduction: plain sums, Welford mean/M2 of the tile sums, ray counts.
-        let mut sum = vec![0.0; nslots];
-        let mut mean = vec![0.0; nslots];
-        let mut m2 = vec![0.0; nslots];
+        let mut stats = TileStats::new(nslots);
         let mut rays = vec![0u64; theta_i.len() * ndet];
         let (mut usable, mut lost_tir, mut lost_down) = (0u64, 0u64, 0u64);
-        let mut seen = 0u64;
         // Each batch's partial sums are reduced, in tile order, while the next batch is
         // traced (`rayon::join`), so that the reduction does not leave the other cores
         // idle; `progress` is called between the joins, on the calling thread
         // (`run_with_progress`), with the tiles reduced so far.
         let mut reduce = |partials: Vec<Partial>| {
             for p in partials {
-                seen += 1;
-                let inv_seen = 1.0 / seen as f64;
+                stats.add(&p.sums[..nslots]);
                 usable += p.usable;
                 lost_tir += p.lost_tir;
                 lost_down += p.lost_down;
-                welford(&mut sum, &mut mean, &mut m2, &p.sums[..nslots], inv_seen);
                 for (r, &c) in rays.iter_mut().zip(&p.counts) {
                     *r += u64::from(c);
                 }
             }
-            seen
+            stats.tiles
         };
         let trace = |batch: &[(usize, Rect)]| -> Vec<Partial> {
             batch
@@ -1082,8 +1077,8 @@ impl TopoModel {
             all,
             apertures,
             ndet,
-            sum,
-            m2,
+            sum: stats.sum,
+            m2: stats.m2,
             rays,
             incs,
             inv_n: 1.0 / pixels as f64,
@@ -1104,21 +1099,47 @@ impl TopoModel {
     }
 }
 
-/// Adds one tile's sums `v` to the running `sum` and to Welford's running `mean` and
-/// `m2` (sum of squared deviations) of the tile sums, slot by slot; `inv_seen` is one
-/// over the number of tiles including this one.
-#[inline]
-pub(crate) fn welford(sum: &mut [f64], mean: &mut [f64], m2: &mut [f64], v: &[f64], inv_seen: f64) {
-    for (((s, m), q), &v) in sum
-        .iter_mut()
-        .zip(mean.iter_mut())
-        .zip(m2.iter_mut())
-        .zip(v)
-    {
-        *s += v;
-        let delta = v - *m;
-        *m += delta * inv_seen;
-        *q += delta * (v - *m);
+/// The ordered reduction of per-tile sums, slot by slot: their total, and Welford's
+/// running mean and `m2` (sum of squared deviations) of the tile sums, from which the
+/// standard errors come.
+pub(crate) struct TileStats {
+    /// Σ over tiles of each slot's tile sum.
+    pub sum: Vec<f64>,
+    mean: Vec<f64>,
+    /// Σ of squared deviations of the tile sums from their mean.
+    pub m2: Vec<f64>,
+    /// Tiles added so far.
+    pub tiles: u64,
+}
+
+impl TileStats {
+    /// No tiles yet, `slots` slots.
+    pub fn new(slots: usize) -> Self {
+        Self {
+            sum: vec![0.0; slots],
+            mean: vec![0.0; slots],
+            m2: vec![0.0; slots],
+            tiles: 0,
+        }
+    }
+
+    /// Adds one tile's sums `v`, one per slot.
+    #[inline]
+    pub fn add(&mut self, v: &[f64]) {
+        self.tiles += 1;
+        let inv_seen = 1.0 / self.tiles as f64;
+        for (((s, m), q), &v) in self
+            .sum
+            .iter_mut()
+            .zip(self.mean.iter_mut())
+            .zip(self.m2.iter_mut())
+            .zip(v)
+        {
+            *s += v;
+            let delta = v - *m;
+            *m += delta * inv_seen;
+            *q += delta * (v - *m);
+        }
     }
 }
 
