@@ -1037,6 +1037,20 @@ const RECORD2_DEPTH: usize = 6;
 /// Largest number of points loaded (16384², 2 GiB of float64 heights).
 const MAX_POINTS: usize = 1 << 28;
 
+/// The first `n` bits of `valid.bin`, least significant bit of each byte first
+/// (`bits` holds at least `n` of them). Built eight points at a time straight into a
+/// vector of their final size (no mask of `true` written first).
+fn unpack_bits(bits: &[u8], n: usize) -> Vec<bool> {
+    let mut valid = Vec::with_capacity(n);
+    for &byte in &bits[..n / 8] {
+        valid.extend_from_slice(&std::array::from_fn::<bool, 8, _>(|k| byte >> k & 1 == 1));
+    }
+    if let Some(&last) = bits.get(n / 8) {
+        valid.extend((0..n % 8).map(|k| last >> k & 1 == 1));
+    }
+    valid
+}
+
 /// Upper bound on the size of `main.xml` and `md5checksum.hex` read into memory.
 const XML_LIMIT: u64 = 64 << 20;
 
@@ -1348,7 +1362,8 @@ fn read_with<R: Read + Seek>(
         check_md5(&data_name, &c, Ok(d), options, &mut notes)?;
     }
 
-    let mut valid = vec![true; n];
+    // The mask `valid.bin` gives, if any (else a point is valid iff its height is finite).
+    let mut valid = None;
     if let Some(link) = &h.valid_link {
         let name = format!("{prefix}{link}");
         let need = n.div_ceil(8);
@@ -1367,17 +1382,16 @@ fn read_with<R: Read + Seek>(
         if let Some(d) = &h.valid_md5 {
             check_md5(&name, &md5_hex(&bits), Ok(d), options, &mut notes)?;
         }
-        // Eight points a byte (bits.len() >= need was checked above).
-        for (points, &byte) in valid.chunks_mut(8).zip(&bits) {
-            for (k, v) in points.iter_mut().enumerate() {
-                *v = byte >> k & 1 == 1;
-            }
-        }
+        valid = Some(unpack_bits(&bits, n));
         map_meta.push(("x3p.valid_points_member".into(), link.clone()));
     }
 
     let (dx, dy) = h.pitch;
-    let mut map = HeightMap::with_mask(nx, ny, dx, dy, z, valid).map_err(X3pError::Map)?;
+    let mut map = match valid {
+        Some(valid) => HeightMap::with_mask(nx, ny, dx, dy, z, valid),
+        None => HeightMap::new(nx, ny, dx, dy, z),
+    }
+    .map_err(X3pError::Map)?;
     for (k, v) in map_meta {
         map.set_metadata(k, v);
     }
