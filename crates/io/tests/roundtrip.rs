@@ -270,3 +270,70 @@ fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
         std::fs::remove_file(path).unwrap();
     }
 }
+
+/// The X3P writer stores `data.bin` when deflating it would not pay and deflates it
+/// otherwise, and either reads back exactly. The reference for what was written is the
+/// zip crate's reading of the archive's central directory (method, sizes); for whether
+/// deflate pays, the data themselves: float64 numbers with 52 random mantissa bits
+/// cannot be deflated at level 1 to 90 % of their size (its fixed-Huffman literals cost
+/// at least 8 bits a byte), while a map of 16 repeated levels deflates to well under a
+/// tenth.
+#[test]
+fn x3p_data_bin_is_stored_when_deflating_it_does_not_pay() {
+    let mut rng = proptest::test_runner::TestRng::deterministic_rng(
+        proptest::test_runner::RngAlgorithm::ChaCha,
+    );
+    let mut noise = |n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|_| (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
+            .collect()
+    };
+    // (what, nx, ny, heights, stored): the large maps are sampled in slices, the small
+    // one whole.
+    let cases = [
+        ("noise, 1024 x 512", 1024, 512, noise(1024 * 512), true),
+        ("noise, 20 x 20", 20, 20, noise(400), true),
+        (
+            "16 levels, 1024 x 512",
+            1024,
+            512,
+            (0..1024 * 512)
+                .map(|i| f64::from(i / 4096 % 16) * 0.25)
+                .collect(),
+            false,
+        ),
+        (
+            "16 levels, 20 x 20",
+            20,
+            20,
+            (0..400).map(|i| f64::from(i / 25 % 16) * 0.25).collect(),
+            false,
+        ),
+    ];
+    for (what, nx, ny, z, stored) in cases {
+        let map = HeightMap::new(nx, ny, 0.5, 0.5, z).unwrap();
+        let bytes = x3p::write_x3p_bytes(&map).unwrap();
+        let mut zip = zip::ZipArchive::new(std::io::Cursor::new(&bytes)).unwrap();
+        let data = zip.by_name("bindata/data.bin").unwrap();
+        let raw = 8 * (nx * ny) as u64;
+        assert_eq!(data.size(), raw, "{what}");
+        if stored {
+            assert_eq!(data.compression(), zip::CompressionMethod::Stored, "{what}");
+            assert_eq!(data.compressed_size(), raw, "{what}");
+        } else {
+            assert_eq!(
+                data.compression(),
+                zip::CompressionMethod::Deflated,
+                "{what}"
+            );
+            assert!(
+                data.compressed_size() * 10 < raw,
+                "{what}: {}",
+                data.compressed_size()
+            );
+        }
+        drop(data);
+        let (back, _) = read_map_bytes(&bytes, &ReadOptions::default()).unwrap();
+        assert_same(&map, &back);
+    }
+}

@@ -105,6 +105,28 @@ def test_write_map_round_trips_and_is_read_by_others(tmp_path, cli):
     np.testing.assert_allclose(x3p_heights_um(x3p), m.heights_um, rtol=1e-15, equal_nan=True)
 
 
+def test_write_map_stores_noise_and_deflates_structure(tmp_path):
+    # Heights with 52 random mantissa bits cannot be deflated (at level 1) to 90 % of
+    # their size, so the writer stores data.bin; a map of 16 repeated levels is
+    # deflated. Python's zipfile says which, and numpy decodes the heights by hand.
+    rng = np.random.default_rng(7)
+    noise = rng.random((300, 400)) - 0.5
+    levels = (np.arange(300 * 400).reshape(300, 400) // 4096 % 16) * 0.25
+    for z, method in ((noise, zipfile.ZIP_STORED), (levels, zipfile.ZIP_DEFLATED)):
+        path = tmp_path / "written.x3p"
+        fs.write_map(fs.Map(z, 0.5), path)
+        with zipfile.ZipFile(path) as archive:
+            info = archive.getinfo("bindata/data.bin")
+        assert info.compress_type == method
+        assert info.file_size == z.size * 8
+        if method == zipfile.ZIP_STORED:
+            assert info.compress_size == info.file_size
+        else:
+            assert info.compress_size * 10 < info.file_size
+        np.testing.assert_allclose(x3p_heights_um(path), z, rtol=1e-15, atol=0)
+        np.testing.assert_array_equal(fs.read_map(path).heights_um, z)
+
+
 def test_map_from_numpy():
     z = np.arange(12, dtype=float).reshape(3, 4)
     z[1, 2] = np.nan
