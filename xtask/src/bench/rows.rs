@@ -86,8 +86,9 @@ pub enum LimitSource {
 /// AVX2 vector `exp`/`acos` runs 173–186 M evaluations/s on one core of this machine
 /// (the lower end is taken). The X3P read cannot be faster than inflating its
 /// `data.bin` with the zip crate's streaming inflater (zlib-rs), which the read bench
-/// times alone on the same file.
-pub const LIMITS: [Limit; 3] = [
+/// times alone on the same file; the read of a stored `data.bin` cannot be faster than
+/// its MD5, timed alone on the same bytes.
+pub const LIMITS: [Limit; 4] = [
     Limit {
         id: "gaussian/point_brdf_x1000",
         source: LimitSource::Known(1.73e8),
@@ -102,6 +103,11 @@ pub const LIMITS: [Limit; 3] = [
         id: "read_x3p/4096x4096_f64",
         source: LimitSource::Measured("read_x3p/inflate_4096x4096_f64"),
         note: "the streaming inflate of `data.bin` alone, measured",
+    },
+    Limit {
+        id: "read_x3p/stored_4096x4096_f64",
+        source: LimitSource::Measured("read_x3p/md5_4096x4096_f64"),
+        note: "the MD5 of `data.bin` alone, measured",
     },
 ];
 
@@ -411,6 +417,17 @@ pub const ROWS: &[RowSpec] = &[
         unit: Unit::Bytes,
         target: Some(Target::MinPerSecond(4e8)),
         target_note: "≥ 400 MB/s (issue 22; < 1 s in issue 4)",
+        quick: true,
+    },
+    RowSpec {
+        operation: "Read X3P (float64, stored, as this writer stores noisy heights)",
+        size: "4096²",
+        id: "read_x3p/stored_4096x4096_f64",
+        floor: Some("read_x3p/stored_floor_4096x4096_f64"),
+        work: square(4096) * 8.0,
+        unit: Unit::Bytes,
+        target: None,
+        target_note: "",
         quick: true,
     },
     RowSpec {
