@@ -40,7 +40,7 @@
 //!   the zip crate checks the CRC-32 and the declared size.
 //!
 //! Why both: whole, libdeflate inflates about twice as fast as zlib-rs streams (4096²
-//! float64: 75–95 ms against ~176 ms for a well-compressed map), but the MD5 (~500 MB/s,
+//! float64: 75–95 ms against ~176 ms for a well-compressed map), but the MD5 (500–600 MB/s,
 //! the slowest step) can only start once it is done, whereas streamed it overlaps the
 //! inflate on a second core. So with an MD5 to compute and a second core, a large
 //! member streams; a poorly compressible one (more than `declared / 2 + 48 MiB`
@@ -729,7 +729,7 @@ fn read_f64_member<R: Read + Seek>(
 
 /// Whether inflating a `data.bin` of `len` bytes whole ([`inflate_whole`]) is faster
 /// than streaming it. Whole, libdeflate inflates about twice as fast as the zip crate
-/// streams, but the MD5 (~500 MB/s, the slowest step) can only start once it is done;
+/// streams, but the MD5 (500–600 MB/s, the slowest step) can only start once it is done;
 /// streamed, the MD5 of a large member runs on a second thread as it is inflated, and
 /// the read takes about as long as the slower of the two alone. So whole pays when
 /// there is no MD5 to compute, when the member is small enough for its MD5 to be
@@ -1483,12 +1483,12 @@ const SAMPLE_SLICES: usize = 8;
 /// [`SAMPLE_SLICES`] slices of [`SAMPLE_SLICE`] bytes spread evenly over it (all of it
 /// when it is shorter than that) deflate, at the writer's level 1, to at most 90 % of
 /// their size. Float64 heights with noise in every mantissa bit (a measured map, a
-/// confocal localisation) do not: level 1 stores them as fixed-Huffman literals, about
-/// 5 % larger than their bytes, and inflating those is the slowest part of a read
-/// (about 370 MB/s here against about 600 MB/s for the MD5 of a stored member, the
-/// step that then bounds a read). Such a member is stored instead; a map with flat
-/// regions, repeated values or short mantissas (a synthetic layer, a converted float32
-/// map) deflates, often to a tenth of its size, and is deflated.
+/// confocal localisation) do not: level 1 stores them as fixed-Huffman literals, 4–6 %
+/// larger than their bytes, and inflating those bounds a read (383 MB/s for the
+/// inflate alone against 593 MB/s for the MD5 of a stored member, the step that then
+/// bounds it, in `docs/benchmarks.md`). Such a member is stored instead; a map with flat
+/// regions or repeated values (a synthetic layer: about 13 % of its size)
+/// deflates, and is deflated.
 fn deflate_pays(data: &[u8]) -> std::io::Result<bool> {
     let mut sample =
         flate2::write::DeflateEncoder::new(std::io::sink(), flate2::Compression::new(1));

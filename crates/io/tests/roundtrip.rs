@@ -183,7 +183,8 @@ fn files_round_trip_and_valid_bin_only_when_needed() {
 }
 
 /// A file of 8 MiB or more that starts like a zip archive is read as X3P straight from
-/// the file (inflated as it is read) rather than read whole first, by `read_map` and
+/// the file (its members inflated or copied out as they are read) rather than read
+/// whole first, by `read_map` and
 /// `read_selected` (what the commands use): the same map, the
 /// same metadata and the same errors as reading its bytes, whatever the extension
 /// (`x3p`, none, one no format claims). The reference is the written map itself.
@@ -204,22 +205,47 @@ fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
     let map = HeightMap::new(nx, ny, 0.25, 0.5, z).unwrap();
     let dir = std::env::temp_dir();
     let pid = std::process::id();
-    let x3p_path = dir.join(format!("flakescatter-io-large-{pid}.x3p"));
-    write_map(&map, &x3p_path, MapFormat::X3p).unwrap();
-    let bytes = std::fs::read(&x3p_path).unwrap();
+    let written = dir.join(format!("flakescatter-io-large-{pid}-written.x3p"));
+    write_map(&map, &written, MapFormat::X3p).unwrap();
+    let stored = std::fs::read(&written).unwrap();
+    std::fs::remove_file(&written).unwrap();
+    // As the writer writes it (data.bin stored: noise does not deflate), and with every
+    // member deflated, as other software writes such a file (then inflated as it is
+    // read).
+    let deflated = deflate_members(&stored);
+    for (tag, bytes, method) in [
+        ("stored", stored, zip::CompressionMethod::Stored),
+        ("deflated", deflated, zip::CompressionMethod::Deflated),
+    ] {
+        let mut zip = zip::ZipArchive::new(std::io::Cursor::new(&bytes)).unwrap();
+        assert_eq!(
+            zip.by_name("bindata/data.bin").unwrap().compression(),
+            method
+        );
+        drop(zip);
+        large_file_reads(&map, &bytes, &format!("{pid}-{tag}"));
+    }
+}
+
+/// [`large_x3p_files_read_from_the_file_as_from_their_bytes`] for one archive, `bytes`
+/// of `map`, in files named after `tag`.
+fn large_file_reads(map: &HeightMap, bytes: &[u8], tag: &str) {
+    let dir = std::env::temp_dir();
+    let x3p_path = dir.join(format!("flakescatter-io-large-{tag}.x3p"));
+    std::fs::write(&x3p_path, bytes).unwrap();
     assert!(bytes.len() >= 8 << 20, "{} bytes", bytes.len());
-    let (from_bytes, _) = read_map_bytes(&bytes, &ReadOptions::default()).unwrap();
-    assert_same(&map, &from_bytes);
-    let bare = dir.join(format!("flakescatter-io-large-{pid}"));
-    let other = dir.join(format!("flakescatter-io-large-{pid}.dat"));
-    let truncated = dir.join(format!("flakescatter-io-large-{pid}-cut.x3p"));
-    std::fs::write(&bare, &bytes).unwrap();
-    std::fs::write(&other, &bytes).unwrap();
+    let (from_bytes, _) = read_map_bytes(bytes, &ReadOptions::default()).unwrap();
+    assert_same(map, &from_bytes);
+    let bare = dir.join(format!("flakescatter-io-large-{tag}"));
+    let other = dir.join(format!("flakescatter-io-large-{tag}.dat"));
+    let truncated = dir.join(format!("flakescatter-io-large-{tag}-cut.x3p"));
+    std::fs::write(&bare, bytes).unwrap();
+    std::fs::write(&other, bytes).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() - 1000]).unwrap();
     for path in [&x3p_path, &bare, &other] {
         let (back, format) = read_map(path, &ReadOptions::default()).unwrap();
         assert_eq!(format, MapFormat::X3p);
-        assert_same(&map, &back);
+        assert_same(map, &back);
         assert_eq!(back.metadata(), from_bytes.metadata(), "{}", path.display());
         // Options are checked as for the bytes: channel 0 exists, 1 does not, and the
         // text-only `z_unit` is refused.
@@ -229,30 +255,30 @@ fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
         };
         assert!(read_map(path, &channel(0)).is_ok());
         let e = read_map(path, &channel(1)).unwrap_err().to_string();
-        let want = read_map_bytes(&bytes, &channel(1)).unwrap_err().to_string();
+        let want = read_map_bytes(bytes, &channel(1)).unwrap_err().to_string();
         assert!(e.contains(&want), "{e} / {want}");
         let unit = ReadOptions {
             z_unit: Some("um".parse::<flakescatter_io::ZUnit>().unwrap()),
             ..ReadOptions::default()
         };
         let e = read_map(path, &unit).unwrap_err().to_string();
-        let want = read_map_bytes(&bytes, &unit).unwrap_err().to_string();
+        let want = read_map_bytes(bytes, &unit).unwrap_err().to_string();
         assert!(e.contains(&want), "{e} / {want}");
         // What the commands use: channel selectors, and an intensity channel, which an
         // X3P file does not have apart from its heights.
         let ext = path.extension().and_then(|e| e.to_str());
         let z = ChannelSelector::Name("Z".into());
         let picked = read_selected(path, &ReadOptions::default(), Some(&z), None).unwrap();
-        assert_same(&map, &picked.map);
+        assert_same(map, &picked.map);
         assert_eq!(picked.map.metadata(), from_bytes.metadata());
         assert_eq!((picked.format, picked.channel), (MapFormat::X3p, 0));
         let want =
-            read_selected_bytes(&bytes, ext, &ReadOptions::default(), Some(&z), None).unwrap();
+            read_selected_bytes(bytes, ext, &ReadOptions::default(), Some(&z), None).unwrap();
         assert_eq!(picked.channels, want.channels);
         let e = read_selected(path, &ReadOptions::default(), None, Some(&z))
             .unwrap_err()
             .to_string();
-        let want = read_selected_bytes(&bytes, ext, &ReadOptions::default(), None, Some(&z))
+        let want = read_selected_bytes(bytes, ext, &ReadOptions::default(), None, Some(&z))
             .unwrap_err()
             .to_string();
         assert!(e.contains(&want), "{e} / {want}");
@@ -269,6 +295,25 @@ fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
     for path in [&x3p_path, &bare, &other, &truncated] {
         std::fs::remove_file(path).unwrap();
     }
+}
+
+/// The archive `x3p` with every member deflated at level 1 by the zip crate.
+fn deflate_members(x3p: &[u8]) -> Vec<u8> {
+    use std::io::{Read, Write};
+    let mut archive = zip::ZipArchive::new(std::io::Cursor::new(x3p)).unwrap();
+    let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let opts = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated)
+        .compression_level(Some(1));
+    for k in 0..archive.len() {
+        let mut member = archive.by_index(k).unwrap();
+        let name = member.name().unwrap().into_owned();
+        let mut bytes = Vec::new();
+        member.read_to_end(&mut bytes).unwrap();
+        out.start_file(name.as_str(), opts).unwrap();
+        out.write_all(&bytes).unwrap();
+    }
+    out.finish().unwrap().into_inner()
 }
 
 /// The X3P writer stores `data.bin` when deflating it would not pay and deflates it
