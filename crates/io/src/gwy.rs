@@ -470,14 +470,17 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])) * scale)
         .collect();
-    let valid: Vec<bool> = match f.mask {
-        Some(m) => m
-            .chunks_exact(8)
-            .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])) <= 0.5)
-            .collect(),
-        None => vec![true; z.len()],
-    };
-    let mut map = HeightMap::with_mask(f.nx, f.ny, dx, dy, z, valid).map_err(GwyError::Map)?;
+    let mut map = match f.mask {
+        Some(m) => {
+            let valid = m
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])) <= 0.5)
+                .collect();
+            HeightMap::with_mask(f.nx, f.ny, dx, dy, z, valid)
+        }
+        None => HeightMap::new(f.nx, f.ny, dx, dy, z),
+    }
+    .map_err(GwyError::Map)?;
     map.set_metadata("gwy.channel", f.title.clone());
     map.set_metadata("gwy.channel_index", index.to_string());
     map.set_metadata("gwy.si_unit_xy", f.unit_xy.clone());

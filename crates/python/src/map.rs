@@ -90,8 +90,8 @@ impl Map {
         let (ny, nx) = (z.shape()[0], z.shape()[1]);
         let heights: Vec<f64> = z.readonly().as_array().iter().copied().collect();
         let (dx, dy) = pitch(py, "pitch_um", pitch_um)?;
-        let mask: Vec<bool> = match valid {
-            None => vec![true; heights.len()],
+        let mask: Option<Vec<bool>> = match valid {
+            None => None,
             Some(v) => {
                 let v = np
                     .call_method1("asarray", (v, "bool"))
@@ -109,11 +109,14 @@ impl Map {
                         ),
                     ));
                 }
-                v.readonly().as_array().iter().copied().collect()
+                Some(v.readonly().as_array().iter().copied().collect())
             }
         };
-        let map = HeightMap::with_mask(nx, ny, dx, dy, heights, mask)
-            .map_err(|e| to_py(py, Kind::Input, &e))?;
+        let map = match mask {
+            Some(mask) => HeightMap::with_mask(nx, ny, dx, dy, heights, mask),
+            None => HeightMap::new(nx, ny, dx, dy, heights),
+        }
+        .map_err(|e| to_py(py, Kind::Input, &e))?;
         Ok(Self { map, format: None })
     }
 

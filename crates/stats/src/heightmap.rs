@@ -184,7 +184,8 @@ fn check_len(
 /// than waking the pool. The mask is the same either way (one boolean per point).
 const PARALLEL_MASK: usize = 1 << 20;
 
-/// Points per piece of a parallel validity pass.
+/// Points per piece of [`HeightMap::with_mask`]'s parallel pass (`new`'s is split by
+/// rayon itself).
 const MASK_PIECE: usize = 1 << 16;
 
 impl HeightMap {
@@ -205,8 +206,8 @@ impl HeightMap {
     ) -> Result<Self, HeightMapError> {
         let n = check_shape(nx, ny, dx_um, dy_um)?;
         check_len("heights", nx, ny, n, z_um.len())?;
-        // One pass (the mask is the heights' finiteness), not a mask of `true` and then
-        // the pass of `with_mask`.
+        // One pass: the mask is the heights' finiteness (`with_mask` would test it a
+        // second time).
         let valid = if n < PARALLEL_MASK {
             z_um.iter().map(|v| v.is_finite()).collect()
         } else {
@@ -515,7 +516,8 @@ mod tests {
 
     #[test]
     fn large_maps_take_the_parallel_validity_pass_with_the_same_rule() {
-        // 1100 x 1000 points (above PARALLEL_MASK, and not a multiple of MASK_PIECE):
+        // 1100 x 1000 points (above PARALLEL_MASK, and for `with_mask` not a multiple of
+        // MASK_PIECE):
         // point i holds NaN when i % 7 == 3, +inf when i % 11 == 5 (and not NaN), a
         // finite value otherwise; the explicit mask clears i % 13 == 0.
         // In each period of 1001 = 7 * 11 * 13 consecutive points, by inclusion and
