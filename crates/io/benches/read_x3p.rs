@@ -13,7 +13,7 @@
 //!   of the same map, whose `data.bin` it stores (zip method 0) because a sample of it
 //!   does not deflate.
 //!
-//! Floors (`floor_…`, `stored_floor_…`): reading the same file's bytes into memory and
+//! Floors (`floor_…`, `floor_stored_…`): reading the same file's bytes into memory and
 //! summing them once (no inflate, no parsing, no checksum).
 //!
 //! Compute limits, the step that bounds each read, alone on the same input:
@@ -97,7 +97,7 @@ fn bench_read(c: &mut Criterion) {
             m
         })
     });
-    group.bench_function("stored_floor_4096x4096_f64", |b| {
+    group.bench_function("floor_stored_4096x4096_f64", |b| {
         b.iter(|| {
             let bytes = std::fs::read(&stored).expect("read bench file bytes");
             bytes.iter().map(|&v| u64::from(v)).sum::<u64>()

@@ -423,7 +423,7 @@ pub const ROWS: &[RowSpec] = &[
         operation: "Read X3P (float64, stored, as this writer stores noisy heights)",
         size: "4096²",
         id: "read_x3p/stored_4096x4096_f64",
-        floor: Some("read_x3p/stored_floor_4096x4096_f64"),
+        floor: Some("read_x3p/floor_stored_4096x4096_f64"),
         work: square(4096) * 8.0,
         unit: Unit::Bytes,
         target: None,
