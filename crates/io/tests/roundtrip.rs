@@ -184,10 +184,10 @@ fn files_round_trip_and_valid_bin_only_when_needed() {
 
 /// A file of 8 MiB or more that starts like a zip archive is read as X3P straight from
 /// the file (its members inflated or copied out as they are read) rather than read
-/// whole first, by `read_map` and
-/// `read_selected` (what the commands use): the same map, the
-/// same metadata and the same errors as reading its bytes, whatever the extension
-/// (`x3p`, none, one no format claims). The reference is the written map itself.
+/// whole first, by `read_map` and `read_selected` (what the commands use): the same
+/// map, the same metadata and the same errors as reading its bytes, whatever the
+/// extension (`x3p`, none, one no format claims), for a stored and a deflated
+/// `data.bin`. The reference is the written map itself.
 #[test]
 fn large_x3p_files_read_from_the_file_as_from_their_bytes() {
     let (nx, ny) = (1200, 1000);
