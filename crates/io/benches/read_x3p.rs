@@ -31,6 +31,11 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use flakescatter_io::{MapFormat, ReadOptions, read_map, write_map};
 use flakescatter_stats::heightmap::HeightMap;
 use md5::Digest;
+use std::io::Read;
+
+#[path = "../tests/support/repack.rs"]
+mod repack;
+use repack::deflate_members;
 
 const N: usize = 4096;
 
@@ -59,8 +64,16 @@ fn bench_read(c: &mut Criterion) {
     ));
     write_map(&map, &stored, MapFormat::X3p).expect("write bench file");
     let path = dir.join(format!("flakescatter-bench-{}.x3p", std::process::id()));
-    let (deflated, data) = deflate_members(&std::fs::read(&stored).expect("read bench file"));
-    std::fs::write(&path, deflated).expect("write deflated bench file");
+    let stored_bytes = std::fs::read(&stored).expect("read bench file");
+    std::fs::write(&path, deflate_members(&stored_bytes)).expect("write deflated bench file");
+    let mut data = Vec::new();
+    zip::ZipArchive::new(std::io::Cursor::new(&stored_bytes))
+        .expect("bench file is a zip archive")
+        .by_name("bindata/data.bin")
+        .expect("data.bin")
+        .read_to_end(&mut data)
+        .expect("data.bin bytes");
+    assert_eq!(data.len(), N * N * 8, "bindata/data.bin");
 
     let mut group = c.benchmark_group("read_x3p");
     group.sample_size(10);
@@ -114,31 +127,6 @@ fn bench_read(c: &mut Criterion) {
     group.finish();
     let _ = std::fs::remove_file(&path);
     let _ = std::fs::remove_file(&stored);
-}
-
-/// The archive `x3p` with every member deflated at level 1 by the zip crate (the
-/// deflated bench file), and its `data.bin`'s bytes.
-fn deflate_members(x3p: &[u8]) -> (Vec<u8>, Vec<u8>) {
-    let mut archive = zip::ZipArchive::new(std::io::Cursor::new(x3p)).expect("zip archive");
-    let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let opts = zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Deflated)
-        .compression_level(Some(1));
-    let mut data = Vec::new();
-    for k in 0..archive.len() {
-        let mut member = archive.by_index(k).expect("member");
-        let name = member.name().expect("member name").into_owned();
-        let mut bytes = Vec::new();
-        std::io::Read::read_to_end(&mut member, &mut bytes).expect("member bytes");
-        out.start_file(name.as_str(), opts).expect("start member");
-        std::io::Write::write_all(&mut out, &bytes).expect("write member");
-        if name == "bindata/data.bin" {
-            data = bytes;
-        }
-    }
-    assert_eq!(data.len(), N * N * 8, "bindata/data.bin");
-    let file = out.finish().expect("finish archive").into_inner();
-    (file, data)
 }
 
 criterion_group!(benches, bench_read);

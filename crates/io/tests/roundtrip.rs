@@ -13,6 +13,10 @@ use flakescatter_io::{
 use flakescatter_stats::heightmap::HeightMap;
 use proptest::prelude::*;
 
+#[path = "support/repack.rs"]
+mod repack;
+use repack::deflate_members;
+
 /// Heights drawn from the whole f64 range (any finite bit pattern, including -0.0 and
 /// subnormals) plus invalid points (NaN or masked-out finite values).
 fn height() -> impl Strategy<Value = (f64, bool)> {
@@ -295,25 +299,6 @@ fn large_file_reads(map: &HeightMap, bytes: &[u8], tag: &str) {
     for path in [&x3p_path, &bare, &other, &truncated] {
         std::fs::remove_file(path).unwrap();
     }
-}
-
-/// The archive `x3p` with every member deflated at level 1 by the zip crate.
-fn deflate_members(x3p: &[u8]) -> Vec<u8> {
-    use std::io::{Read, Write};
-    let mut archive = zip::ZipArchive::new(std::io::Cursor::new(x3p)).unwrap();
-    let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let opts = zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Deflated)
-        .compression_level(Some(1));
-    for k in 0..archive.len() {
-        let mut member = archive.by_index(k).unwrap();
-        let name = member.name().unwrap().into_owned();
-        let mut bytes = Vec::new();
-        member.read_to_end(&mut bytes).unwrap();
-        out.start_file(name.as_str(), opts).unwrap();
-        out.write_all(&bytes).unwrap();
-    }
-    out.finish().unwrap().into_inner()
 }
 
 /// The X3P writer stores `data.bin` when deflating it would not pay and deflates it
