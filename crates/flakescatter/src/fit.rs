@@ -29,8 +29,9 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::PipelineError;
 use crate::compare::{MeasuredKind, ModelPoint, distribution_points};
-use crate::nnls::nnls;
 use crate::pipeline::{Coating, Settings};
+use flakescatter_numerics::lm::{self, LmError};
+use flakescatter_numerics::nnls::nnls;
 
 /// What the fit uses.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -371,12 +372,12 @@ pub fn fit_gaussian(
         )));
     }
     let (w_lo, w_hi) = (0.05f64.to_radians().ln(), 60f64.to_radians().ln());
-    let clamp = |q: &mut Vec<f64>| {
-        q[0] = q[0].clamp(w_lo, w_hi);
-        if fit_n {
-            q[1] = q[1].clamp(1.0, 3.0);
-        }
-    };
+    let mut bounds = vec![(w_lo, w_hi)];
+    let mut steps = vec![1e-4];
+    if fit_n {
+        bounds.push((1.0, 3.0));
+        steps.push(1e-5);
+    }
     let eval = |q: &[f64]| -> Result<Residuals, PipelineError> {
         let o = Orientation::gaussian(GaussianWidth::Hwhm(q[0].exp()))
             .map_err(|e| PipelineError::Fit(e.to_string()))?;
@@ -384,103 +385,39 @@ pub fn fit_gaussian(
         let m = model_values(&used, &incidences, setup, &o, n, &|p| p.in_kind(setup.kind))?;
         Ok(residuals(&used, &m, groups))
     };
-    let mut q = vec![hwhm_start.max(1e-4).ln()];
+    let mut q0 = vec![hwhm_start.max(1e-4).ln()];
     if fit_n {
-        q.push(setup.coating.n);
+        q0.push(setup.coating.n);
     }
-    clamp(&mut q);
-    let chi = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let Some((mut r, _)) = eval(&q)? else {
-        return Err(PipelineError::Fit(
+    let fitted = lm::minimise(
+        |q: &[f64]| Ok(eval(q)?.map(|(r, _)| r)),
+        &q0,
+        &bounds,
+        &steps,
+        lm::Settings::default(),
+    )
+    .map_err(|e| match e {
+        LmError::Model(e) => e,
+        LmError::VanishedAtStart => PipelineError::Fit(
             "the model is zero at some fitted point for the start value; try another --hwhm-start"
                 .into(),
-        ));
-    };
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut converged = false;
-    let mut jac = DMatrix::<f64>::zeros(used.len(), np);
-    for it in 0..100 {
-        iterations = it + 1;
-        // Central-difference Jacobian.
-        for j in 0..np {
-            let h = if j == 0 { 1e-4 } else { 1e-5 };
-            let (mut qp, mut qm) = (q.clone(), q.clone());
-            qp[j] += h;
-            qm[j] -= h;
-            // One-sided at a bound: keep both points inside the allowed range.
-            clamp(&mut qp);
-            clamp(&mut qm);
-            let h2 = qp[j] - qm[j];
-            let (Some((rp, _)), Some((rm, _))) = (eval(&qp)?, eval(&qm)?) else {
-                return Err(PipelineError::Fit(
-                    "the model vanished at a fitted point while differentiating".into(),
-                ));
-            };
-            for k in 0..used.len() {
-                jac[(k, j)] = (rp[k] - rm[k]) / h2;
-            }
-        }
-        let jt = jac.transpose();
-        let jtj = &jt * &jac;
-        let g = &jt * DVector::from_column_slice(&r);
-        let c0 = chi(&r);
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut a = jtj.clone();
-            for d in 0..np {
-                a[(d, d)] *= 1.0 + lambda;
-                a[(d, d)] += 1e-12;
-            }
-            let Some(step) = a.lu().solve(&(-&g)) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut qn: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
-            clamp(&mut qn);
-            if let Some((rn, _)) = eval(&qn)? {
-                let c1 = chi(&rn);
-                if c1 <= c0 {
-                    // The step actually taken: at a bound the clamp shortens it (to zero
-                    // when the data push outward), which is convergence at the bound.
-                    let taken = q
-                        .iter()
-                        .zip(&qn)
-                        .map(|(a, b)| (a - b) * (a - b))
-                        .sum::<f64>()
-                        .sqrt();
-                    let small = (c0 - c1) <= 1e-10 * c0.max(1e-300) && taken < 1e-8;
-                    q = qn;
-                    r = rn;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    improved = true;
-                    converged = small || taken < 1e-9;
-                    break;
-                }
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            // No step lowers χ²: at a (local) minimum to numerical precision.
-            converged = g.norm() < 1e-6 * (1.0 + c0) || lambda > 1e10;
-            break;
-        }
-        if converged {
-            break;
-        }
-    }
-    if !converged {
-        return Err(PipelineError::Fit(format!(
+        ),
+        LmError::VanishedDifferentiating => PipelineError::Fit(
+            "the model vanished at a fitted point while differentiating".into(),
+        ),
+        LmError::NotConverged { iterations, x } => PipelineError::Fit(format!(
             "the width fit did not converge in {iterations} iterations (last hwhm {:.3}°); try another --hwhm-start or a narrower region",
-            q[0].exp().to_degrees()
-        )));
-    }
+            x[0].exp().to_degrees()
+        )),
+        LmError::Arguments(m) => PipelineError::Fit(m),
+    })?;
+    let q = &fitted.x;
+    let iterations = fitted.iterations;
     let (_, ln_s) =
-        eval(&q)?.ok_or_else(|| PipelineError::Fit("model vanished at the optimum".into()))?;
-    let chi2 = chi(&r);
+        eval(q)?.ok_or_else(|| PipelineError::Fit("model vanished at the optimum".into()))?;
+    let chi2 = fitted.chi2;
     let dof = used.len() - np - groups;
-    let jtj = jac.transpose() * &jac;
-    let cov = jtj.try_inverse().ok_or_else(|| {
+    let cov = fitted.covariance().ok_or_else(|| {
         PipelineError::Fit(
             "the width is not determined by these points (singular normal matrix)".into(),
         )

@@ -82,7 +82,6 @@ pub mod fit;
 pub mod inputs;
 pub mod instrument;
 pub mod multiangle;
-mod nnls;
 pub mod overlay;
 pub mod pipeline;
 pub mod pixels;

@@ -50,7 +50,9 @@ pub mod hemisphere;
 pub mod model;
 pub mod montecarlo;
 pub mod mueller;
-pub mod quad;
+/// The quadrature rules, from `flakescatter-numerics` (re-exported where the cone rules
+/// were written).
+pub use flakescatter_numerics::quad;
 
 use flakescatter_optics::Vec3;
 use flakescatter_optics::detector::{Cone, in_plane_angle};

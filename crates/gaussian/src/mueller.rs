@@ -64,45 +64,6 @@ use rayon::prelude::*;
 use crate::ModelError;
 use crate::cone::ConeMethod;
 use crate::model::{DistributionModel, Incidence};
-use crate::quad::QuadValue;
-
-impl QuadValue for Mueller {
-    #[inline]
-    fn zero() -> Self {
-        Self::ZERO
-    }
-    #[inline]
-    fn plus(self, other: Self) -> Self {
-        self + other
-    }
-    #[inline]
-    fn times(self, k: f64) -> Self {
-        self * k
-    }
-    #[inline]
-    fn size(&self) -> f64 {
-        self.m00().abs()
-    }
-    #[inline]
-    fn distance(&self, other: &Self) -> f64 {
-        (self.0 - other.0).amax()
-    }
-    /// Under the mirror `y → −y` the `s` vectors of the incident and the exit basis
-    /// turn into minus the mirror images of the old ones and the `p` vectors into their
-    /// mirror images, so `J → diag(−1, 1) J diag(−1, 1)` and `M → D M D`.
-    #[inline]
-    fn mirrored(self) -> Self {
-        let mut m = self.0;
-        for i in 0..4 {
-            for j in 0..4 {
-                if (i >= 2) != (j >= 2) {
-                    m[(i, j)] = -m[(i, j)];
-                }
-            }
-        }
-        Self(m)
-    }
-}
 
 /// What one detector collects at one incidence, as Mueller matrices (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]

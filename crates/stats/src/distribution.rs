@@ -24,7 +24,7 @@ use nalgebra::{Unit, Vector3};
 use rand::RngExt;
 use thiserror::Error;
 
-use crate::quad;
+use flakescatter_numerics::legendre as quad;
 
 /// Width of the Gaussian family `p̃(θ) ∝ exp(-θ²/(2 s²))` on `[0, π/2)`, radians.
 ///

@@ -34,7 +34,7 @@ use thiserror::Error;
 
 use crate::distribution::{GaussianWidth, HWHM_PER_SIGMA, Orientation, cos_diff};
 use crate::histogram::AreaHistogram;
-use crate::quad;
+use flakescatter_numerics::legendre as quad;
 
 /// Errors from width fitting.
 #[derive(Debug, Clone, PartialEq, Error)]

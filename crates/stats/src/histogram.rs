@@ -19,7 +19,7 @@ use thiserror::Error;
 
 use crate::distribution::{DistributionError, Orientation, cos_diff};
 use crate::flake::Flake;
-use crate::quad;
+use flakescatter_numerics::legendre as quad;
 
 /// Errors from building a histogram or converting slope statistics.
 #[derive(Debug, Clone, PartialEq, Error)]

@@ -22,7 +22,6 @@ pub mod flake;
 pub mod heightmap;
 pub mod histogram;
 pub mod pool;
-mod quad;
 pub mod segment;
 
 /// The linear-algebra crate whose types appear in this API (re-exported so callers

@@ -21,9 +21,9 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 
 use flakescatter_colour::{Geometry, Illuminant, Lab, Observer, Xyz};
+use flakescatter_numerics::lm::{self, LmError};
 use flakescatter_optics::dispersion::CoatIndex;
 use flakescatter_stats::{GaussianWidth, Orientation};
-use nalgebra::{DMatrix, DVector};
 
 use super::SpectralCoating;
 use flakescatter_io::spectral::MultiAngleFile;
@@ -310,85 +310,29 @@ pub fn fit_lightness(
         }
         clamp(&mut q);
     }
-    let chi = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let mut r = residuals(&q)?;
     let m = measured.len();
-    let mut jac = DMatrix::<f64>::zeros(m, np);
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut converged = false;
-    for it in 0..100 {
-        iterations = it + 1;
-        for j in 0..np {
-            let h = if j == 2 { 1e-5 } else { 1e-4 };
-            let (mut qp, mut qm) = (q.clone(), q.clone());
-            qp[j] += h;
-            qm[j] -= h;
-            clamp(&mut qp);
-            clamp(&mut qm);
-            let h2 = qp[j] - qm[j];
-            let (rp, rm) = (residuals(&qp)?, residuals(&qm)?);
-            for k in 0..m {
-                jac[(k, j)] = (rp[k] - rm[k]) / h2;
-            }
-        }
-        let jt = jac.transpose();
-        let jtj = &jt * &jac;
-        let g = &jt * DVector::from_column_slice(&r);
-        let c0 = chi(&r);
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut a = jtj.clone();
-            for d in 0..np {
-                a[(d, d)] *= 1.0 + lambda;
-                a[(d, d)] += 1e-12;
-            }
-            let Some(step) = a.lu().solve(&(-&g)) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut qn: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
-            if qn.iter().any(|v| !v.is_finite()) {
-                lambda *= 10.0;
-                continue;
-            }
-            clamp(&mut qn);
-            let rn = residuals(&qn)?;
-            let c1 = chi(&rn);
-            if c1 <= c0 {
-                let taken = q
-                    .iter()
-                    .zip(&qn)
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum::<f64>()
-                    .sqrt();
-                let small = (c0 - c1) <= 1e-10 * c0.max(1e-300) && taken < 1e-8;
-                q = qn;
-                r = rn;
-                lambda = (lambda / 3.0).max(1e-12);
-                improved = true;
-                converged = small || taken < 1e-9;
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            converged = g.norm() < 1e-6 * (1.0 + c0) || lambda > 1e10;
-            break;
-        }
-        if converged {
-            break;
-        }
-    }
-    if !converged {
-        return Err(PipelineError::Fit(format!(
+    let box_: Vec<(f64, f64)> = bounds.iter().map(|&(lo, hi, _)| (lo, hi)).collect();
+    let steps: Vec<f64> = (0..np).map(|j| if j == 2 { 1e-5 } else { 1e-4 }).collect();
+    let fitted = lm::minimise(
+        |q: &[f64]| residuals(q).map(Some),
+        &q,
+        &box_,
+        &steps,
+        lm::Settings::default(),
+    )
+    .map_err(|e| match e {
+        LmError::Model(e) => e,
+        LmError::NotConverged { iterations, x } => PipelineError::Fit(format!(
             "the L* fit did not converge in {iterations} iterations (last hwhm {:.3}°); try another start width",
-            q[0].exp().to_degrees()
-        )));
-    }
-    let chi2 = chi(&r);
+            x[0].exp().to_degrees()
+        )),
+        other => PipelineError::Fit(format!("the L* fit failed: {other}")),
+    })?;
+    let q = fitted.x.clone();
+    let iterations = fitted.iterations;
+    let chi2 = fitted.chi2;
     let dof = m - np;
-    let cov = (jac.transpose() * &jac).try_inverse().ok_or_else(|| {
+    let cov = fitted.covariance().ok_or_else(|| {
         PipelineError::Fit(
             "the width is not determined by these geometries (singular normal matrix)".into(),
         )

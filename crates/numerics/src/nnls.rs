@@ -1,5 +1,9 @@
 //! Non-negative least squares (Lawson & Hanson 1974, algorithm NNLS):
 //! minimise `|A x − b|²` subject to `x ≥ 0`.
+//!
+//! The active-set method: variables enter the passive set by the largest gradient
+//! component and leave it when a least-squares step (SVD solve) would make them
+//! negative.
 
 use nalgebra::{DMatrix, DVector};
 

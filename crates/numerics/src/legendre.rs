@@ -1,8 +1,8 @@
-//! Gauss–Legendre quadrature used for the exact normalisations (internal).
+//! Composite 16-point Gauss–Legendre quadrature on equal panels.
 //!
-//! A 16-point rule applied on equal panels; on the smooth integrands of this crate
-//! (Gaussians times `sin`/`cos`, panel widths below half a standard deviation) the
-//! result is exact to rounding.
+//! Used for the exact normalisations of the orientation distributions: on their smooth
+//! integrands (Gaussians times `sin`/`cos`, panel widths below half a standard
+//! deviation) the result is exact to rounding.
 
 use std::sync::OnceLock;
 
@@ -44,8 +44,10 @@ fn rule() -> &'static ([f64; N], [f64; N]) {
     })
 }
 
-/// `∫_a^b f` with the 16-point rule on `panels` equal panels.
-pub(crate) fn integrate(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -> f64 {
+/// `∫_a^b f` with the 16-point rule on `panels` equal panels (at least one).
+///
+/// Exact for polynomials of degree 31 on each panel.
+pub fn integrate(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -> f64 {
     let (x, w) = rule();
     let h = (b - a) / panels as f64;
     let mut total = 0.0;

@@ -1,0 +1,38 @@
+//! Numerics shared by the flakescatter models and fits, each written and tested once:
+//!
+//! * [`legendre`]: composite 16-point Gauss–Legendre quadrature on equal panels (the
+//!   exact normalisations of orientation distributions);
+//! * [`quad`]: Gauss–Kronrod 7 and 15 rules with their embedded Gauss rules, and an
+//!   adaptive integrator with an error estimate, for numbers or vectors of numbers
+//!   integrated on the same nodes (detector cones, conservation integrals);
+//! * [`lm`]: bounded Levenberg–Marquardt least squares with central-difference
+//!   Jacobians (every fit of the project);
+//! * [`nnls`]: non-negative least squares (Lawson & Hanson), for the non-parametric
+//!   orientation estimate.
+//!
+//! No physics and no units here: the callers state theirs.
+//!
+//! # Example
+//! Fit `y = a exp(−b t)` to four points, with `b` kept in `[0, 5]`:
+//! ```
+//! use flakescatter_numerics::lm::{self, Settings};
+//!
+//! let t = [0.0, 1.0, 2.0, 3.0];
+//! let y = [2.0, 1.2131, 0.7358, 0.4463]; // 2 exp(−0.5 t), rounded
+//! let fit = lm::minimise(
+//!     |p: &[f64]| -> Result<lm::Residuals, std::convert::Infallible> {
+//!         Ok(Some(t.iter().zip(&y).map(|(t, y)| p[0] * (-p[1] * t).exp() - y).collect()))
+//!     },
+//!     &[1.0, 1.0],
+//!     &[(0.0, 10.0), (0.0, 5.0)],
+//!     &[1e-6, 1e-6],
+//!     Settings::default(),
+//! )?;
+//! assert!((fit.x[0] - 2.0).abs() < 1e-3 && (fit.x[1] - 0.5).abs() < 1e-3);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod legendre;
+pub mod lm;
+pub mod nnls;
+pub mod quad;
