@@ -473,6 +473,16 @@ pub(crate) fn describe(o: &Orientation) -> String {
             w.sigma(),
             w.hwhm()
         ),
-        None => format!("tabulated on [0, {:.6e}] rad", o.max_theta()),
+        None => match (o.pearson_vii_params(), o.log_linear_knots()) {
+            (Some((alpha, shape)), _) => format!(
+                "pearson-vii D ∝ (1 + tan²θ/(γα²))^-(γ+1)/cos⁴θ, alpha = {alpha:.6e}, shape γ = {shape:.6e}"
+            ),
+            (_, Some((knots, _))) => format!(
+                "log-linear p~ on {} knots in [0, {:.6e}] rad",
+                knots.len(),
+                o.max_theta()
+            ),
+            _ => format!("tabulated on [0, {:.6e}] rad", o.max_theta()),
+        },
     }
 }

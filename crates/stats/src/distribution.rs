@@ -17,6 +17,16 @@
 //!   no small-angle approximation). Its width is given as exactly one of
 //!   [`GaussianWidth::Hwhm`] `w = s·sqrt(2 ln 2)`, [`GaussianWidth::Sigma`] `s`, or
 //!   [`GaussianWidth::RmsTilt`] `σt = s·√2`.
+//! * The Pearson VII family (heavy-tailed; physics.md §3) is Student-t distributed
+//!   slopes: `D(θ) = (1 + tan²θ/(γ α²))^(−(γ+1)) / (π α² cos⁴θ)`, which satisfies
+//!   `∫ D cos θ dΩ = 1` exactly over the hemisphere, with width `α` (the slope scale) and
+//!   shape `γ > 1/2`; `γ = 1` is Trowbridge–Reitz (GGX), `γ → ∞` Beckmann. `⟨cos θn⟩ =
+//!   1/∫ D dΩ` is computed by quadrature in the slopes' tail probability (relative error
+//!   below 1e-12).
+//! * The log-linear table (a smooth tabulated `p̃`, for fits) gives `ln p̃` at knots
+//!   `0 = θ0 < … < θK ≤ π/2`, linear in between, zero beyond `θK`; normalised by
+//!   Gauss–Legendre on each segment (exact to rounding against the closed form
+//!   `∫ e^(a+bθ) sin θ dθ = e^(a+bθ)(b sin θ − cos θ)/(1 + b²)`).
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -143,6 +153,21 @@ pub enum DistributionError {
     /// Every mass is zero.
     #[error("tabulated distribution has zero total area")]
     ZeroTotal,
+    /// A Pearson VII width `α` (a slope scale) that is not finite and positive, or a
+    /// shape outside `[MIN_PEARSON_SHAPE, MAX_PEARSON_SHAPE]`.
+    #[error(
+        "Pearson VII alpha = {alpha} (a slope, tan of an angle) must be finite and in [1e-6, 100], and shape = {shape} in [0.55, 1e4] (at 1/2 and below the flake area diverges)"
+    )]
+    BadPearson {
+        /// The width given.
+        alpha: f64,
+        /// The shape given.
+        shape: f64,
+    },
+    /// Knots of a log-linear table that are not `0 = θ0 < θ1 < … ≤ π/2`, at least two,
+    /// with one finite `ln p̃` each.
+    #[error("log-linear table: {0}")]
+    BadKnots(String),
     /// A bin that carries area is so narrow that its solid angle underflows (its density
     /// would be infinite).
     #[error(
@@ -157,6 +182,13 @@ pub enum DistributionError {
         hi: f64,
     },
 }
+
+/// The smallest Pearson VII shape accepted: at `γ ≤ 1/2` the flake area `∫ D dΩ`
+/// diverges (the tail of `D sin θ` near the horizon is `cos^(2γ−2) θ`).
+pub const MIN_PEARSON_SHAPE: f64 = 0.55;
+
+/// The largest Pearson VII shape accepted; beyond it the family is Beckmann to 1e-3.
+pub const MAX_PEARSON_SHAPE: f64 = 1e4;
 
 /// Precomputed Gaussian member.
 #[derive(Debug, Clone, PartialEq)]
@@ -187,12 +219,47 @@ struct Tabulated {
     mean_cos: f64,
 }
 
+/// Precomputed Pearson VII member.
+#[derive(Debug, Clone, PartialEq)]
+struct Pearson {
+    /// Slope scale `α`.
+    alpha: f64,
+    /// Shape `γ`.
+    shape: f64,
+    /// `1/(γ α²)`.
+    inv_ga2: f64,
+    /// `⟨cos θn⟩ = 1/∫ D dΩ`; `p2 = D ⟨cos θn⟩`.
+    mean_cos: f64,
+    /// Area-weighted CDF of `θ` on [`CDF_NODES`] + 1 nodes, for sampling.
+    cdf: Vec<(f64, f64)>,
+}
+
+/// Precomputed log-linear member.
+#[derive(Debug, Clone, PartialEq)]
+struct LogLinear {
+    /// Knots, radians, `0 = θ0 < … < θK ≤ π/2`.
+    knots: Vec<f64>,
+    /// `ln p̃` at the knots as given.
+    ln_p_tilde: Vec<f64>,
+    /// `ln p̃` at the knots, normalised (`∫ p̃ sin θ dθ = 1`).
+    ln_norm: Vec<f64>,
+    /// Mass of each segment (sums to 1) and cumulative masses.
+    masses: Vec<f64>,
+    cdf: Vec<f64>,
+    mean_cos: f64,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Kind {
     Gaussian(Gaussian),
     Tabulated(Tabulated),
+    Pearson(Pearson),
+    LogLinear(LogLinear),
     Flat,
 }
+
+/// Nodes of the CDF table a Pearson VII member samples from.
+const CDF_NODES: usize = 512;
 
 /// An azimuthally isotropic, area-weighted distribution of flake normals (see the module
 /// docs for `p2`, `p`, `p̃`, `D` and their normalisations).
@@ -340,6 +407,161 @@ impl Orientation {
         Self { kind: Kind::Flat }
     }
 
+    /// The Pearson VII family (heavy-tailed, Student-t slopes; module docs):
+    /// `D(θ) = (1 + tan²θ/(γ α²))^(−(γ+1)) / (π α² cos⁴θ)`, slope scale `alpha`
+    /// (dimensionless, `tan` of an angle) and shape `shape = γ`. `γ = 1` is
+    /// Trowbridge–Reitz (GGX): [`Orientation::trowbridge_reitz`].
+    ///
+    /// # Errors
+    /// [`DistributionError::BadPearson`] unless `alpha ∈ [1e-6, 100]` and
+    /// `shape ∈ [MIN_PEARSON_SHAPE, MAX_PEARSON_SHAPE]`.
+    pub fn pearson_vii(alpha: f64, shape: f64) -> Result<Self, DistributionError> {
+        if !((1e-6..=100.0).contains(&alpha)
+            && (MIN_PEARSON_SHAPE..=MAX_PEARSON_SHAPE).contains(&shape))
+        {
+            return Err(DistributionError::BadPearson { alpha, shape });
+        }
+        let mut p = Pearson {
+            alpha,
+            shape,
+            inv_ga2: 1.0 / (shape * alpha * alpha),
+            mean_cos: 1.0,
+            cdf: Vec::new(),
+        };
+        // ∫ D dΩ = ∫_0^1 sqrt(1 + s(u)²) du in the slopes' tail probability u, taken as
+        // u = w^k so that the integrand, ~ u^(−1/(2γ)) at u → 0, is bounded in w.
+        let mut cdf = Vec::with_capacity(CDF_NODES + 1);
+        let mut acc = 0.0;
+        cdf.push((0.0, 0.0));
+        for j in 0..CDF_NODES {
+            let (a, b) = (
+                j as f64 / CDF_NODES as f64,
+                (j + 1) as f64 / CDF_NODES as f64,
+            );
+            acc += p.area_integral(a, b);
+            cdf.push((b, acc));
+        }
+        p.mean_cos = 1.0 / acc;
+        for c in &mut cdf {
+            c.1 /= acc;
+        }
+        cdf.last_mut().expect("nodes").1 = 1.0;
+        p.cdf = cdf;
+        Ok(Self {
+            kind: Kind::Pearson(p),
+        })
+    }
+
+    /// Trowbridge–Reitz (GGX) flake normals of slope scale `alpha`:
+    /// `D(θ) = α² / (π cos⁴θ (α² + tan²θ)²)`, the Pearson VII family at shape 1.
+    ///
+    /// # Errors
+    /// As [`Orientation::pearson_vii`].
+    pub fn trowbridge_reitz(alpha: f64) -> Result<Self, DistributionError> {
+        Self::pearson_vii(alpha, 1.0)
+    }
+
+    /// A smooth tabulated distribution: `ln p̃` given at `knots` (radians,
+    /// `0 = θ0 < θ1 < … < θK ≤ π/2`, at least two), linear in `θ` between them, zero
+    /// beyond `θK`; normalised so that `∫ p̃ sin θ dθ = 1` (only differences of the given
+    /// values matter).
+    ///
+    /// # Errors
+    /// [`DistributionError::BadKnots`] for knots that do not start at 0, do not increase
+    /// strictly, end beyond π/2, or values that are not finite or not one per knot.
+    pub fn log_linear(knots: Vec<f64>, ln_p_tilde: Vec<f64>) -> Result<Self, DistributionError> {
+        let bad = |m: String| Err(DistributionError::BadKnots(m));
+        if knots.len() < 2 || knots.len() != ln_p_tilde.len() {
+            return bad(format!(
+                "{} knots and {} values: need at least two knots and one value each",
+                knots.len(),
+                ln_p_tilde.len()
+            ));
+        }
+        if knots[0] != 0.0 {
+            return bad(format!("the first knot is {} rad, not 0", knots[0]));
+        }
+        if let Some(i) = (1..knots.len()).find(|&i| !(knots[i] > knots[i - 1])) {
+            return bad(format!(
+                "knot {i} = {} rad does not exceed knot {} = {} rad",
+                knots[i],
+                i - 1,
+                knots[i - 1]
+            ));
+        }
+        if !(knots[knots.len() - 1] <= FRAC_PI_2) {
+            return bad(format!(
+                "the last knot {} rad is beyond pi/2",
+                knots[knots.len() - 1]
+            ));
+        }
+        if let Some(i) = ln_p_tilde.iter().position(|v| !v.is_finite()) {
+            return bad(format!("ln p~ at knot {i} is {}", ln_p_tilde[i]));
+        }
+        let top = ln_p_tilde.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let shifted: Vec<f64> = ln_p_tilde.iter().map(|v| v - top).collect();
+        let segs = knots.len() - 1;
+        let mut masses = Vec::with_capacity(segs);
+        let mut cos_moment = 0.0;
+        for j in 0..segs {
+            let (a, b, la, lb) = (knots[j], knots[j + 1], shifted[j], shifted[j + 1]);
+            let panels = log_linear_panels(la, lb);
+            let slope = (lb - la) / (b - a);
+            masses.push(quad::integrate(
+                |t| (la + slope * (t - a)).exp() * t.sin(),
+                a,
+                b,
+                panels,
+            ));
+            cos_moment += quad::integrate(
+                |t| (la + slope * (t - a)).exp() * t.sin() * t.cos(),
+                a,
+                b,
+                panels,
+            );
+        }
+        let z: f64 = masses.iter().sum();
+        if !(z > 0.0 && z.is_finite()) {
+            return bad(format!("the total area {z} is not positive"));
+        }
+        let ln_z = z.ln();
+        let ln_norm: Vec<f64> = shifted.iter().map(|v| v - ln_z).collect();
+        let masses: Vec<f64> = masses.iter().map(|m| m / z).collect();
+        let mut cdf = Vec::with_capacity(segs);
+        let mut acc = 0.0;
+        for m in &masses {
+            acc += m;
+            cdf.push(acc);
+        }
+        *cdf.last_mut().expect("at least one segment") = 1.0;
+        Ok(Self {
+            kind: Kind::LogLinear(LogLinear {
+                knots,
+                ln_p_tilde,
+                ln_norm,
+                masses,
+                cdf,
+                mean_cos: cos_moment / z,
+            }),
+        })
+    }
+
+    /// Pearson VII parameters `(α, γ)`, if this is one.
+    pub fn pearson_vii_params(&self) -> Option<(f64, f64)> {
+        match &self.kind {
+            Kind::Pearson(p) => Some((p.alpha, p.shape)),
+            _ => None,
+        }
+    }
+
+    /// Knots (radians) and `ln p̃` as given, if this is a log-linear table.
+    pub fn log_linear_knots(&self) -> Option<(&[f64], &[f64])> {
+        match &self.kind {
+            Kind::LogLinear(t) => Some((&t.knots, &t.ln_p_tilde)),
+            _ => None,
+        }
+    }
+
     /// Flake area per steradian of normals at polar angle `theta_n` (radians);
     /// `∫ p2 dΩ = 1` over the upper hemisphere. Zero outside the support (negative,
     /// `≥ π/2` for a Gaussian, outside the edges for a table, NaN) and for [`Orientation::flat`].
@@ -354,6 +576,14 @@ impl Orientation {
                 }
             }
             Kind::Tabulated(t) => t.bin_of(theta_n).map_or(0.0, |i| t.p2[i]),
+            Kind::Pearson(p) => {
+                if (0.0..FRAC_PI_2).contains(&theta_n) {
+                    p.macro_density(theta_n) * p.mean_cos
+                } else {
+                    0.0
+                }
+            }
+            Kind::LogLinear(t) => t.p_tilde(theta_n) / (2.0 * PI),
             Kind::Flat => 0.0,
         }
     }
@@ -375,6 +605,8 @@ impl Orientation {
         match &self.kind {
             Kind::Gaussian(g) => g.mean_cos,
             Kind::Tabulated(t) => t.mean_cos,
+            Kind::Pearson(p) => p.mean_cos,
+            Kind::LogLinear(t) => t.mean_cos,
             Kind::Flat => 1.0,
         }
     }
@@ -389,8 +621,9 @@ impl Orientation {
     /// 0 for flat.
     pub fn max_theta(&self) -> f64 {
         match &self.kind {
-            Kind::Gaussian(_) => FRAC_PI_2,
+            Kind::Gaussian(_) | Kind::Pearson(_) => FRAC_PI_2,
             Kind::Tabulated(t) => *t.edges.last().expect("at least two edges"),
+            Kind::LogLinear(t) => *t.knots.last().expect("at least two knots"),
             Kind::Flat => 0.0,
         }
     }
@@ -423,6 +656,18 @@ impl Orientation {
                 }
                 feature
             }
+            // The slope scale, as an angle.
+            Kind::Pearson(p) => p.alpha.atan(),
+            // The shortest e-folding length of p̃ over the segments that carry light.
+            Kind::LogLinear(t) => {
+                let mut feature = *t.knots.last().expect("knots");
+                for j in (0..t.masses.len()).filter(|&j| t.masses[j] > 1e-9) {
+                    let h = t.knots[j + 1] - t.knots[j];
+                    let dl = (t.ln_norm[j + 1] - t.ln_norm[j]).abs();
+                    feature = feature.min(h / dl.max(1.0));
+                }
+                feature
+            }
             Kind::Flat => 0.0,
         }
     }
@@ -438,6 +683,8 @@ impl Orientation {
                 .iter()
                 .rposition(|m| *m > 0.0)
                 .map_or(0.0, |i| t.edges[i + 1]),
+            Kind::Pearson(_) => FRAC_PI_2,
+            Kind::LogLinear(t) => *t.knots.last().expect("knots"),
             Kind::Flat => 0.0,
         }
     }
@@ -497,6 +744,18 @@ impl Orientation {
                 }
                 m
             }
+            Kind::Pearson(p) => {
+                // θ ∈ [lo, hi] is w ∈ [w(hi), w(lo)] (w decreases with the slope).
+                let (wa, wb) = (p.w_of_theta(hi), p.w_of_theta(lo));
+                p.area_integral(wa, wb) * p.mean_cos
+            }
+            Kind::LogLinear(t) => (0..t.masses.len())
+                .map(|j| {
+                    let a = t.knots[j].max(lo);
+                    let b = t.knots[j + 1].min(hi);
+                    if b > a { t.partial(j, a, b) } else { 0.0 }
+                })
+                .sum(),
         }
     }
 
@@ -530,11 +789,183 @@ impl Orientation {
                 let h = h_lo + v * 0.5 * cos_diff(lo, hi);
                 2.0 * h.clamp(0.0, 1.0).sqrt().asin()
             }
+            Kind::Pearson(p) => p.sample_theta(rng.random()),
+            Kind::LogLinear(t) => t.sample_theta(rng.random()),
         };
         let phi = 2.0 * PI * rng.random::<f64>();
         let (st, ct) = theta.sin_cos();
         let (sp, cp) = phi.sin_cos();
         Unit::new_unchecked(Vector3::new(st * cp, st * sp, ct))
+    }
+}
+
+/// Panels of the Gauss–Legendre rule on a log-linear segment from `ln p̃ = la` to `lb`:
+/// one per unit change of `ln p̃` (the rule is exact to rounding for `e^(bθ) sin θ` over
+/// such a panel).
+fn log_linear_panels(la: f64, lb: f64) -> usize {
+    ((lb - la).abs().ceil() as usize).clamp(1, 4096)
+}
+
+impl Pearson {
+    /// The macro-area density `D(θ)` (module docs), for `θ ∈ [0, π/2)`.
+    #[inline]
+    fn macro_density(&self, theta: f64) -> f64 {
+        // In logarithms: the power of (1 + tan²θ/(γα²)) under- or overflows for large γ.
+        let c = theta.cos();
+        let t = theta.tan();
+        (-(self.shape + 1.0) * (t * t * self.inv_ga2).ln_1p() - 4.0 * c.ln()).exp()
+            / (PI * self.alpha * self.alpha)
+    }
+
+    /// The exponent `k` of `u = w^k`: the integrand `k w^(k−1) sqrt(1 + s²)` is then
+    /// `O(w)` at `w → 0`.
+    fn k(&self) -> f64 {
+        (4.0 * self.shape / (2.0 * self.shape - 1.0)).max(2.0)
+    }
+
+    /// The slope `|tan θ|` at tail probability `u = w^k` of the projected slopes:
+    /// `u = (1 + s²/(γα²))^(−γ)`.
+    fn slope_of_w(&self, w: f64) -> f64 {
+        let u_inv_g = w.powf(-self.k() / self.shape);
+        (self.shape * self.alpha * self.alpha * (u_inv_g - 1.0))
+            .max(0.0)
+            .sqrt()
+    }
+
+    /// The `w` of the polar angle `θ` (inverse of [`Pearson::slope_of_w`]).
+    fn w_of_theta(&self, theta: f64) -> f64 {
+        if theta <= 0.0 {
+            return 1.0;
+        }
+        if theta >= FRAC_PI_2 {
+            return 0.0;
+        }
+        let t = theta.tan();
+        // ln u = −γ ln(1 + s²/(γα²)), w = u^(1/k).
+        (-(self.shape / self.k()) * (t * t * self.inv_ga2).ln_1p()).exp()
+    }
+
+    /// The unnormalised integrand in `w`: `k w^(k−1) sqrt(1 + s(w)²)`.
+    fn integrand(&self, w: f64) -> f64 {
+        if w <= 0.0 {
+            return 0.0;
+        }
+        let k = self.k();
+        let s = self.slope_of_w(w);
+        k * w.powf(k - 1.0) * s.mul_add(s, 1.0).sqrt()
+    }
+
+    /// `∫_a^b` of [`Pearson::integrand`] (`0 ≤ a ≤ b ≤ 1`): the area of the normals with
+    /// `w` in `[a, b]`, in units of the projected area (adaptive Gauss–Kronrod, relative
+    /// tolerance 1e-13).
+    fn area_integral(&self, a: f64, b: f64) -> f64 {
+        if !(b > a) {
+            return 0.0;
+        }
+        // Where the slope passes its scale the integrand bends: a break there.
+        let bend = self.w_of_theta(self.alpha.atan());
+        flakescatter_numerics::quad::adaptive(
+            |w| self.integrand(w),
+            a,
+            b,
+            &[bend],
+            1e-300,
+            1e-13,
+            400,
+        )
+        .0
+    }
+
+    /// The polar angle with area-weighted CDF `v` (the CDF runs from the horizon, `w = 0`,
+    /// to the normal, `w = 1`; `θ` of `1 − v` is returned so that `v` small gives small
+    /// tilts): the CDF table's node, then Newton on the exact partial integral.
+    fn sample_theta(&self, v: f64) -> f64 {
+        let target = 1.0 - v;
+        let j = self
+            .cdf
+            .partition_point(|c| c.1 <= target)
+            .clamp(1, self.cdf.len() - 1);
+        let (w0, c0) = self.cdf[j - 1];
+        let (w1, c1) = self.cdf[j];
+        let mut w = if c1 > c0 {
+            w0 + (target - c0) / (c1 - c0) * (w1 - w0)
+        } else {
+            w0
+        };
+        for _ in 0..8 {
+            let f = c0 + self.area_integral(w0, w) * self.mean_cos - target;
+            let d = self.integrand(w) * self.mean_cos;
+            if !(d > 0.0) {
+                break;
+            }
+            let next = (w - f / d).clamp(w0, w1);
+            if (next - w).abs() <= 1e-15 {
+                w = next;
+                break;
+            }
+            w = next;
+        }
+        self.slope_of_w(w).atan()
+    }
+}
+
+impl LogLinear {
+    /// Normalised `p̃(θ)`, zero outside `[0, θK)`.
+    #[inline]
+    fn p_tilde(&self, theta: f64) -> f64 {
+        let last = *self.knots.last().expect("knots");
+        if !(theta >= 0.0 && theta < last) {
+            return 0.0;
+        }
+        let j = self.knots.partition_point(|&k| k <= theta) - 1;
+        let (a, b) = (self.knots[j], self.knots[j + 1]);
+        let (la, lb) = (self.ln_norm[j], self.ln_norm[j + 1]);
+        (la + (lb - la) * ((theta - a) / (b - a))).exp()
+    }
+
+    /// Area fraction of segment `j` between `a` and `b` (within the segment).
+    fn partial(&self, j: usize, a: f64, b: f64) -> f64 {
+        let (ka, kb) = (self.knots[j], self.knots[j + 1]);
+        let (la, lb) = (self.ln_norm[j], self.ln_norm[j + 1]);
+        let slope = (lb - la) / (kb - ka);
+        let panels = log_linear_panels(la + slope * (a - ka), la + slope * (b - ka));
+        quad::integrate(|t| (la + slope * (t - ka)).exp() * t.sin(), a, b, panels)
+    }
+
+    /// The polar angle with area-weighted CDF `v`: the segment from the cumulative
+    /// masses, then Newton (bracketed) on the exact partial integral.
+    fn sample_theta(&self, v: f64) -> f64 {
+        let j = self
+            .cdf
+            .partition_point(|&c| c <= v)
+            .min(self.masses.len() - 1);
+        let before = if j == 0 { 0.0 } else { self.cdf[j - 1] };
+        let target = v - before;
+        let (a, b) = (self.knots[j], self.knots[j + 1]);
+        let (mut lo, mut hi) = (a, b);
+        let mut t = a + (b - a) * (target / self.masses[j].max(1e-300)).clamp(0.0, 1.0);
+        for _ in 0..60 {
+            let f = self.partial(j, a, t) - target;
+            if f.abs() <= 1e-16 {
+                break;
+            }
+            if f > 0.0 {
+                hi = t;
+            } else {
+                lo = t;
+            }
+            let d = self.p_tilde(t) * t.sin();
+            let next = if d > 0.0 { t - f / d } else { f64::NAN };
+            t = if next > lo && next < hi {
+                next
+            } else {
+                0.5 * (lo + hi)
+            };
+            if hi - lo < 1e-15 {
+                break;
+            }
+        }
+        t
     }
 }
 
