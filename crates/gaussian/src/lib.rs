@@ -59,7 +59,7 @@ use flakescatter_optics::detector::{Cone, in_plane_angle};
 use rayon::prelude::*;
 
 pub use cone::{Collected, ConeMethod};
-pub use model::{DistributionModel, Incidence, ModelOptions};
+pub use model::{DistributionModel, Incidence, ModelOptions, RayKernel};
 pub use montecarlo::{McEstimate, monte_carlo};
 pub use mueller::{CollectedMueller, MuellerCurvePoint, curve_mueller};
 

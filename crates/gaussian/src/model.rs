@@ -79,6 +79,18 @@ pub struct DistributionModel {
     absorption: Option<PathAbsorption>,
 }
 
+/// The point BRDF of one exit direction without its density
+/// ([`DistributionModel::kernel`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayKernel {
+    /// Polar angle of the flake normal that sends light to the direction, radians.
+    pub theta_n: f64,
+    /// `cos θ2`, the inside exit direction's cosine from the coating normal.
+    pub cos_2: f64,
+    /// `K` in `f = K · D(θn)`, sr⁻¹ per unit of macro-area density.
+    pub factor: f64,
+}
+
 /// Everything about one incidence angle that does not depend on the exit direction.
 #[derive(Debug, Clone, Copy)]
 pub struct Incidence {
@@ -244,6 +256,38 @@ impl DistributionModel {
             f *= a;
         }
         f
+    }
+
+    /// The point BRDF without its density: for the exit direction `r`, the polar angle
+    /// `θn` of the flake normal that sends light there and the factor `K` with
+    /// `f(θi, r) = K · D(θn)`, `D = p2/⟨cos θn⟩` (so `K = F·R / (4 n² cos θt cos θ2)`,
+    /// times the printed weighting and the absorption when they are on). `K` does not
+    /// depend on the orientation distribution: a fit that changes only the distribution
+    /// can keep it. `None` where [`DistributionModel::brdf`] is zero for every
+    /// distribution (`r.z ≤ 0`, no normal reaches `r`). Equal to `brdf / D` to rounding
+    /// (the product is formed in another order).
+    #[must_use]
+    pub fn kernel(&self, inc: &Incidence, r: &Vec3) -> Option<RayKernel> {
+        if r.z <= 0.0 {
+            return None;
+        }
+        let n = self.n;
+        let (h, c2) = self.half_vector(inc, r, &Vec3::zeros(), r.z)?;
+        let theta_n = (h.x * h.x + h.y * h.y).sqrt().atan2(h.z);
+        let k2 = Vec3::new(r.x / n, r.y / n, c2);
+        let factor = self.path_factor(inc, &h, self.obliquity(inc, &h), &k2, r);
+        let mut k = factor / (4.0 * n * n * inc.cos_t * c2);
+        if self.options.weighting == Weighting::PaperPrinted {
+            k *= c2 / r.z;
+        }
+        if let Some(a) = self.absorption_factor(inc.cos_t, c2) {
+            k *= a;
+        }
+        Some(RayKernel {
+            theta_n,
+            cos_2: c2,
+            factor: k,
+        })
     }
 
     /// Unnormalised internal half vector `k2 − k1` and `cos θ2 = k2.z` for the exit

@@ -368,3 +368,34 @@ fn mirror_symmetric_in_plane_rule_equals_the_general_rule() {
         assert!((ra - rb).abs() <= 1e-9 * ra, "θs={ts_deg}: {ra} vs {rb}");
     }
 }
+
+/// `kernel` is the point BRDF without its density: `K · p2(θn)/⟨cos θn⟩` is `brdf` to
+/// rounding, in and out of the plane, for a metal flake and every Fresnel bookkeeping.
+#[test]
+fn kernel_times_density_is_the_point_brdf() {
+    use flakescatter_optics::Vec3;
+    use flakescatter_optics::flake::FlakeReflectance;
+    let o = Orientation::gaussian(GaussianWidth::Hwhm(8f64.to_radians())).unwrap();
+    for transmission in Transmission::ALL {
+        let options = ModelOptions {
+            transmission,
+            flake: FlakeReflectance::complex(0.96, 6.69).unwrap(),
+            ..ModelOptions::default()
+        };
+        let model = DistributionModel::new(o.clone(), 1.5, options).unwrap();
+        for ti in [0.0, 30.0, 72.0] {
+            let inc = model.incidence(f64::to_radians(ti)).unwrap();
+            for (tr, pr) in [(10.0, 0.0), (35.0, 180.0), (50.0, 40.0), (20.0, 120.0)] {
+                let (tr, pr) = (f64::to_radians(tr), f64::to_radians(pr));
+                let r = Vec3::new(tr.sin() * pr.cos(), tr.sin() * pr.sin(), tr.cos());
+                let f = model.brdf(&inc, &r);
+                let k = model.kernel(&inc, &r).unwrap();
+                let g = k.factor * o.p2(k.theta_n) / o.mean_cos();
+                assert!(
+                    (f - g).abs() <= 1e-14 * f.abs(),
+                    "{ti} {tr} {pr}: {f} vs {g}"
+                );
+            }
+        }
+    }
+}
