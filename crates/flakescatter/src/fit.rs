@@ -31,6 +31,7 @@ use crate::PipelineError;
 use crate::compare::{MeasuredKind, ModelPoint, distribution_points};
 use crate::pipeline::{Coating, Settings};
 use flakescatter_numerics::lm::{self, LmError};
+pub use flakescatter_numerics::lm::{UncertaintyBasis, chi2_per_dof_999};
 use flakescatter_numerics::nnls::nnls;
 
 /// What the fit uses.
@@ -210,32 +211,6 @@ pub const MIN_POINTS_PER_PARAMETER: usize = 3;
 /// scatter) earns a [`FitWarning::PoorFit`].
 pub const POOR_FIT_RMS_LOG: f64 = 0.3;
 
-/// What the Gaussian fit's uncertainties rest on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UncertaintyBasis {
-    /// The file's uncertainties (`χ²/dof ≤ 1`), unscaled.
-    Stated,
-    /// The file's uncertainties, scaled by `sqrt(χ²/dof) > 1` because the residuals
-    /// scatter more than they allow.
-    StatedScaledByChi2,
-    /// No uncertainty column: the residual scatter (`sqrt(χ²/dof)` in `ln y`).
-    ResidualScatter,
-}
-
-impl UncertaintyBasis {
-    /// A one-line description for reports.
-    #[must_use]
-    pub fn describe(self) -> &'static str {
-        match self {
-            Self::Stated => "the file's uncertainties",
-            Self::StatedScaledByChi2 => {
-                "the file's uncertainties scaled by sqrt(chi2/dof) > 1 (the residuals scatter more than they allow)"
-            }
-            Self::ResidualScatter => "residual scatter (no uncertainty column)",
-        }
-    }
-}
-
 /// Why a fit result deserves caution.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FitWarning {
@@ -299,15 +274,6 @@ impl std::fmt::Display for FitWarning {
             ),
         }
     }
-}
-
-/// The 99.9 % point of `χ²_k / k` by the Wilson–Hilferty cube approximation
-/// `(1 − 2/(9k) + z sqrt(2/(9k)))³`, `z = 3.0902`: above the exact quantile (scipy) by
-/// 3.0 % at `k = 1`, 1.2 % at 5, 0.6 % at 10, 0.04 % at 100.
-pub(crate) fn chi2_per_dof_999(dof: usize) -> f64 {
-    let k = dof as f64;
-    let a = 2.0 / (9.0 * k);
-    (1.0 - a + 3.090_232_306_167_813 * a.sqrt()).powi(3)
 }
 
 /// Result of the Gaussian width fit.
@@ -423,13 +389,7 @@ pub fn fit_gaussian(
         )
     })?;
     let reduced = chi2 / dof as f64;
-    let (basis, factor) = if !have_u {
-        (UncertaintyBasis::ResidualScatter, reduced)
-    } else if reduced > 1.0 {
-        (UncertaintyBasis::StatedScaledByChi2, reduced)
-    } else {
-        (UncertaintyBasis::Stated, 1.0)
-    };
+    let (basis, factor) = lm::noise_scale(reduced, have_u);
     let mut warnings = Vec::new();
     let threshold = if have_u {
         chi2_per_dof_999(dof)

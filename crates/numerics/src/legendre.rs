@@ -9,53 +9,56 @@ use std::sync::OnceLock;
 /// Number of nodes of the rule.
 const N: usize = 16;
 
-/// Nodes on `[-1, 1]` and weights of the `N`-point Gauss–Legendre rule, computed once
-/// by Newton iteration on the Legendre polynomial `P_N`.
-fn rule() -> &'static ([f64; N], [f64; N]) {
-    static RULE: OnceLock<([f64; N], [f64; N])> = OnceLock::new();
-    RULE.get_or_init(|| {
-        let mut x = [0.0; N];
-        let mut w = [0.0; N];
-        let n = N as f64;
-        for i in 0..N {
+/// Nodes on `[-1, 1]` and weights of the `n`-point Gauss–Legendre rule (`n ≥ 1`), by
+/// Newton iteration on the Legendre polynomial `P_n` from Tricomi's initial guesses.
+/// Exact for polynomials of degree `2n − 1`.
+#[must_use]
+pub fn rule(n: usize) -> Vec<(f64, f64)> {
+    let nf = n as f64;
+    (0..n)
+        .map(|i| {
             // Tricomi's initial guess for the i-th root, then Newton.
-            let mut t = (std::f64::consts::PI * (i as f64 + 0.75) / (n + 0.5)).cos();
+            let mut t = (std::f64::consts::PI * (i as f64 + 0.75) / (nf + 0.5)).cos();
             let mut dp = 1.0;
             for _ in 0..100 {
                 let (mut p0, mut p1) = (1.0, t);
-                for k in 2..=N {
+                for k in 2..=n {
                     let k = k as f64;
                     let p2 = ((2.0 * k - 1.0) * t * p1 - (k - 1.0) * p0) / k;
                     p0 = p1;
                     p1 = p2;
                 }
-                // P_N'(t) from the standard identity.
-                dp = n * (t * p1 - p0) / (t * t - 1.0);
+                // P_n'(t) from the standard identity.
+                dp = nf * (t * p1 - p0) / (t * t - 1.0);
                 let dt = p1 / dp;
                 t -= dt;
                 if dt.abs() < 1e-16 {
                     break;
                 }
             }
-            x[i] = t;
-            w[i] = 2.0 / ((1.0 - t * t) * dp * dp);
-        }
-        (x, w)
-    })
+            (t, 2.0 / ((1.0 - t * t) * dp * dp))
+        })
+        .collect()
+}
+
+/// The `N`-point rule of [`integrate`], computed once.
+fn rule16() -> &'static [(f64, f64)] {
+    static RULE: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+    RULE.get_or_init(|| rule(N))
 }
 
 /// `∫_a^b f` with the 16-point rule on `panels` equal panels (at least one).
 ///
 /// Exact for polynomials of degree 31 on each panel.
 pub fn integrate(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -> f64 {
-    let (x, w) = rule();
+    let nodes = rule16();
     let h = (b - a) / panels as f64;
     let mut total = 0.0;
     for p in 0..panels {
         let mid = a + (p as f64 + 0.5) * h;
         let half = 0.5 * h;
         let mut s = 0.0;
-        for (xi, wi) in x.iter().zip(w) {
+        for (xi, wi) in nodes {
             s += wi * f(mid + half * xi);
         }
         total += s * half;
@@ -66,6 +69,19 @@ pub fn integrate(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rules_integrate_their_degree_exactly() {
+        for n in [1, 2, 5, 24, 40] {
+            let r = rule(n);
+            // ∫_{-1}^{1} x^(2n−2) dx = 2/(2n − 1) (the highest even degree it must get).
+            let k = 2 * n - 2;
+            let v: f64 = r.iter().map(|(x, w)| w * x.powi(k as i32)).sum();
+            assert!((v - 2.0 / (k as f64 + 1.0)).abs() < 1e-14, "n {n}: {v}");
+            let wsum: f64 = r.iter().map(|p| p.1).sum();
+            assert!((wsum - 2.0).abs() < 1e-14);
+        }
+    }
 
     #[test]
     fn integrates_known_closed_forms() {

@@ -220,7 +220,7 @@ struct Tabulated {
 }
 
 /// Precomputed Pearson VII member.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 struct Pearson {
     /// Slope scale `α`.
     alpha: f64,
@@ -230,8 +230,15 @@ struct Pearson {
     inv_ga2: f64,
     /// `⟨cos θn⟩ = 1/∫ D dΩ`; `p2 = D ⟨cos θn⟩`.
     mean_cos: f64,
-    /// Area-weighted CDF of `θ` on [`CDF_NODES`] + 1 nodes, for sampling.
-    cdf: Vec<(f64, f64)>,
+    /// Area-weighted CDF in `w` on [`CDF_NODES`] + 1 nodes, for sampling; built on the
+    /// first draw (a fit builds many members and samples none).
+    cdf: std::sync::OnceLock<Vec<(f64, f64)>>,
+}
+
+impl PartialEq for Pearson {
+    fn eq(&self, other: &Self) -> bool {
+        self.alpha == other.alpha && self.shape == other.shape
+    }
 }
 
 /// Precomputed log-linear member.
@@ -426,27 +433,11 @@ impl Orientation {
             shape,
             inv_ga2: 1.0 / (shape * alpha * alpha),
             mean_cos: 1.0,
-            cdf: Vec::new(),
+            cdf: std::sync::OnceLock::new(),
         };
         // ∫ D dΩ = ∫_0^1 sqrt(1 + s(u)²) du in the slopes' tail probability u, taken as
         // u = w^k so that the integrand, ~ u^(−1/(2γ)) at u → 0, is bounded in w.
-        let mut cdf = Vec::with_capacity(CDF_NODES + 1);
-        let mut acc = 0.0;
-        cdf.push((0.0, 0.0));
-        for j in 0..CDF_NODES {
-            let (a, b) = (
-                j as f64 / CDF_NODES as f64,
-                (j + 1) as f64 / CDF_NODES as f64,
-            );
-            acc += p.area_integral(a, b);
-            cdf.push((b, acc));
-        }
-        p.mean_cos = 1.0 / acc;
-        for c in &mut cdf {
-            c.1 /= acc;
-        }
-        cdf.last_mut().expect("nodes").1 = 1.0;
-        p.cdf = cdf;
+        p.mean_cos = 1.0 / p.area_integral(0.0, 1.0);
         Ok(Self {
             kind: Kind::Pearson(p),
         })
@@ -881,12 +872,26 @@ impl Pearson {
     /// tilts): the CDF table's node, then Newton on the exact partial integral.
     fn sample_theta(&self, v: f64) -> f64 {
         let target = 1.0 - v;
-        let j = self
-            .cdf
+        let cdf = self.cdf.get_or_init(|| {
+            let mut cdf = Vec::with_capacity(CDF_NODES + 1);
+            let mut acc = 0.0;
+            cdf.push((0.0, 0.0));
+            for j in 0..CDF_NODES {
+                let (a, b) = (
+                    j as f64 / CDF_NODES as f64,
+                    (j + 1) as f64 / CDF_NODES as f64,
+                );
+                acc += self.area_integral(a, b) * self.mean_cos;
+                cdf.push((b, acc));
+            }
+            cdf.last_mut().expect("nodes").1 = 1.0;
+            cdf
+        });
+        let j = cdf
             .partition_point(|c| c.1 <= target)
-            .clamp(1, self.cdf.len() - 1);
-        let (w0, c0) = self.cdf[j - 1];
-        let (w1, c1) = self.cdf[j];
+            .clamp(1, cdf.len() - 1);
+        let (w0, c0) = cdf[j - 1];
+        let (w1, c1) = cdf[j];
         let mut w = if c1 > c0 {
             w0 + (target - c0) / (c1 - c0) * (w1 - w0)
         } else {

@@ -338,13 +338,7 @@ pub fn fit_lightness(
         )
     })?;
     let reduced = chi2 / dof as f64;
-    let (basis, factor) = if !have_u {
-        (UncertaintyBasis::ResidualScatter, reduced)
-    } else if reduced > 1.0 {
-        (UncertaintyBasis::StatedScaledByChi2, reduced)
-    } else {
-        (UncertaintyBasis::Stated, 1.0)
-    };
+    let (basis, factor) = lm::noise_scale(reduced, have_u);
     let std = |j: usize| (cov[(j, j)] * factor).max(0.0).sqrt();
     let mut warnings = Vec::new();
     let threshold = if have_u {
