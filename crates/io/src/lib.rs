@@ -31,6 +31,7 @@
 //! ```
 
 pub mod al3d;
+pub mod brdf;
 pub mod curves;
 pub mod detectors;
 pub mod files;

@@ -41,6 +41,21 @@ pub fn rule(n: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// The `n`-point rule of [`rule`] for `n ≤ 64`, computed once per `n` (for callers that
+/// apply a rule many times).
+///
+/// # Panics
+/// If `n` is 0 or above 64.
+#[must_use]
+pub fn cached_rule(n: usize) -> &'static [(f64, f64)] {
+    static RULES: [OnceLock<Vec<(f64, f64)>>; 64] = [const { OnceLock::new() }; 64];
+    assert!(
+        (1..=64).contains(&n),
+        "cached Gauss-Legendre rules have 1 to 64 points"
+    );
+    RULES[n - 1].get_or_init(|| rule(n))
+}
+
 /// The `N`-point rule of [`integrate`], computed once.
 fn rule16() -> &'static [(f64, f64)] {
     static RULE: OnceLock<Vec<(f64, f64)>> = OnceLock::new();

@@ -102,12 +102,53 @@ impl CoatParams {
     }
 }
 
-/// The coat surface with its directional-albedo table.
+/// The directional albedo of one rough population (GGX of slope scale `α` on a coat of
+/// index `n`), tabulated at 33 nodes equally spaced in `cos θ` (a product rule, see
+/// [`CoatSurface::albedo_exact`]); linear in `cos θ` between them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AlbedoTable {
+    alpha: f64,
+    n: f64,
+    values: Vec<f64>,
+}
+
+impl AlbedoTable {
+    /// The table of the population `(alpha > 0, n ≥ 1)`.
+    #[must_use]
+    pub fn new(alpha: f64, n: f64) -> Self {
+        Self {
+            alpha,
+            n,
+            values: (0..ALBEDO_NODES)
+                .map(|k| lobe_albedo_rule(alpha, n, k as f64 / (ALBEDO_NODES - 1) as f64))
+                .collect(),
+        }
+    }
+
+    /// `(α, n)` of the table.
+    #[must_use]
+    pub fn key(&self) -> (f64, f64) {
+        (self.alpha, self.n)
+    }
+
+    /// The albedo at `cos θ = mu`.
+    #[must_use]
+    pub fn at(&self, mu: f64) -> f64 {
+        let x = mu.clamp(0.0, 1.0) * (ALBEDO_NODES - 1) as f64;
+        let k = (x.floor() as usize).min(ALBEDO_NODES - 2);
+        let t = x - k as f64;
+        self.values[k] + t * (self.values[k + 1] - self.values[k])
+    }
+}
+
+/// The coat surface with the albedo tables of its rough populations.
 #[derive(Debug, Clone)]
 pub struct CoatSurface {
     params: CoatParams,
-    /// `A(μ)` at `μ = k/(ALBEDO_NODES − 1)`; empty for a flat coat without haze.
-    albedo: Vec<f64>,
+    /// The coat's own population's table (`None` for a flat coat surface or no weight).
+    own: Option<std::sync::Arc<AlbedoTable>>,
+    /// The haze population's table (`None` without haze).
+    haze: Option<std::sync::Arc<AlbedoTable>>,
 }
 
 impl CoatSurface {
@@ -116,17 +157,25 @@ impl CoatSurface {
     /// # Errors
     /// As [`CoatParams::validate`].
     pub fn new(params: CoatParams) -> Result<Self, PaintError> {
+        Self::with_tables(params, &mut |alpha, n| {
+            std::sync::Arc::new(AlbedoTable::new(alpha, n))
+        })
+    }
+
+    /// The surface of `params`, its albedo tables from `table(α, n)` (a cache: a fit
+    /// changes one population at a time).
+    ///
+    /// # Errors
+    /// As [`CoatParams::validate`].
+    pub fn with_tables(
+        params: CoatParams,
+        table: &mut dyn FnMut(f64, f64) -> std::sync::Arc<AlbedoTable>,
+    ) -> Result<Self, PaintError> {
         params.validate()?;
-        let mut s = Self {
-            params,
-            albedo: Vec::new(),
-        };
-        if !s.is_flat() {
-            s.albedo = (0..ALBEDO_NODES)
-                .map(|k| s.albedo_with(k as f64 / (ALBEDO_NODES - 1) as f64, lobe_albedo_rule))
-                .collect();
-        }
-        Ok(s)
+        let own = (params.roughness > 0.0 && params.haze < 1.0)
+            .then(|| table(params.roughness, params.n));
+        let haze = (params.haze > 0.0).then(|| table(params.haze_roughness, params.n));
+        Ok(Self { params, own, haze })
     }
 
     /// The parameters.
@@ -170,27 +219,28 @@ impl CoatSurface {
         }
     }
 
-    /// Directional albedo `A(θ)` of the surface (delta included), from the table
-    /// (a product rule at 33 nodes in `cos θ`, linear between them; within 2e-4 of the
-    /// exact albedo) or exactly for a flat coat.
+    /// Directional albedo `A(θ)` of the surface (delta included): the flat mirror part
+    /// exactly, the rough populations from their tables (within 2e-4 of the exact albedo).
     #[must_use]
     pub fn albedo(&self, cos_theta: f64) -> f64 {
         let mu = cos_theta.clamp(0.0, 1.0);
-        if self.albedo.is_empty() {
-            return fresnel::power_from_cosines(mu, inside_cos(mu, self.params.n), self.params.n)
-                .r_av();
-        }
-        let x = mu * (ALBEDO_NODES - 1) as f64;
-        let k = (x.floor() as usize).min(ALBEDO_NODES - 2);
-        let t = x - k as f64;
-        self.albedo[k] + t * (self.albedo[k + 1] - self.albedo[k])
+        let p = &self.params;
+        let own = match &self.own {
+            Some(t) => t.at(mu),
+            None if p.roughness == 0.0 => {
+                fresnel::power_from_cosines(mu, inside_cos(mu, p.n), p.n).r_av()
+            }
+            None => 0.0,
+        };
+        let haze = self.haze.as_ref().map_or(0.0, |t| t.at(mu));
+        (1.0 - p.haze) * own + p.haze * haze
     }
 
     /// The factor on the power of light crossing the surface at air-side `cos θ`:
     /// `min(1, (1 − A(θ))/T_av(θ))` (module docs), exactly 1 for a flat coat.
     #[must_use]
     pub fn transmission_factor(&self, cos_theta: f64) -> f64 {
-        if self.albedo.is_empty() {
+        if self.is_flat() {
             return 1.0;
         }
         let mu = cos_theta.clamp(0.0, 1.0);
@@ -343,7 +393,7 @@ fn lobe_albedo_rule(alpha: f64, n: f64, mu: f64) -> f64 {
     }
     let st = (1.0 - mu * mu).max(0.0).sqrt();
     let lam_i = ggx_lambda(alpha, mu);
-    let rule = flakescatter_numerics::legendre::rule(ALBEDO_POINTS);
+    let rule = flakescatter_numerics::legendre::cached_rule(ALBEDO_POINTS);
     let theta_m_max = 0.5 * (mu.acos() + FRAC_PI_2);
     let psi_max = if theta_m_max >= FRAC_PI_2 {
         FRAC_PI_2
@@ -351,7 +401,7 @@ fn lobe_albedo_rule(alpha: f64, n: f64, mu: f64) -> f64 {
         (theta_m_max.tan() / alpha).atan()
     };
     let mut total = 0.0;
-    for &(x, w) in &rule {
+    for &(x, w) in rule {
         // ψ = ψmax (1 − (1 − u)²): the azimuth range closes like a square root at ψmax.
         let u = 0.5 * (x + 1.0);
         let psi = psi_max * (1.0 - (1.0 - u) * (1.0 - u));
@@ -372,7 +422,7 @@ fn lobe_albedo_rule(alpha: f64, n: f64, mu: f64) -> f64 {
             c.max(-1.0).acos()
         };
         let mut row = 0.0;
-        for &(y, v) in &rule {
+        for &(y, v) in rule {
             let ph = phi_max * 0.5 * (y + 1.0);
             row += v * albedo_integrand(alpha, n, mu, lam_i, psi, ph);
         }

@@ -45,6 +45,8 @@
 pub mod base;
 pub mod channel;
 pub mod coat;
+pub mod cone;
+pub mod fit;
 pub mod layer;
 pub mod model;
 
@@ -64,4 +66,10 @@ pub enum PaintError {
     /// A geometry out of range.
     #[error("{0}")]
     Geometry(String),
+    /// Measured data a fit cannot use (the message names the file, line and column).
+    #[error("{0}")]
+    Data(String),
+    /// A fit that failed (no convergence, an undetermined parameter).
+    #[error("{0}")]
+    Fit(String),
 }
