@@ -353,6 +353,88 @@ fn tick(v: f64) -> String {
     }
 }
 
+/// One panel of [`residual_maps_png`]: the incidence (radians) and its detectors'
+/// `(θr, φr, residual)` in degrees and decades.
+pub type ResidualPanel = (f64, Vec<(f64, f64, f64)>);
+
+/// Residuals beyond this many decades get the end colours of [`residual_maps_png`].
+const RESIDUAL_SPAN: f64 = 0.3;
+
+/// A diverging colour for a residual `r` (decades): blue for a model too low, white for
+/// 0, red for too high, saturated at ±[`RESIDUAL_SPAN`].
+fn residual_colour(r: f64) -> RGBColor {
+    let t = (r / RESIDUAL_SPAN).clamp(-1.0, 1.0);
+    let mix =
+        |a: u8, b: u8, f: f64| (f64::from(a) + (f64::from(b) - f64::from(a)) * f).round() as u8;
+    if t >= 0.0 {
+        RGBColor(mix(255, 178, t), mix(255, 24, t), mix(255, 43, t))
+    } else {
+        RGBColor(mix(255, 33, -t), mix(255, 102, -t), mix(255, 172, -t))
+    }
+}
+
+/// Maps of out-of-plane residuals, one panel per incidence: each detector at
+/// `(φr, θr)` (degrees) a square coloured by `log10(model/measured)` (blue: model too
+/// low, red: too high; saturated at ±0.3 decades), with the panel's rms in its title.
+/// `maps` holds `(θi in radians, cells (θr, φr, residual))`.
+pub fn residual_maps_png(
+    maps: &[ResidualPanel],
+    file: &str,
+    name: &str,
+) -> anyhow::Result<Vec<u8>> {
+    register_fonts()?;
+    let panels = maps.len().max(1) as u32;
+    let (w, h) = (330 * panels, 420);
+    let mut rgb = vec![255u8; w as usize * h as usize * 3];
+    {
+        let err = |e: String| anyhow::Error::new(Failure(format!("drawing {name}: {e}")));
+        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        let root = root
+            .titled(
+                &format!("{file}: out-of-plane residuals log10(model/measured); blue: model low, red: high, ±{RESIDUAL_SPAN} saturates"),
+                ("sans-serif", 16),
+            )
+            .map_err(|e| err(e.to_string()))?;
+        let areas = root.split_evenly((1, panels as usize));
+        for ((ti, cells), area) in maps.iter().zip(areas) {
+            let rms =
+                (cells.iter().map(|c| c.2 * c.2).sum::<f64>() / cells.len().max(1) as f64).sqrt();
+            let mut chart = ChartBuilder::on(&area)
+                .caption(
+                    format!("θi = {:.1}°, rms {rms:.3}", ti.to_degrees()),
+                    ("sans-serif", 15),
+                )
+                .margin(8)
+                .x_label_area_size(35)
+                .y_label_area_size(40)
+                .build_cartesian_2d(-5f64..185f64, 0f64..90f64)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_labels(7)
+                .y_labels(10)
+                .x_label_formatter(&|v: &f64| format!("{v:.0}"))
+                .y_label_formatter(&|v: &f64| format!("{v:.0}"))
+                .x_desc("φr (degrees; 0 specular side)")
+                .y_desc("θr (degrees)")
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .draw_series(cells.iter().map(|&(tr, pr, r)| {
+                    let pr = pr.rem_euclid(360.0);
+                    let pr = if pr > 180.0 { 360.0 - pr } else { pr };
+                    Rectangle::new(
+                        [(pr - 4.0, tr - 2.4), (pr + 4.0, tr + 2.4)],
+                        residual_colour(r).filled(),
+                    )
+                }))
+                .map_err(|e| err(e.to_string()))?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    encode_rgb(w, h, &rgb, name)
+}
+
 #[cfg(test)]
 mod tests {
     use super::band_runs;

@@ -17,8 +17,9 @@
 //! multi-angle colour, the width fitted to `L*`), Mueller matrices, polariser/analyser
 //! readings and the degree of polarisation in [`polarimetry`], the three-dimensional
 //! layer with multiple scattering in [`volume`] ([`volume_curves`]; [`volume_layer`] is
-//! its crate), what a plot shows in [`chart`], and the paper's figures in kind in
-//! [`figures`].
+//! its crate), real paints (coat, flakes and base; measured BRDF tables, their joint fit,
+//! the parameter file) in [`paint`] ([`paint_model`] is its crate), what a plot shows in
+//! [`chart`], and the paper's figures in kind in [`figures`].
 //!
 //! Conventions: radians and micrometres in every API; reflectances are fractions of the
 //! incident beam power, BRDFs per steradian; in-plane detector angles are signed with
@@ -83,6 +84,7 @@ pub mod inputs;
 pub mod instrument;
 pub mod multiangle;
 pub mod overlay;
+pub mod paint;
 pub mod pipeline;
 pub mod pixels;
 pub mod polarimetry;
@@ -97,6 +99,7 @@ pub use flakescatter_confocal as confocal;
 pub use flakescatter_gaussian as gaussian;
 pub use flakescatter_io as io;
 pub use flakescatter_optics as optics;
+pub use flakescatter_paint as paint_model;
 pub use flakescatter_stats as stats;
 pub use flakescatter_synth as synth;
 pub use flakescatter_topo as topo;
@@ -147,4 +150,8 @@ pub enum PipelineError {
     /// be honoured.
     #[error("{0}")]
     Spectral(String),
+    /// The paint model or its fit rejected its input (the message names the file, line
+    /// and column, or the parameter).
+    #[error("{0}")]
+    Paint(flakescatter_paint::PaintError),
 }

@@ -5,7 +5,8 @@
 //! in nanometres written `<number>nm` (`550nm`, `632.8nm`). The flake metal's complex
 //! index is taken at the channel's wavelength: for a wavelength channel that wavelength;
 //! for `r`, `g`, `b` the dominant wavelengths of the sRGB primaries, 612, 547 and 464 nm
-//! (CIE 1931, D65 white), and for `y` 555 nm, the peak of the photopic curve. A per-channel
+//! (CIE 1931, D65 white), for `y` 555 nm, the peak of the photopic curve, and for
+//! `value` (the one value column of an in-plane curve file) 550 nm. A per-channel
 //! flake reflectance scale (the paint model's) absorbs what a single wavelength cannot
 //! say about a broad channel.
 
@@ -28,8 +29,8 @@ impl Channel {
     /// The channel of a column name's `<name>` part.
     ///
     /// # Errors
-    /// [`PaintError::Channel`] for a name that is neither `r`, `g`, `b`, `y` nor a
-    /// wavelength `<number>nm` within 200–2000 nm.
+    /// [`PaintError::Channel`] for a name that is neither `r`, `g`, `b`, `y`, `value`
+    /// nor a wavelength `<number>nm` within 200–2000 nm.
     pub fn parse(name: &str) -> Result<Self, PaintError> {
         if let Some(&(_, wl)) = NAMED_CHANNELS.iter().find(|(n, _)| *n == name) {
             return Ok(Self {
@@ -47,7 +48,7 @@ impl Channel {
                 wavelength_nm,
             }),
             None => Err(PaintError::Channel(format!(
-                "unknown channel `{name}`: expected r, g, b, y or a wavelength such as 550nm (200-2000 nm)"
+                "unknown channel `{name}`: expected r, g, b, y, value or a wavelength such as 550nm (200-2000 nm)"
             ))),
         }
     }

@@ -52,6 +52,39 @@ pub struct Args {
     /// Plot measured points and model lines (log axis) to an .svg or .png file.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+    /// A fitted paint (`fit --paint --params-out P.json`) against the BRDF table of
+    /// --measured, without a fit: rms log10 residuals per incidence and region, in and
+    /// out of the plane.
+    #[arg(long, value_name = "P.json", conflicts_with_all = [
+        "hwhm", "sigma", "rms_tilt", "distribution", "orientation", "n", "clearcoat",
+        "no_clearcoat", "transmission", "weighting", "flake_index", "measured_multiangle",
+        "model",
+    ])]
+    pub params: Option<PathBuf>,
+    /// --params: aspecular range of the points compared, degrees `LO:HI` (default 2:180).
+    #[arg(
+        long,
+        value_name = "LO:HI",
+        requires = "params",
+        allow_hyphen_values = true
+    )]
+    pub region: Option<String>,
+    /// --params: leave out detectors beyond this polar angle, degrees.
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "params",
+        allow_negative_numbers = true
+    )]
+    pub max_theta_r: Option<f64>,
+    /// --params: leave out values below this BRDF, 1/sr.
+    #[arg(
+        long,
+        value_name = "X",
+        requires = "params",
+        allow_negative_numbers = true
+    )]
+    pub min_value: Option<f64>,
 }
 
 /// Model values from a result CSV, by `(θi, θs)` in radians.
@@ -103,6 +136,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else if out != Some(Dest::Stdout) {
         plan.stdout("the table");
     }
+    if let Some(path) = &args.params {
+        if args.spectral.any() || args.colour.any() {
+            bail!("--params: the spectral and colour flags do not apply to a paint");
+        }
+        return crate::cmd::paint::compare(&args, plan, out, path);
+    }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     args.spectral.inputs(&mut plan);
     if args.measured.measured_multiangle.is_some() {
@@ -120,7 +159,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let coating = args.measured.optics.coating()?;
     let settings = args.measured.settings();
     let aperture = args.measured.optics.aperture_rad()?;
-    let aperture_deg = args.measured.optics.aperture;
+    let aperture_deg = args.measured.optics.aperture_deg();
     let kind = args.measured.measured_kind;
     if args.model.is_none() {
         args.orientation.validate()?;

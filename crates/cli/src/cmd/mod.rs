@@ -6,6 +6,7 @@ pub mod convert;
 pub mod fit;
 pub mod info;
 pub mod model;
+pub mod paint;
 pub mod reproduce;
 pub mod segment;
 pub mod stack;

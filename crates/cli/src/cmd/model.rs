@@ -75,6 +75,16 @@ pub struct Args {
     /// p~ drawn about the specular direction as in the paper's Fig. 4.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+    /// A fitted paint (`fit --paint --params-out P.json`): its BRDF per channel
+    /// (clear coat, flakes and base; physics.md §12) at --theta-i × --theta-s or
+    /// --detectors, averaged over the --aperture cone; columns theta_i_deg, theta_s_deg
+    /// (in-plane), theta_r_deg, phi_r_deg, aperture_deg, brdf_<channel>_per_sr.
+    #[arg(long, value_name = "P.json", conflicts_with_all = [
+        "hwhm", "sigma", "rms_tilt", "distribution", "orientation", "n", "clearcoat",
+        "transmission", "weighting", "flake_index", "multi_angle", "polarization",
+        "incident", "analyzer", "cone",
+    ])]
+    pub params: Option<PathBuf>,
 }
 
 /// Runs the subcommand.
@@ -86,6 +96,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let table = plan.table("--out", args.out.as_deref(), args.json);
     if args.json {
         plan.stdout("--json");
+    }
+    if let Some(path) = &args.params {
+        return crate::cmd::paint::model(&args, plan, table, path);
     }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     args.source.validate()?;

@@ -10,6 +10,9 @@ use serde_json::{Value, json};
 
 use super::{DEFAULT_THETA_I, DEFAULT_THETA_S};
 
+/// The default detector half-angle, degrees.
+pub const DEFAULT_APERTURE_DEG: f64 = 1.5;
+
 /// Largest number of incidence × detector rows a command computes.
 pub const MAX_ROWS: usize = 10_000_000;
 use crate::output::Plan;
@@ -26,14 +29,9 @@ pub struct OpticsArgs {
         allow_negative_numbers = true
     )]
     pub n: f64,
-    /// Detector cone half-angle in degrees, in [0, 20]; 0 = point detectors.
-    #[arg(
-        long,
-        value_name = "A",
-        default_value_t = 1.5,
-        allow_negative_numbers = true
-    )]
-    pub aperture: f64,
+    /// Detector cone half-angle in degrees, in [0, 20]; 0 = point detectors (default 1.5).
+    #[arg(long, value_name = "A", allow_negative_numbers = true)]
+    pub aperture: Option<f64>,
     /// Fresnel bookkeeping: exact-unpolarized (m00), s or p (a polarised beam, m00 ± m01;
     /// both exact in every direction), or paper (T_av at each crossing, eq. 10). Any
     /// other polarisation, and analysers: --incident, --analyzer (model, topo).
@@ -87,22 +85,25 @@ impl OpticsArgs {
         }
     }
 
+    /// The detector half-angle in degrees as given, or the default 1.5.
+    pub fn aperture_deg(&self) -> f64 {
+        self.aperture.unwrap_or(DEFAULT_APERTURE_DEG)
+    }
+
     /// The detector half-angle in radians, checked to be in `[0, 20°]`.
     pub fn aperture_rad(&self) -> anyhow::Result<f64> {
-        if !(self.aperture.is_finite() && (0.0..=20.0).contains(&self.aperture)) {
-            bail!(
-                "--aperture {}: expected a half-angle in [0, 20] degrees",
-                self.aperture
-            );
+        let a = self.aperture_deg();
+        if !(a.is_finite() && (0.0..=20.0).contains(&a)) {
+            bail!("--aperture {a}: expected a half-angle in [0, 20] degrees");
         }
-        Ok(self.aperture.to_radians())
+        Ok(a.to_radians())
     }
 
     /// The coating and settings echo for JSON.
     pub fn echo(&self, clearcoat: bool) -> Value {
         json!({
             "n": self.n,
-            "aperture_deg": self.aperture,
+            "aperture_deg": self.aperture_deg(),
             "transmission": self.transmission.name(),
             "weighting": self.weighting.name(),
             "clearcoat": clearcoat,

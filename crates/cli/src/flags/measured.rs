@@ -95,6 +95,44 @@ impl MeasuredArgs {
         })
     }
 
+    /// Reads `--measured` for the paint model (a BRDF table, or an in-plane curve of
+    /// BRDFs or reflectance factors) and keeps the incidences of `--theta-i`;
+    /// `--theta-s` (in-plane only) is refused.
+    pub fn read_paint(&self) -> anyhow::Result<flakescatter::paint::Measurement> {
+        let Some(path) = &self.measured else {
+            anyhow::bail!("give --measured FILE (a BRDF table)");
+        };
+        if self.theta_s.is_some() {
+            anyhow::bail!(
+                "--theta-s selects in-plane detectors of a curve; a paint uses every detector of the table within --region and --max-theta-r"
+            );
+        }
+        let Selection { theta_i: ti, .. } = self.selection_deg()?;
+        let mut m = flakescatter::paint::read_measurement(path, self.measured_kind)
+            .with_context(|| format!("reading --measured {}", path.display()))?;
+        if let Some(ti) = ti {
+            let all = m.rows.len();
+            for t in &ti {
+                if !m
+                    .rows
+                    .iter()
+                    .any(|r| (r.theta_i.to_degrees() - t).abs() < 1e-9)
+                {
+                    anyhow::bail!("--theta-i {t}: {} has no row at this incidence", m.file);
+                }
+            }
+            m.rows
+                .retain(|r| ti.iter().any(|t| (r.theta_i.to_degrees() - t).abs() < 1e-9));
+            note(&format!(
+                "using {} of {all} rows of {} (--theta-i {})",
+                m.rows.len(),
+                m.file,
+                self.theta_i.as_deref().unwrap_or("")
+            ));
+        }
+        Ok(m)
+    }
+
     /// Checks the selection flags without reading the file.
     pub fn validate(&self) -> anyhow::Result<()> {
         self.selection_deg().map(|_| ())
@@ -106,6 +144,14 @@ impl MeasuredArgs {
         let Some(path) = &self.measured else {
             anyhow::bail!("give --measured FILE (a goniometric curve)");
         };
+        if flakescatter::io::files::read_text(path)
+            .is_ok_and(|t| flakescatter::io::brdf::looks_like_brdf_table(&t))
+        {
+            anyhow::bail!(
+                "--measured {}: a BRDF table with detector geometry and channels (theta_r_deg, phi_r_deg, brdf_<channel>_per_sr): fit it with `fit --paint`, compare a fitted paint with `compare --params P.json`",
+                path.display()
+            );
+        }
         let all = read_measured(path)
             .with_context(|| format!("reading --measured {}", path.display()))?;
         let Selection {

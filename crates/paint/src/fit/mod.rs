@@ -240,6 +240,8 @@ pub struct PaintFit {
     pub candidates: Vec<Candidate>,
     /// Degrees of freedom (points − parameters).
     pub dof: usize,
+    /// Whether every point used had a stated uncertainty (else relative weighting).
+    pub uncertainties_given: bool,
     /// What the uncertainties rest on, and the factor applied to `(JᵀJ)⁻¹`.
     pub uncertainty_basis: UncertaintyBasis,
     /// `sqrt` of that factor.
@@ -839,6 +841,7 @@ fn finish(
         evidence: s.evidence,
         candidates,
         dof,
+        uncertainties_given: have_u,
         uncertainty_basis: basis,
         uncertainty_scale: factor.sqrt(),
         model: s.model,

@@ -1,6 +1,7 @@
 //! `flakescatter fit`: the flake orientation distribution from a measured curve.
 
 mod multi_angle;
+pub mod paint;
 mod report;
 
 use std::fmt::Write as _;
@@ -26,7 +27,8 @@ use report::{gaussian_json, gaussian_text, nonparametric_json};
 /// non-negative least squares (the paper's "estimate the distribution that can give rise
 /// to a measured reflectance curve"); --out then writes it as a histogram CSV that
 /// `model --orientation table --distribution` reads. --theta-i/--theta-s select the
-/// measured points used.
+/// measured points used. With --paint: a paint (clear coat, flakes, base) fitted to a
+/// BRDF table with geometry and channels, every incidence and row at once.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
@@ -50,14 +52,10 @@ pub struct Args {
     /// per incidence.
     #[arg(long)]
     pub common_scale: bool,
-    /// Aspecular range of the points used, degrees, `LO:HI`.
-    #[arg(
-        long,
-        value_name = "LO:HI",
-        default_value = "5:40",
-        allow_hyphen_values = true
-    )]
-    pub region: String,
+    /// Aspecular range of the points used, degrees, `LO:HI` (default 5:40; 2:180 with
+    /// --paint).
+    #[arg(long, value_name = "LO:HI", allow_hyphen_values = true)]
+    pub region: Option<String>,
     /// Estimate a tabulated p~ instead of a Gaussian.
     #[arg(long)]
     pub nonparametric: bool,
@@ -85,10 +83,13 @@ pub struct Args {
     /// Print a JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub paint: paint::PaintArgs,
 }
 
-/// `--region LO:HI` in radians.
-fn region(text: &str) -> anyhow::Result<(f64, f64)> {
+/// `--region LO:HI` in radians (default 5:40).
+fn region(text: Option<&str>) -> anyhow::Result<(f64, f64)> {
+    let text = text.unwrap_or("5:40");
     match text
         .split_once(':')
         .map(|(a, b)| (a.trim().parse::<f64>(), b.trim().parse::<f64>()))
@@ -128,6 +129,23 @@ fn bins(text: &str) -> anyhow::Result<Vec<f64>> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
     args.measured.inputs(&mut plan);
+    if let Some(flag) = args.paint.stray() {
+        bail!("{flag} applies to --paint");
+    }
+    if args.paint.paint {
+        if args.measured.measured_multiangle.is_some() {
+            bail!("--paint fits a BRDF table given with --measured, not --measured-multiangle");
+        }
+        if args.spectral.any() || args.colour.any() {
+            bail!("the spectral and colour flags do not apply to --paint");
+        }
+        if args.json {
+            plan.stdout("--json");
+        } else {
+            plan.stdout("the fit's summary");
+        }
+        return paint::run(&args, plan);
+    }
     let out = plan.output("--out", args.out.as_deref(), Kind::Table);
     if args.json {
         plan.stdout("--json");
@@ -150,7 +168,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let coating = args.measured.optics.coating()?;
     let settings = args.measured.settings();
     let aperture = args.measured.optics.aperture_rad()?;
-    let region = region(&args.region)?;
+    let region = region(args.region.as_deref())?;
     let edges = if args.nonparametric {
         if args.fit_n {
             bail!("--fit-n applies to the Gaussian fit, not --nonparametric");
@@ -183,7 +201,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "measured_kind": args.measured.measured_kind.name(),
         "selection": selection,
         "model": args.measured.optics.echo(settings.clearcoat),
-        "aperture_deg": args.measured.optics.aperture,
+        "aperture_deg": args.measured.optics.aperture_deg(),
         "region_deg": [deg_num(region.0), deg_num(region.1)],
         "common_scale": args.common_scale,
     });

@@ -23,10 +23,10 @@ pub(super) fn multi_angle(args: &Args, plan: Plan) -> anyhow::Result<()> {
     if args.out.is_some() {
         bail!("--out writes the --nonparametric histogram; the L* fit reports on stdout (--json)");
     }
-    if args.region != "5:40" {
+    if let Some(region) = &args.region {
         bail!(
             "--region {}: the L* fit uses every measured geometry (leave out the ones you do not want in the file)",
-            args.region
+            region
         );
     }
     if !(args.hwhm_start.is_finite() && args.hwhm_start > 0.0 && args.hwhm_start < 60.0) {
@@ -67,7 +67,7 @@ pub(super) fn multi_angle(args: &Args, plan: Plan) -> anyhow::Result<()> {
         let inputs = json!({
             "measured_multiangle": path.display().to_string(),
             "model": args.measured.optics.echo(args.measured.clearcoat()),
-            "aperture_deg": args.measured.optics.aperture,
+            "aperture_deg": args.measured.optics.aperture_deg(),
             "spectral": coating_echo,
             "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
             "colorimetry": args.colour.echo(),

@@ -34,7 +34,7 @@ impl Args {
         InstrumentArgs {
             optics: OpticsArgs {
                 n: self.n,
-                aperture: self.aperture,
+                aperture: Some(self.aperture),
                 transmission: Default::default(),
                 weighting: Default::default(),
                 flake_index: self.flake_index.clone(),

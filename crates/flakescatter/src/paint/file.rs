@@ -1,0 +1,341 @@
+//! The paint parameter file (`fit --paint --params-out P.json`, read by `model --params`,
+//! `compare --params`; `docs/formats.md`): JSON, the paint in its first five keys and the
+//! fit that made it, as a report, under `"fit"` (ignored on reading).
+//!
+//! ```json
+//! {
+//!   "format": "flakescatter paint parameters",
+//!   "version": 1,
+//!   "coat": { "n": 1.5, "roughness": 0.012, "haze": 0.31, "haze_roughness": 0.35 },
+//!   "orientation": { "family": "trowbridge-reitz", "alpha": 0.11 },
+//!   "flakes": { "metal": "aluminium", "coverage": 0.45 },
+//!   "channels": [ { "name": "g", "wavelength_nm": 547, "flake_scale": 0.4, "base_albedo": 0.02 } ],
+//!   "fit": { ... }
+//! }
+//! ```
+//!
+//! `orientation` is one of `{"family": "gaussian", "hwhm_deg": w}`,
+//! `{"family": "trowbridge-reitz", "alpha": α}`, `{"family": "pearson-vii", "alpha": α,
+//! "shape": γ}`, `{"family": "table", "knots_deg": [...], "ln_p_tilde": [...]}` (a
+//! log-linear table) or `{"family": "histogram", "edges_deg": [...], "area_fractions":
+//! [...]}` (physics.md §3); `metal` is `"aluminium"`, `"perfect-conductor"` or `{"n": n, "k": k}`. Roughness
+//! values are GGX slope scales (dimensionless); angles in degrees, wavelengths in nm.
+
+use std::path::Path;
+
+use flakescatter_paint::{Channel, ChannelParams, CoatParams, FlakeMetal, PaintParams};
+use flakescatter_stats::{GaussianWidth, Orientation};
+use serde::{Deserialize, Serialize};
+
+use crate::PipelineError;
+
+/// The `format` value.
+pub const FORMAT: &str = "flakescatter paint parameters";
+/// The `version` written and read.
+pub const VERSION: u32 = 1;
+
+/// The file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParamsFile {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// Always [`VERSION`].
+    pub version: u32,
+    /// The coat.
+    pub coat: CoatSection,
+    /// The flakes' orientations.
+    pub orientation: OrientationSection,
+    /// The flakes.
+    pub flakes: FlakesSection,
+    /// The channels.
+    pub channels: Vec<ChannelSection>,
+    /// The report of the fit that made the paint (not read back).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<serde_json::Value>,
+}
+
+/// `coat`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoatSection {
+    /// Index.
+    pub n: f64,
+    /// GGX slope scale of the coat's own surface (0: flat).
+    pub roughness: f64,
+    /// Haze fraction.
+    pub haze: f64,
+    /// GGX slope scale of the haze.
+    pub haze_roughness: f64,
+}
+
+/// `orientation`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "family", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum OrientationSection {
+    /// Gaussian `p̃`.
+    Gaussian {
+        /// Its hwhm, degrees.
+        hwhm_deg: f64,
+    },
+    /// Trowbridge–Reitz.
+    TrowbridgeReitz {
+        /// Slope scale.
+        alpha: f64,
+    },
+    /// Pearson VII.
+    PearsonVii {
+        /// Slope scale.
+        alpha: f64,
+        /// Shape `γ`.
+        shape: f64,
+    },
+    /// A histogram: `area_fractions[i]` between `edges_deg[i]` and `edges_deg[i + 1]`.
+    Histogram {
+        /// Bin edges, degrees.
+        edges_deg: Vec<f64>,
+        /// Area fraction per bin.
+        area_fractions: Vec<f64>,
+    },
+    /// Log-linear table.
+    Table {
+        /// Knots, degrees.
+        knots_deg: Vec<f64>,
+        /// `ln p̃` at them.
+        ln_p_tilde: Vec<f64>,
+    },
+}
+
+/// `flakes`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlakesSection {
+    /// The metal.
+    pub metal: MetalSection,
+    /// Coverage in `[0, 1]`.
+    pub coverage: f64,
+}
+
+/// `flakes.metal`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum MetalSection {
+    /// `"aluminium"` or `"perfect-conductor"`.
+    Named(String),
+    /// A complex index.
+    Index {
+        /// Real part.
+        n: f64,
+        /// Imaginary part.
+        k: f64,
+    },
+}
+
+/// One of `channels`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSection {
+    /// Name (`r`, `g`, `b`, `y`, `value`, `<number>nm`).
+    pub name: String,
+    /// Wavelength of the flake optics, nm (must be the one of the name).
+    pub wavelength_nm: f64,
+    /// Flake reflectance scale.
+    pub flake_scale: f64,
+    /// Base albedo.
+    pub base_albedo: f64,
+}
+
+impl ParamsFile {
+    /// The file of `params`, with the fit report `fit`.
+    #[must_use]
+    pub fn new(params: &PaintParams, fit: Option<serde_json::Value>) -> Self {
+        Self {
+            format: FORMAT.into(),
+            version: VERSION,
+            coat: CoatSection {
+                n: params.coat.n,
+                roughness: params.coat.roughness,
+                haze: params.coat.haze,
+                haze_roughness: params.coat.haze_roughness,
+            },
+            orientation: orientation_section(&params.orientation),
+            flakes: FlakesSection {
+                metal: match params.flake_metal {
+                    FlakeMetal::Aluminium => MetalSection::Named("aluminium".into()),
+                    FlakeMetal::PerfectConductor => MetalSection::Named("perfect-conductor".into()),
+                    FlakeMetal::Index { n, k } => MetalSection::Index { n, k },
+                },
+                coverage: params.coverage,
+            },
+            channels: params
+                .channels
+                .iter()
+                .map(|c| ChannelSection {
+                    name: c.channel.name.clone(),
+                    wavelength_nm: c.channel.wavelength_nm,
+                    flake_scale: c.flake_scale,
+                    base_albedo: c.base_albedo,
+                })
+                .collect(),
+            fit,
+        }
+    }
+
+    /// The paint of the file.
+    ///
+    /// # Errors
+    /// [`PipelineError::Paint`] naming `file` and the key: a wrong format or version, an
+    /// unknown metal, a channel whose wavelength is not its name's, an invalid
+    /// orientation; the paint model's own checks are made when it is built.
+    pub fn to_params(&self, file: &str) -> Result<PaintParams, PipelineError> {
+        let bad = |key: &str, msg: String| {
+            PipelineError::Paint(flakescatter_paint::PaintError::Parameter(format!(
+                "{file}: {key}: {msg}"
+            )))
+        };
+        if self.format != FORMAT || self.version != VERSION {
+            return Err(bad(
+                "format/version",
+                format!(
+                    "\"{}\" version {}: expected \"{FORMAT}\" version {VERSION}",
+                    self.format, self.version
+                ),
+            ));
+        }
+        let orientation = match &self.orientation {
+            OrientationSection::Gaussian { hwhm_deg } => {
+                Orientation::gaussian(GaussianWidth::Hwhm(hwhm_deg.to_radians()))
+            }
+            OrientationSection::TrowbridgeReitz { alpha } => Orientation::trowbridge_reitz(*alpha),
+            OrientationSection::PearsonVii { alpha, shape } => {
+                Orientation::pearson_vii(*alpha, *shape)
+            }
+            OrientationSection::Histogram {
+                edges_deg,
+                area_fractions,
+            } => Orientation::tabulated(
+                edges_deg.iter().map(|d| d.to_radians()).collect(),
+                area_fractions.clone(),
+            ),
+            OrientationSection::Table {
+                knots_deg,
+                ln_p_tilde,
+            } => Orientation::log_linear(
+                knots_deg.iter().map(|d| d.to_radians()).collect(),
+                ln_p_tilde.clone(),
+            ),
+        }
+        .map_err(|e| bad("orientation", e.to_string()))?;
+        let flake_metal = match &self.flakes.metal {
+            MetalSection::Named(n) if n == "aluminium" => FlakeMetal::Aluminium,
+            MetalSection::Named(n) if n == "perfect-conductor" => FlakeMetal::PerfectConductor,
+            MetalSection::Named(n) => {
+                return Err(bad(
+                    "flakes.metal",
+                    format!(
+                        "\"{n}\": expected \"aluminium\", \"perfect-conductor\" or {{\"n\": .., \"k\": ..}}"
+                    ),
+                ));
+            }
+            MetalSection::Index { n, k } => FlakeMetal::Index { n: *n, k: *k },
+        };
+        let channels = self
+            .channels
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let channel = Channel::parse(&c.name)
+                    .map_err(|e| bad(&format!("channels[{i}].name"), e.to_string()))?;
+                if channel.wavelength_nm != c.wavelength_nm {
+                    return Err(bad(
+                        &format!("channels[{i}].wavelength_nm"),
+                        format!(
+                            "{} nm, but channel `{}` is taken at {} nm",
+                            c.wavelength_nm, c.name, channel.wavelength_nm
+                        ),
+                    ));
+                }
+                Ok(ChannelParams {
+                    channel,
+                    flake_scale: c.flake_scale,
+                    base_albedo: c.base_albedo,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(PaintParams {
+            coat: CoatParams {
+                n: self.coat.n,
+                roughness: self.coat.roughness,
+                haze: self.coat.haze,
+                haze_roughness: self.coat.haze_roughness,
+            },
+            orientation,
+            coverage: self.flakes.coverage,
+            flake_metal,
+            channels,
+        })
+    }
+
+    /// The file as pretty JSON text (numbers in shortest round-trip form).
+    ///
+    /// # Errors
+    /// [`PipelineError::Paint`] when a number is not finite (JSON has no NaN).
+    pub fn to_json(&self) -> Result<String, PipelineError> {
+        serde_json::to_string_pretty(self).map_err(|e| {
+            PipelineError::Paint(flakescatter_paint::PaintError::Parameter(format!(
+                "the parameter file cannot be written: {e}"
+            )))
+        })
+    }
+}
+
+/// The orientation section of `o`.
+#[must_use]
+pub fn orientation_section(o: &Orientation) -> OrientationSection {
+    if let Some(w) = o.gaussian_width() {
+        return OrientationSection::Gaussian {
+            hwhm_deg: w.hwhm().to_degrees(),
+        };
+    }
+    if let Some((alpha, shape)) = o.pearson_vii_params() {
+        return if shape == 1.0 {
+            OrientationSection::TrowbridgeReitz { alpha }
+        } else {
+            OrientationSection::PearsonVii { alpha, shape }
+        };
+    }
+    if let Some((knots, ln)) = o.log_linear_knots() {
+        return OrientationSection::Table {
+            knots_deg: knots.iter().map(|k| k.to_degrees()).collect(),
+            ln_p_tilde: ln.to_vec(),
+        };
+    }
+    // A histogram: its bins and their area fractions.
+    let edges = o.bin_edges().unwrap_or(&[]).to_vec();
+    let area_fractions = edges
+        .windows(2)
+        .map(|w| o.mass_between(w[0], w[1]))
+        .collect();
+    OrientationSection::Histogram {
+        edges_deg: edges.iter().map(|e| e.to_degrees()).collect(),
+        area_fractions,
+    }
+}
+
+/// Reads a parameter file.
+///
+/// # Errors
+/// [`PipelineError::Paint`] naming the file: unreadable, not JSON of this format (with
+/// the line and column serde reports), or parameters out of range.
+pub fn read_params(path: &Path) -> Result<PaintParams, PipelineError> {
+    let name = path.display().to_string();
+    let text = flakescatter_io::files::read_text(path).map_err(|e| {
+        PipelineError::Paint(flakescatter_paint::PaintError::Parameter(e.to_string()))
+    })?;
+    let file: ParamsFile = serde_json::from_str(&text).map_err(|e| {
+        PipelineError::Paint(flakescatter_paint::PaintError::Parameter(format!(
+            "{name}: not a paint parameter file ({e}); expected the JSON that `fit --paint --params-out` writes"
+        )))
+    })?;
+    file.to_params(&name)
+}
