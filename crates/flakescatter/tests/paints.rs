@@ -1,0 +1,113 @@
+//! The real-paints check (`fixtures/real/paints`, measured MERL and RGL paints): one paint
+//! parameter set per paint, fitted to every incidence, row and channel, judged on the rows
+//! the tables can be trusted on (θr ≤ 80°, values ≥ 1e-3 sr⁻¹) against the targets of
+//! rms log10 residuals (near specular 0.06 and far 0.12 at θi 15–60°, 0.2 at 75°, out of
+//! plane 0.1 overall; `report::worst_ratio` ≤ 1 meets them all).
+
+use std::path::PathBuf;
+
+use flakescatter::compare::MeasuredKind;
+use flakescatter::paint::report::worst_ratio;
+use flakescatter::paint::{FitOptions, Measurement, fit, read_measurement};
+
+fn table(name: &str) -> Measurement {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fixtures/real/paints")
+        .join(name);
+    read_measurement(&p, MeasuredKind::Brdf).unwrap()
+}
+
+fn trusted() -> FitOptions {
+    let mut o = FitOptions::new();
+    o.selection.max_theta_r = 80f64.to_radians();
+    o.selection.min_value = 1e-3;
+    o
+}
+
+/// Blue and gold meet every target with one parameter set.
+#[test]
+fn blue_and_gold_meet_the_targets() {
+    for name in ["blue-metallic-paint2.csv", "gold-metallic-paint2.csv"] {
+        let m = table(name);
+        let f = fit(&m, &trusted()).unwrap();
+        let worst = worst_ratio(&f.groups);
+        assert!(worst <= 1.0, "{name}: worst group / target {worst}");
+        // One parameter set: every incidence is in the fit.
+        let incidences =
+            f.groups
+                .iter()
+                .filter_map(|g| g.theta_i)
+                .fold(Vec::<f64>::new(), |mut v, t| {
+                    if !v.contains(&t) {
+                        v.push(t);
+                    }
+                    v
+                });
+        assert_eq!(incidences.len(), 5, "{name}");
+    }
+}
+
+/// Silver (MERL) and ILM (RGL) do not meet the targets; these are the levels reached
+/// (worst group / target), held so that they do not get worse unnoticed, beside the
+/// best generic model's (1.61 and 1.99, shared README). docs/physics.md §12.6 says which
+/// physical term is missing.
+#[test]
+fn silver_and_ilm_levels() {
+    for (name, level) in [
+        ("silver-metallic-paint2.csv", 1.80),
+        ("ilm_l3_37_metallic_rgb.csv", 2.05),
+    ] {
+        let f = fit(&table(name), &trusted()).unwrap();
+        let worst = worst_ratio(&f.groups);
+        assert!(
+            worst <= level,
+            "{name}: worst group / target {worst} above {level}"
+        );
+    }
+}
+
+/// Reciprocity of the tables themselves: a physical BRDF has
+/// `f(θi, θr, φr) = f(θr, θi, φr)`; the rows where both geometries exist (θr one of the
+/// incidences, both values ≥ 1e-3) give the rms log10 of the ratio, computed from the
+/// files. The MERL paints are reciprocal to about 0.01–0.03; the RGL (ILM) table is not,
+/// by ~0.1 (up to 0.34 at θr = 75°), which no reciprocal model can follow.
+#[test]
+fn reciprocity_of_the_tables() {
+    let rms_of = |name: &str| {
+        let m = table(name);
+        let key = |ti: f64, tr: f64, pr: f64| {
+            (
+                (ti.to_degrees() * 1e6).round() as i64,
+                (tr.to_degrees() * 1e6).round() as i64,
+                (pr.to_degrees() * 1e6).round() as i64,
+            )
+        };
+        let map: std::collections::HashMap<_, _> = m
+            .rows
+            .iter()
+            .map(|o| (key(o.theta_i, o.theta_r, o.phi_r), o.values[1]))
+            .collect();
+        let mut s = Vec::new();
+        for o in &m.rows {
+            if o.theta_r > o.theta_i
+                && let Some(&w) = map.get(&key(o.theta_r, o.theta_i, o.phi_r))
+                && o.values[1] >= 1e-3
+                && w >= 1e-3
+            {
+                s.push((o.values[1] / w).log10());
+            }
+        }
+        assert!(s.len() > 40, "{name}: {} pairs", s.len());
+        (s.iter().map(|r| r * r).sum::<f64>() / s.len() as f64).sqrt()
+    };
+    for name in [
+        "silver-metallic-paint2.csv",
+        "blue-metallic-paint2.csv",
+        "gold-metallic-paint2.csv",
+    ] {
+        let r = rms_of(name);
+        assert!(r < 0.03, "{name}: {r}");
+    }
+    let ilm = rms_of("ilm_l3_37_metallic_rgb.csv");
+    assert!(ilm > 0.08, "ILM: {ilm}");
+}
