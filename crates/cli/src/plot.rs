@@ -353,9 +353,7 @@ fn tick(v: f64) -> String {
     }
 }
 
-/// One panel of [`residual_maps_png`]: the incidence (radians) and its detectors'
-/// `(θr, φr, residual)` in degrees and decades.
-pub type ResidualPanel = (f64, Vec<(f64, f64, f64)>);
+pub use flakescatter::paint::report::ResidualPanel;
 
 /// Residuals beyond this many decades get the end colours of [`residual_maps_png`].
 const RESIDUAL_SPAN: f64 = 0.3;

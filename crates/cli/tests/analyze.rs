@@ -318,3 +318,79 @@ fn several_manifests_write_each_sample_and_a_comparison_table() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A `[paint]` section: the sample's report gets the fitted paint (its parameter file,
+/// residuals, plots) with the same residuals as `fit --paint` on the same table, a rerun
+/// reuses the cached fit, and bad paint keys are refused before any work.
+#[test]
+fn a_paint_section_reports_the_fitted_paint() {
+    let d = dir("paint");
+    let table = fixtures()
+        .canonicalize()
+        .unwrap()
+        .join("real/paints/gold-metallic-paint2.csv");
+    let section = format!(
+        "\n[paint]\nfile = \"{}\"\nfamily = \"trowbridge-reitz\"\nmax_theta_r_deg = 80\n",
+        table.display()
+    );
+    let m = manifest_copy(&d, |t| t + &section);
+    let out = d.join("out");
+    let v = analyze(&m, &out);
+    assert_eq!(v["work"]["paint_fits"], 1);
+    assert_eq!(v["paint"]["fit"]["family"], "trowbridge-reitz");
+    for f in [
+        "paint/params.json",
+        "paint/points.csv",
+        "paint/in_plane_theta_i_45.png",
+        "paint/out_of_plane_residuals.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f}");
+        assert!(
+            v["files"].as_array().unwrap().iter().any(|x| x == f),
+            "{f} not listed"
+        );
+    }
+    let index = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(index.contains("## Paint fitted to the measured BRDF table"));
+    // The same residuals as the command-line fit of the same table and options.
+    let o = run(&[
+        "fit",
+        "--measured",
+        s(&table),
+        "--paint",
+        "--family",
+        "trowbridge-reitz",
+        "--max-theta-r",
+        "80",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cli: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(cli["fit"]["residuals"], v["paint"]["fit"]["residuals"]);
+    // A rerun reuses the fit.
+    let again = analyze(&m, &out);
+    assert_eq!(again["work"]["paint_fits"], 0);
+    assert_eq!(again["paint"]["reused"], true);
+    // Bad keys are refused before any work.
+    for (from, to, needle) in [
+        (
+            "family = \"trowbridge-reitz\"",
+            "family = \"cauchy\"",
+            "paint.family",
+        ),
+        (
+            "max_theta_r_deg = 80",
+            "max_theta_r_deg = 95",
+            "paint.max_theta_r_deg",
+        ),
+    ] {
+        let text = section.replace(from, to);
+        let m = manifest_copy(&d, |t| t + &text);
+        let out = d.join("bad-out");
+        let o = run(&["analyze", s(&m), "--out", s(&out)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(needle), "{err}");
+        assert!(!out.exists());
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -148,6 +148,20 @@ fn resolve(file: &Path) -> anyhow::Result<SampleInput> {
             );
         }
     }
+    let paint = match &manifest.paint {
+        Some(ps) => {
+            let p = if ps.file.is_relative() {
+                base.join(&ps.file)
+            } else {
+                ps.file.clone()
+            };
+            if !p.is_file() {
+                bail!("{shown}: key `paint.file`: {} does not exist", p.display());
+            }
+            Some(p)
+        }
+        None => None,
+    };
     let name = manifest.name.clone().unwrap_or_else(|| default_name(file));
     let map_names = short_names(&maps);
     Ok(SampleInput {
@@ -157,6 +171,7 @@ fn resolve(file: &Path) -> anyhow::Result<SampleInput> {
         maps,
         map_names,
         measured,
+        paint,
     })
 }
 
@@ -196,6 +211,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         for f in &s.measured {
             plan.input("measured.files", f);
+        }
+        if let Some(f) = &s.paint {
+            plan.input("paint.file", f);
         }
     }
     plan.output_dir("--out", &args.out);
@@ -248,6 +266,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 Content::Text(t) => t.clone().into_bytes(),
                 Content::Chart(c) => crate::plot::png(c, &target)?,
                 Content::Overlay(o, title) => crate::picture::overlay_png(o, title, &target)?,
+                Content::ResidualMaps(maps, table) => {
+                    crate::plot::residual_maps_png(maps, table, &target)?
+                }
             };
             if f.path.ends_with(".png") {
                 images.push((f.path.clone(), bytes.clone()));

@@ -53,6 +53,39 @@ pub struct Manifest {
     /// Which models to run, and the goniometer's geometry.
     #[serde(default)]
     pub models: ModelsSection,
+    /// A measured BRDF table of the sample to fit a paint to (physics.md §12).
+    #[serde(default)]
+    pub paint: Option<PaintSection>,
+}
+
+/// `[paint]`: the paint fitted to a measured BRDF table of the sample (`fit --paint`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PaintSection {
+    /// The BRDF table (`theta_i_deg, theta_r_deg, phi_r_deg, brdf_<channel>_per_sr`),
+    /// relative to the manifest's directory.
+    pub file: PathBuf,
+    /// Orientation family: `auto` (default), `gaussian`, `trowbridge-reitz`,
+    /// `pearson-vii` or `table`.
+    #[serde(default = "default_family")]
+    pub family: String,
+    /// The flakes' coverage, if known, in `[0, 1]` (default: the middle of the interval
+    /// the table allows).
+    #[serde(default)]
+    pub coverage: Option<f64>,
+    /// Aspecular range of the points used, degrees (default `[2, 180]`).
+    #[serde(default)]
+    pub region_deg: Option<[f64; 2]>,
+    /// Detectors beyond this polar angle are left out, degrees (default 90: none).
+    #[serde(default)]
+    pub max_theta_r_deg: Option<f64>,
+    /// Values below this BRDF are left out, 1/sr (default 0: none).
+    #[serde(default)]
+    pub min_value: Option<f64>,
+}
+
+fn default_family() -> String {
+    "auto".into()
 }
 
 /// `[maps]`.
@@ -590,6 +623,57 @@ impl Manifest {
                         "`{}`: expected brdf, reflectance-factor or relative",
                         ms.kind
                     ),
+                );
+            }
+        }
+        if let Some(ps) = &self.paint {
+            if ![
+                "auto",
+                "gaussian",
+                "trowbridge-reitz",
+                "pearson-vii",
+                "table",
+            ]
+            .contains(&ps.family.as_str())
+            {
+                return bad(
+                    "paint.family",
+                    format!(
+                        "`{}`: expected auto, gaussian, trowbridge-reitz, pearson-vii or table",
+                        ps.family
+                    ),
+                );
+            }
+            if let Some(c) = ps.coverage
+                && !(0.0..=1.0).contains(&c)
+            {
+                return bad(
+                    "paint.coverage",
+                    format!("{c}: expected a fraction in [0, 1]"),
+                );
+            }
+            if let Some([lo, hi]) = ps.region_deg
+                && !(lo >= 0.0 && hi > lo && hi <= 180.0)
+            {
+                return bad(
+                    "paint.region_deg",
+                    format!("[{lo}, {hi}]: expected 0 <= LO < HI <= 180 degrees"),
+                );
+            }
+            if let Some(t) = ps.max_theta_r_deg
+                && !(t > 0.0 && t <= 90.0)
+            {
+                return bad(
+                    "paint.max_theta_r_deg",
+                    format!("{t}: expected (0, 90] degrees"),
+                );
+            }
+            if let Some(v) = ps.min_value
+                && !(v.is_finite() && v >= 0.0)
+            {
+                return bad(
+                    "paint.min_value",
+                    format!("{v}: expected a BRDF >= 0 (1/sr)"),
                 );
             }
         }

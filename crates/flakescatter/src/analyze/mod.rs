@@ -21,6 +21,7 @@
 
 pub mod document;
 pub mod manifest;
+mod paint;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -85,6 +86,8 @@ pub struct SampleInput {
     pub map_names: Vec<String>,
     /// The measured curve files, resolved.
     pub measured: Vec<PathBuf>,
+    /// The `[paint]` BRDF table, resolved.
+    pub paint: Option<PathBuf>,
 }
 
 /// What one output file holds.
@@ -96,6 +99,9 @@ pub enum Content {
     Chart(Chart),
     /// A segmentation overlay with its title, drawn as PNG.
     Overlay(Box<Overlay>, String),
+    /// Maps of out-of-plane residuals, one panel per incidence `(θi radians, cells
+    /// (θr°, φr°, log10 residual))`, and the table's name, drawn as PNG.
+    ResidualMaps(Vec<crate::paint::report::ResidualPanel>, String),
 }
 
 /// One output file, its path relative to the sample's report directory.
@@ -126,6 +132,9 @@ pub struct Work {
     pub multi_angle_runs: usize,
     /// Whether the model results came from the cache.
     pub models_reused: bool,
+    /// Paint fits to the `[paint]` table (0 when the cached paint was reused).
+    #[serde(default)]
+    pub paint_fits: usize,
 }
 
 impl Work {
@@ -137,6 +146,7 @@ impl Work {
             + self.topographic_runs
             + self.fits
             + self.multi_angle_runs
+            + self.paint_fits
     }
 }
 
@@ -365,6 +375,7 @@ struct ModelCache {
 pub struct Cache {
     maps: BTreeMap<String, MapCache>,
     models: Option<ModelCache>,
+    paint: Option<Value>,
 }
 
 /// Reads the cache of the report directory `dir` (the sample's own directory): files
@@ -382,6 +393,9 @@ pub fn read_cache(dir: &Path, map_names: &[String]) -> Cache {
         }
     }
     c.models = read_text(dir.join("cache").join("models.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok());
+    c.paint = read_text(dir.join("cache").join("paint.json"))
         .ok()
         .and_then(|t| serde_json::from_str(&t).ok());
     c
@@ -899,6 +913,16 @@ pub fn analyze_sample(
         }
     }
 
+    let paint = match (&m.paint, &input.paint) {
+        (Some(section), Some(file)) => {
+            let p = paint::paint_part(section, file, coating.n, cache.paint.as_ref(), progress)?;
+            if p.fitted {
+                work.paint_fits += 1;
+            }
+            Some(p)
+        }
+        _ => None,
+    };
     let report = build_report(
         input,
         &instrument,
@@ -913,6 +937,7 @@ pub fn analyze_sample(
         map_info,
         &measured_hashes,
         &map_caches,
+        paint,
     );
     Ok(report)
 }
@@ -963,11 +988,21 @@ fn build_report(
     map_info: Vec<Value>,
     measured_hashes: &[String],
     map_caches: &[MapCache],
+    paint: Option<paint::PaintOutcome>,
 ) -> SampleReport {
     let m = &input.manifest;
     let p = &stats.pooled;
     let names = &input.map_names;
     let mut files: Vec<OutFile> = Vec::new();
+    let mut warnings = warnings;
+    let (paint_blocks, paint_summary) = match paint {
+        Some(o) => {
+            files.extend(o.files);
+            warnings.extend(o.warnings);
+            (o.blocks, o.summary)
+        }
+        None => (Vec::new(), Value::Null),
+    };
     let text = |path: &str, t: String| OutFile {
         path: path.to_owned(),
         content: Content::Text(t),
@@ -1374,6 +1409,7 @@ fn build_report(
         "comparison": comparison_json,
         "fit": fit_json,
         "multi_angle": multi_json,
+        "paint": paint_summary,
         "work": {
             "maps": work.maps,
             "maps_segmented": work.maps_segmented,
@@ -1383,6 +1419,7 @@ fn build_report(
             "fits": work.fits,
             "multi_angle_runs": work.multi_angle_runs,
             "models_reused": work.models_reused,
+            "paint_fits": work.paint_fits,
             "model_work": work.model_work(),
         },
         "warnings": warnings,
@@ -1660,6 +1697,9 @@ fn build_report(
             format!("map {n}"),
         ));
     }
+    for b in paint_blocks {
+        d.push(b);
+    }
     if !warnings.is_empty() {
         d.push(Block::Heading(2, "Warnings".into()));
         d.push(Block::List(warnings.clone()));
@@ -1673,7 +1713,8 @@ fn build_report(
         "`curves.csv`: every model curve (brdf_per_sr with std_err_per_sr, reflectance, relative, rays)".into(),
         "`comparison.csv`: per model, incidence and region the fitted scale and log10 residuals".into(),
         "`histogram.png`, `curves-theta*.png`, `overlays/*.png`: the plots and overlays shown here".into(),
-        "`cache/`: what a rerun reuses (segmentations and model results with the keys of their inputs)".into(),
+        "`paint/` (with `[paint]`): the fitted paint's parameter file `params.json` (read by `model --params`), the per-point table `points.csv` and its plots".into(),
+        "`cache/`: what a rerun reuses (segmentations, model results and the paint fit, with the keys of their inputs)".into(),
     ]));
     d.push(Block::Para(format!(
         "Work done in this run: {} map(s) segmented, {} reused; {} distribution, {} topographic, {} fit, {} multi-angle run(s){}.",

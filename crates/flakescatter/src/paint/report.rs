@@ -249,6 +249,10 @@ pub fn in_plane_chart(m: &Measurement, points: &[Point], model: &[f64], theta_i:
     }
 }
 
+/// One panel of a residual map: the incidence (radians) and its detectors'
+/// `(θr, φr, log10(model/measured))` in degrees and decades ([`residual_map`]).
+pub type ResidualPanel = (f64, Vec<(f64, f64, f64)>);
+
 /// Out-of-plane residuals of one incidence, for a map: `(θr, φr, log10(model/measured))`
 /// in degrees, averaged over the channels.
 #[must_use]
