@@ -15,6 +15,7 @@ mod errors;
 mod extras;
 mod map;
 mod models;
+mod paint;
 
 use pyo3::prelude::*;
 
@@ -45,6 +46,8 @@ fn _flakescatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(models::distribution_mueller, m)?)?;
     m.add_function(wrap_pyfunction!(models::topographic_mueller, m)?)?;
     m.add_function(wrap_pyfunction!(models::volume_model, m)?)?;
+    m.add_function(wrap_pyfunction!(paint::fit_paint, m)?)?;
+    m.add_function(wrap_pyfunction!(paint::paint_brdf, m)?)?;
     m.add_function(wrap_pyfunction!(extras::spectrum_to_lab, m)?)?;
     m.add_function(wrap_pyfunction!(extras::delta_e, m)?)?;
     m.add_function(wrap_pyfunction!(extras::localise_stack, m)?)?;

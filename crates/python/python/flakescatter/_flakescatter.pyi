@@ -364,6 +364,42 @@ def fit(
     used, degrees.
     """
 
+def fit_paint(
+    measured: PathLike,
+    *,
+    family: Literal["auto", "gaussian", "trowbridge-reitz", "pearson-vii", "table"] = "auto",
+    coverage: Optional[float] = None,
+    n: float = 1.5,
+    fit_n: bool = False,
+    region: Tuple[float, float] = (2.0, 180.0),
+    max_theta_r: Optional[float] = None,
+    min_value: Optional[float] = None,
+    haze: bool = True,
+    smoothing: float = 0.01,
+    flake_index: Optional[Tuple[float, float]] = None,
+) -> dict[str, Any]:
+    """Fit a paint (clear coat, flakes, base) to a measured BRDF table (as
+    ``flakescatter fit --paint``): one parameter set for every incidence, row and
+    channel. Returns ``fit`` (the report: family and the other families' AIC/BIC,
+    parameters with 95 % intervals, correlations, residual groups by incidence and
+    region, warnings), ``params`` (the parameter file, for :func:`paint_brdf`),
+    ``worst_ratio`` (worst group rms log10 / its target) and ``points`` (columns
+    ``theta_i_deg``, ``theta_r_deg``, ``phi_r_deg``, ``channel``, ``measured``,
+    ``model``). Angles in degrees, BRDFs in 1/sr."""
+
+def paint_brdf(
+    params: Union[PathLike, Mapping[str, Any]],
+    theta_i: Floats,
+    theta_r: Floats,
+    phi_r: Floats,
+    *,
+    aperture: float = 0.0,
+) -> dict[str, npt.NDArray[np.float64]]:
+    """A fitted paint's BRDF per channel (as ``flakescatter model --params``) at every
+    incidence × detector ``(theta_r, phi_r)`` (degrees; ``phi_r = 0`` the specular
+    half-plane), averaged over cones of half-angle ``aperture`` degrees. Returns
+    ``theta_i_deg``, ``theta_r_deg``, ``phi_r_deg`` and ``brdf_<channel>_per_sr``."""
+
 def spectrum_to_lab(
     wavelengths_nm: Floats,
     reflectance: npt.ArrayLike,

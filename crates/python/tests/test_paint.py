@@ -1,0 +1,68 @@
+"""Real paints from Python: fit_paint and paint_brdf against the CLI's fit --paint and
+model --params on the same inputs (the CLI writes shortest round-trip numbers, so the
+comparisons are exact where both compute the same thing)."""
+
+import json
+
+import numpy as np
+import pytest
+
+import flakescatter as fs
+
+from conftest import FIXTURES
+
+GOLD = FIXTURES / "real" / "paints" / "gold-metallic-paint2.csv"
+
+
+def test_fit_paint_matches_the_cli(cli, tmp_path):
+    got = fs.fit_paint(GOLD, family="trowbridge-reitz", max_theta_r=80, min_value=1e-3)
+    params = tmp_path / "p.json"
+    want = cli.json(
+        "fit", "--measured", GOLD, "--paint", "--family", "trowbridge-reitz",
+        "--max-theta-r", 80, "--min-value", 1e-3, "--params-out", params,
+    )["fit"]
+    assert got["fit"]["family"] == want["family"] == "trowbridge-reitz"
+    assert got["fit"]["chi2"] == want["chi2"]
+    assert got["fit"]["residuals"] == want["residuals"]
+    written = json.loads(params.read_text())
+    for key in ("coat", "orientation", "flakes", "channels"):
+        assert got["params"][key] == written[key]
+    # One row per point used, every channel; the model column is positive.
+    pts = got["points"]
+    assert len(pts["model"]) == got["fit"]["points"]
+    assert set(pts["channel"]) == {"r", "g", "b"}
+    assert np.all(pts["model"] > 0)
+    assert got["worst_ratio"] < 1.0
+
+
+def test_paint_brdf_matches_model_params(cli, tmp_path):
+    params = tmp_path / "p.json"
+    cli.run(
+        "fit", "--measured", GOLD, "--paint", "--family", "gaussian",
+        "--theta-i", "45", "--params-out", params,
+    )
+    det = tmp_path / "det.csv"
+    tr = [5.0, 30.0, 44.0, 60.0, 30.0]
+    pr = [0.0, 0.0, 0.0, 180.0, 45.0]
+    det.write_text("theta_r_deg,phi_r_deg\n" + "".join(f"{a},{b}\n" for a, b in zip(tr, pr)))
+    text = cli.run(
+        "model", "--params", params, "--theta-i", "30,45", "--detectors", det, "--aperture", 0
+    )
+    header, *rows = [line.split(",") for line in text.strip().splitlines()]
+    for source in (params, json.loads(params.read_text())):
+        got = fs.paint_brdf(source, [30, 45], tr, pr)
+        for ch in ("r", "g", "b"):
+            col = header.index(f"brdf_{ch}_per_sr")
+            want = np.array([float(r[col]) for r in rows])
+            assert np.array_equal(got[f"brdf_{ch}_per_sr"], want)
+
+
+def test_bad_tables_name_file_line_and_column(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("theta_i_deg,theta_r_deg,phi_r_deg,brdf_g_per_sr\n30,10,0,-1\n")
+    with pytest.raises(fs.InputError, match=r"bad\.csv, line 2, column brdf_g_per_sr"):
+        fs.fit_paint(bad)
+    with pytest.raises(fs.InputError, match="family"):
+        fs.fit_paint(GOLD, family="cauchy")
+    with pytest.raises(fs.InputError, match="not a paint parameter"):
+        fs.paint_brdf({"format": "x"}, [30], [10], [0])
