@@ -190,6 +190,10 @@ pub const TARGETS: &[BenchTarget] = &[
         package: "flakescatter-colour",
         bench: "colour",
     },
+    BenchTarget {
+        package: "flakescatter",
+        bench: "paint",
+    },
 ];
 
 /// Usable pixels of an `n × n` map with the default 5 × 5 normal window: `(n − 4)²`.
@@ -514,6 +518,28 @@ pub const ROWS: &[RowSpec] = &[
         floor: None,
         work: 1.0,
         unit: Unit::Evaluations,
+        target: None,
+        target_note: "",
+        quick: true,
+    },
+    RowSpec {
+        operation: "Joint paint fit (4 families, BIC), measured blue paint",
+        size: "1495 rows × 3",
+        id: "paint/joint_fit_blue_auto",
+        floor: None,
+        work: 4485.0,
+        unit: Unit::Detectors,
+        target: Some(Target::MaxSeconds(5.0)),
+        target_note: "< 5 s, 2 cores (issue 46)",
+        quick: true,
+    },
+    RowSpec {
+        operation: "Joint paint fit (table family), measured blue paint",
+        size: "1495 rows × 3",
+        id: "paint/joint_fit_blue_table",
+        floor: None,
+        work: 4485.0,
+        unit: Unit::Detectors,
         target: None,
         target_note: "",
         quick: true,
