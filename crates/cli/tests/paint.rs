@@ -271,3 +271,86 @@ fn params_must_match_the_table() {
     assert_eq!(code, 2);
     assert!(err.contains("cannot be used with"), "{err}");
 }
+
+/// `model --paint` from flags is the paint its JSON echoes: the same paint given back as
+/// a parameter file gives the same numbers; and heavy-tailed orientations are flags.
+#[test]
+fn a_paint_from_flags_is_its_parameter_file() {
+    let dir = tmp("flags");
+    let flags = [
+        "model",
+        "--paint",
+        "--orientation",
+        "pearson-vii",
+        "--alpha",
+        "0.1",
+        "--shape",
+        "2.5",
+        "--channels",
+        "r,550nm",
+        "--flake-scale",
+        "0.9,0.7",
+        "--base-albedo",
+        "0.2",
+        "--paint-coverage",
+        "0.6",
+        "--coat-roughness",
+        "0.02",
+        "--haze",
+        "0.1",
+        "--haze-roughness",
+        "0.4",
+        "--theta-i",
+        "20,50",
+        "--theta-s",
+        "-60:60:10",
+        "--aperture",
+        "0.5",
+    ];
+    let (code, csv_flags, err) = run(&flags);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = run(&[&flags[..], &["--json"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let params = dir.join("p.json");
+    std::fs::write(
+        &params,
+        serde_json::to_string(&v["paint"]["paint"]).unwrap(),
+    )
+    .unwrap();
+    let (code, csv_file, err) = run(&[
+        "model",
+        "--params",
+        s(&params),
+        "--theta-i",
+        "20,50",
+        "--theta-s",
+        "-60:60:10",
+        "--aperture",
+        "0.5",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(csv_flags, csv_file);
+    assert!(csv_flags.starts_with(
+        "theta_i_deg,theta_s_deg,theta_r_deg,phi_r_deg,aperture_deg,brdf_r_per_sr,brdf_550nm_per_sr\n"
+    ));
+    for (args, needle) in [
+        (
+            vec!["model", "--paint", "--shape", "2"],
+            "--shape needs --orientation pearson-vii",
+        ),
+        (
+            vec!["model", "--paint", "--orientation", "trowbridge-reitz"],
+            "needs --alpha",
+        ),
+        (
+            vec!["model", "--paint", "--flake-scale", "1.5"],
+            "flake scale of channel `g` = 1.5",
+        ),
+        (vec!["model", "--channels", "g"], "--paint"),
+    ] {
+        let (code, _, err) = run(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: `{err}` lacks `{needle}`");
+    }
+}

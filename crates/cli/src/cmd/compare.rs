@@ -61,30 +61,18 @@ pub struct Args {
         "model",
     ])]
     pub params: Option<PathBuf>,
-    /// --params: aspecular range of the points compared, degrees `LO:HI` (default 2:180).
-    #[arg(
-        long,
-        value_name = "LO:HI",
-        requires = "params",
-        allow_hyphen_values = true
-    )]
+    /// --params/--paint: aspecular range of the points compared, degrees `LO:HI`
+    /// (default 2:180).
+    #[arg(long, value_name = "LO:HI", allow_hyphen_values = true)]
     pub region: Option<String>,
-    /// --params: leave out detectors beyond this polar angle, degrees.
-    #[arg(
-        long,
-        value_name = "DEG",
-        requires = "params",
-        allow_negative_numbers = true
-    )]
+    /// --params/--paint: leave out detectors beyond this polar angle, degrees.
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub max_theta_r: Option<f64>,
-    /// --params: leave out values below this BRDF, 1/sr.
-    #[arg(
-        long,
-        value_name = "X",
-        requires = "params",
-        allow_negative_numbers = true
-    )]
+    /// --params/--paint: leave out values below this BRDF, 1/sr.
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
     pub min_value: Option<f64>,
+    #[command(flatten)]
+    pub paint: crate::flags::PaintFlags,
 }
 
 /// Model values from a result CSV, by `(θi, θs)` in radians.
@@ -136,11 +124,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else if out != Some(Dest::Stdout) {
         plan.stdout("the table");
     }
-    if let Some(path) = &args.params {
-        if args.spectral.any() || args.colour.any() {
-            bail!("--params: the spectral and colour flags do not apply to a paint");
+    if args.params.is_some() || args.paint.paint {
+        if args.params.is_some() && args.paint.paint {
+            bail!("--params and --paint: give the paint either as a parameter file or by flags");
         }
-        return crate::cmd::paint::compare(&args, plan, out, path);
+        if args.spectral.any() || args.colour.any() {
+            bail!("--params/--paint: the spectral and colour flags do not apply to a paint");
+        }
+        return crate::cmd::paint::compare(&args, plan, out);
+    }
+    if let Some(flag) = [
+        (args.region.is_some(), "--region"),
+        (args.max_theta_r.is_some(), "--max-theta-r"),
+        (args.min_value.is_some(), "--min-value"),
+    ]
+    .into_iter()
+    .find_map(|(set, f)| set.then_some(f))
+    {
+        bail!("{flag} applies to a paint (--params or --paint)");
     }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     args.spectral.inputs(&mut plan);

@@ -14,7 +14,7 @@ use flakescatter::{
 use serde_json::{Value, json};
 
 use crate::flags::{
-    ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, OrientationArgs,
+    ColourArgs, DEFAULT_WAVELENGTHS, GeometryArgs, InstrumentArgs, OrientationArgs, PaintFlags,
     PolarizationArgs, SpectralArgs,
 };
 use crate::output::{Dest, Kind, Plan, print_json, print_json_with, warn};
@@ -85,6 +85,8 @@ pub struct Args {
         "incident", "analyzer", "cone",
     ])]
     pub params: Option<PathBuf>,
+    #[command(flatten)]
+    pub paint: PaintFlags,
 }
 
 /// Runs the subcommand.
@@ -97,8 +99,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         plan.stdout("--json");
     }
-    if let Some(path) = &args.params {
-        return crate::cmd::paint::model(&args, plan, table, path);
+    if args.params.is_some() || args.paint.paint {
+        if args.params.is_some() && args.paint.paint {
+            bail!("--params and --paint: give the paint either as a parameter file or by flags");
+        }
+        return crate::cmd::paint::model(&args, plan, table);
     }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     args.source.validate()?;

@@ -59,12 +59,11 @@ fn curves_csv(c: &PaintCurves, aperture_deg: f64, in_plane: bool) -> String {
     s
 }
 
-/// `model --params P.json`.
+/// `model --params P.json` or `model --paint` (a paint from flags).
 pub fn model(
     args: &crate::cmd::model::Args,
     mut plan: Plan,
     table: Option<Dest>,
-    path: &Path,
 ) -> anyhow::Result<()> {
     if args.spectral.any() || args.colour.any() || args.geometry.any() {
         bail!(
@@ -74,11 +73,48 @@ pub fn model(
     if args.plot.is_some() {
         bail!("--plot does not apply to --params; plot a fit with `fit --paint --plot DIR`");
     }
-    plan.input("--params", path);
+    if let Some(path) = &args.params {
+        plan.input("--params", path);
+    }
+    args.source.inputs(&mut plan);
     let instrument = args.instrument.instrument()?;
     let aperture_deg = args.instrument.optics.aperture_deg();
+    if args.paint.paint {
+        args.source.validate()?;
+        if args
+            .polarization
+            .polarimetry(args.instrument.optics.transmission)?
+            .is_some()
+            || args.instrument.optics.transmission != Default::default()
+            || args.instrument.optics.weighting != Default::default()
+            || args.instrument.clearcoat
+            || args.cone != crate::cmd::model::ConeKind::Exact
+        {
+            bail!(
+                "--paint: the polarisation, --transmission, --weighting, --clearcoat and --cone flags do not apply (a paint uses exact unpolarised Fresnel factors, includes its coat and integrates cones exactly)"
+            );
+        }
+    }
     plan.check()?;
-    let paint = model_of(path)?;
+    let (paint, source) = match &args.params {
+        Some(path) => (
+            model_of(path)?,
+            json!({"params": path.display().to_string()}),
+        ),
+        None => {
+            let (orientation, echo) = args.source.orientation()?;
+            let coating = args.instrument.optics.coating()?;
+            let metal = match (&args.instrument.optics.flake_index, coating.flake) {
+                (Some(_), flakescatter::optics::flake::FlakeReflectance::Complex { n, k }) => {
+                    flakescatter::paint_model::FlakeMetal::Index { n, k }
+                }
+                _ => flakescatter::paint_model::FlakeMetal::Aluminium,
+            };
+            let m = args.paint.model(orientation, coating.n, metal)?;
+            let file = flakescatter::paint::file::ParamsFile::new(m.params(), None);
+            (m, json!({"paint": file, "orientation": echo}))
+        }
+    };
     let curves = paint_curves(&paint, &instrument)?;
     let in_plane = matches!(
         instrument.detectors(),
@@ -94,6 +130,13 @@ pub fn model(
     }
     plan.finish()?;
     if args.json {
+        // The coating, flake and model settings are the paint's (in "paint").
+        let mut geometry = args.instrument.echo();
+        if let Some(o) = geometry.as_object_mut() {
+            for k in ["n", "flake_index", "transmission", "weighting", "clearcoat"] {
+                o.remove(k);
+            }
+        }
         let rows: Vec<Value> = if table.is_some() {
             Vec::new()
         } else {
@@ -113,12 +156,12 @@ pub fn model(
                 .collect()
         };
         print_json(&json!({
-            "command": "model --params",
-            "params": path.display().to_string(),
+            "command": "model --paint",
+            "paint": source,
             "channels": curves.channels,
             "units": {"angles": "degrees", "brdf_per_sr": "1/sr, averaged over the detector cone (point BRDF at aperture 0)", "reflectance": "fraction of the beam the cone collects"},
             "aperture_deg": aperture_deg,
-            "instrument": args.instrument.echo(),
+            "instrument": geometry,
             "rows": rows,
         }))?;
     }
@@ -158,28 +201,51 @@ pub fn selection(
     Ok(sel)
 }
 
-/// `compare --measured TABLE --params P.json`.
+/// `compare --measured TABLE --params P.json` (or `--paint` from flags).
 pub fn compare(
     args: &crate::cmd::compare::Args,
     mut plan: Plan,
     out: Option<Dest>,
-    path: &Path,
 ) -> anyhow::Result<()> {
     if args.plot.is_some() {
-        bail!("--plot does not apply to --params; plot a fit with `fit --paint --plot DIR`");
+        bail!(
+            "--plot does not apply to a paint comparison; plot a fit with `fit --paint --plot DIR`"
+        );
     }
     if args.measured.optics.aperture.is_some_and(|a| a != 0.0) {
         bail!(
-            "--aperture does not apply to --params: the comparison is of point BRDFs with the table's point detectors"
+            "--aperture does not apply to a paint comparison: it compares point BRDFs with the table's point detectors"
         );
     }
-    plan.input("--params", path);
+    if let Some(path) = &args.params {
+        plan.input("--params", path);
+    }
+    args.orientation.inputs(&mut plan);
     let sel = selection(args.region.as_deref(), args.max_theta_r, args.min_value)?;
+    if args.paint.paint {
+        args.orientation.validate()?;
+    }
     plan.check()?;
-    let paint = model_of(path)?;
+    let (paint, name) = match &args.params {
+        Some(path) => (model_of(path)?, format!("--params {}", path.display())),
+        None => {
+            let (orientation, _) = args.orientation.orientation()?;
+            let coating = args.measured.optics.coating()?;
+            let metal = match (&args.measured.optics.flake_index, coating.flake) {
+                (Some(_), flakescatter::optics::flake::FlakeReflectance::Complex { n, k }) => {
+                    flakescatter::paint_model::FlakeMetal::Index { n, k }
+                }
+                _ => flakescatter::paint_model::FlakeMetal::Aluminium,
+            };
+            (
+                args.paint.model(orientation, coating.n, metal)?,
+                "--paint".to_string(),
+            )
+        }
+    };
     let m = args.measured.read_paint()?;
     let c = flakescatter::paint::compare(&paint, &m, &sel)
-        .with_context(|| format!("comparing {} with --params {}", m.file, path.display()))?;
+        .with_context(|| format!("comparing {} with {name}", m.file))?;
     if let Some(dest) = &out {
         let text = points_csv(&m, &c.points, &c.model);
         plan.write(
@@ -192,15 +258,14 @@ pub fn compare(
     if args.json {
         let mut v = comparison_json(&c, &m, &sel);
         v["command"] = json!("compare --params");
-        v["params"] = json!(path.display().to_string());
+        v["paint"] = json!(name);
         v["worst_ratio_to_target"] = json!(worst_ratio(&c.groups));
         print_json(&v)
     } else if out != Some(Dest::Stdout) {
         let mut lines = vec![format!(
-            "{} points of {} against the paint of {}; rms log10(model/measured) by region:",
+            "{} points of {} against the paint of {name}; rms log10(model/measured) by region:",
             c.points.len(),
             m.file,
-            path.display()
         )];
         lines.extend(groups_text(&c.groups).into_iter().map(|l| format!("  {l}")));
         lines.push(format!(

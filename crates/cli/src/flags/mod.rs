@@ -8,6 +8,7 @@
 mod colour;
 mod instrument;
 mod measured;
+mod paint;
 mod polarization;
 mod source;
 mod spectral;
@@ -15,6 +16,7 @@ mod spectral;
 pub use colour::{ColourArgs, GeometryArgs};
 pub use instrument::{InstrumentArgs, MAX_ROWS, OpticsArgs};
 pub use measured::MeasuredArgs;
+pub use paint::PaintFlags;
 pub use polarization::PolarizationArgs;
 pub use source::{MapArgs, OrientationArgs, SegmentArgs, selector, width};
 pub use spectral::{DEFAULT_WAVELENGTHS, SpectralArgs};

@@ -19,6 +19,11 @@ pub enum OrientationKind {
     Gaussian,
     /// A measured histogram (`--distribution FILE`, the CSV written by `stats`).
     Table,
+    /// Trowbridge–Reitz (GGX) slopes of scale --alpha (heavy-tailed; physics.md §3).
+    TrowbridgeReitz,
+    /// Pearson VII (Student-t) slopes of scale --alpha and shape --shape (> 0.5; 1 is
+    /// Trowbridge–Reitz, large is Beckmann).
+    PearsonVii,
 }
 
 /// Where the orientation distribution comes from (`model`, `compare`).
@@ -42,6 +47,13 @@ pub struct OrientationArgs {
     /// `flakescatter stats` or `fit --nonparametric`) for `--orientation table`.
     #[arg(long, value_name = "FILE")]
     pub distribution: Option<PathBuf>,
+    /// Slope scale (tan of an angle, > 0) of `--orientation trowbridge-reitz` or
+    /// `pearson-vii`.
+    #[arg(long, value_name = "A", allow_negative_numbers = true)]
+    pub alpha: Option<f64>,
+    /// Shape of `--orientation pearson-vii`, in [0.55, 1e4].
+    #[arg(long, value_name = "G", allow_negative_numbers = true)]
+    pub shape: Option<f64>,
 }
 
 /// Validate a width flag (degrees) and convert it: finite, at least the library's
@@ -64,7 +76,31 @@ impl OrientationArgs {
 
     /// Checks the flags without reading the histogram.
     pub fn validate(&self) -> anyhow::Result<()> {
+        let heavy = matches!(
+            self.orientation,
+            OrientationKind::TrowbridgeReitz | OrientationKind::PearsonVii
+        );
+        if !heavy && self.alpha.is_some() {
+            bail!("--alpha needs --orientation trowbridge-reitz or pearson-vii");
+        }
+        if self.orientation != OrientationKind::PearsonVii && self.shape.is_some() {
+            bail!("--shape needs --orientation pearson-vii");
+        }
         match self.orientation {
+            OrientationKind::TrowbridgeReitz | OrientationKind::PearsonVii => {
+                if self.hwhm.is_some() || self.sigma.is_some() || self.rms_tilt.is_some() {
+                    bail!("--hwhm/--sigma/--rms-tilt need --orientation gaussian");
+                }
+                if self.distribution.is_some() {
+                    bail!("--distribution needs --orientation table");
+                }
+                if self.alpha.is_none() {
+                    bail!("--orientation trowbridge-reitz/pearson-vii needs --alpha");
+                }
+                if self.orientation == OrientationKind::PearsonVii && self.shape.is_none() {
+                    bail!("--orientation pearson-vii needs --shape");
+                }
+            }
             OrientationKind::Gaussian => {
                 if self.distribution.is_some() {
                     bail!("--distribution needs --orientation table");
@@ -94,6 +130,17 @@ impl OrientationArgs {
     /// The orientation distribution the flags ask for, with its JSON echo.
     pub fn orientation(&self) -> anyhow::Result<(Orientation, Value)> {
         self.validate()?;
+        if let Some(alpha) = self.alpha {
+            let shape = self.shape.unwrap_or(1.0);
+            let o = Orientation::pearson_vii(alpha, shape)
+                .with_context(|| format!("--alpha {alpha} --shape {shape}"))?;
+            let echo = if self.orientation == OrientationKind::TrowbridgeReitz {
+                json!({"kind": "trowbridge-reitz", "alpha": alpha})
+            } else {
+                json!({"kind": "pearson-vii", "alpha": alpha, "shape": shape})
+            };
+            return Ok((o, echo));
+        }
         if let Some(path) = &self.distribution {
             let t = read_histogram(path)
                 .with_context(|| format!("reading --distribution {}", path.display()))?;
