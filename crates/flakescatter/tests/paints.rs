@@ -48,13 +48,13 @@ fn blue_and_gold_meet_the_targets() {
 }
 
 /// Silver (MERL) and ILM (RGL) do not meet the targets; these are the levels reached
-/// (worst group / target), held so that they do not get worse unnoticed, beside the
-/// best generic model's (1.61 and 1.99, shared README). docs/physics.md §12.6 says which
-/// physical term is missing.
+/// (worst group / target: 1.52 and 1.99 when this was written), held so that they do not
+/// get worse unnoticed, beside the best generic model's (1.61 and 1.99, shared README).
+/// docs/physics.md §12.6 says which physical term is missing.
 #[test]
 fn silver_and_ilm_levels() {
     for (name, level) in [
-        ("silver-metallic-paint2.csv", 1.80),
+        ("silver-metallic-paint2.csv", 1.60),
         ("ilm_l3_37_metallic_rgb.csv", 2.05),
     ] {
         let f = fit(&table(name), &trusted()).unwrap();

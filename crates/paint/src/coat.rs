@@ -18,9 +18,10 @@
 //! cone that contains the specular direction (physics.md §6).
 //!
 //! Light crossing the surface is refracted as by the mean (flat) surface; its power is
-//! what the surface does not reflect, at most the flat surface's transmittance:
-//! [`CoatSurface::transmission_factor`] `= min(1, (1 − A(θ))/T_av(θ))`, `A` the surface's
-//! directional albedo (exactly 1 for a flat coat).
+//! what the surface does not reflect: [`CoatSurface::transmission_factor`]
+//! `τ = (1 − A(θ))/T_av(θ)` times the flat transmittance, `A` the surface's directional
+//! albedo (`τ = 1` exactly for a flat coat; above 1 near grazing, where a rough surface
+//! lets in more than a flat one).
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -237,7 +238,8 @@ impl CoatSurface {
     }
 
     /// The factor on the power of light crossing the surface at air-side `cos θ`:
-    /// `min(1, (1 − A(θ))/T_av(θ))` (module docs), exactly 1 for a flat coat.
+    /// `(1 − A(θ))/T_av(θ)` (module docs), exactly 1 for a flat coat; 0 at grazing
+    /// incidence, where nothing crosses a flat surface.
     #[must_use]
     pub fn transmission_factor(&self, cos_theta: f64) -> f64 {
         if self.is_flat() {
@@ -246,10 +248,36 @@ impl CoatSurface {
         let mu = cos_theta.clamp(0.0, 1.0);
         let t =
             fresnel::power_from_cosines(mu, inside_cos(mu, self.params.n), self.params.n).t_av();
-        if t <= 0.0 {
-            return 1.0;
+        if t <= 1e-12 {
+            return 0.0;
         }
-        ((1.0 - self.albedo(mu)) / t).clamp(0.0, 1.0)
+        ((1.0 - self.albedo(mu)) / t).max(0.0)
+    }
+
+    /// The surface's internal diffuse reflectance `r_i = 1 − (1 − r_e)/n²`, with the
+    /// external one `r_e = ∫_0^1 A(μ) 2μ dμ` of this surface (by reciprocity the power
+    /// diffuse light from inside sends out is `(1 − r_e)/n²`; physics.md §12.3). For a
+    /// flat coat, that of [`crate::base::internal_diffuse_reflectance`]; for a rough one
+    /// the integral of the table's linear interpolation, exactly.
+    #[must_use]
+    pub fn internal_diffuse_reflectance(&self) -> f64 {
+        let n = self.params.n;
+        if self.is_flat() {
+            return crate::base::internal_diffuse_reflectance(n);
+        }
+        // ∫ A 2μ dμ over each table interval, A linear: exact for the interpolant.
+        let h = 1.0 / (ALBEDO_NODES - 1) as f64;
+        let mut r_e = 0.0;
+        for k in 0..ALBEDO_NODES - 1 {
+            let (m0, m1) = (k as f64 * h, (k + 1) as f64 * h);
+            let (a0, a1) = (self.albedo(m0), self.albedo(m1));
+            // ∫_{m0}^{m1} (a0 + (a1 − a0)(μ − m0)/h) 2μ dμ.
+            let slope = (a1 - a0) / h;
+            let i1 = m1 * m1 - m0 * m0;
+            let i2 = 2.0 * (m1.powi(3) - m0.powi(3)) / 3.0;
+            r_e += (a0 - slope * m0) * i1 + slope * i2;
+        }
+        1.0 - (1.0 - r_e) / (n * n)
     }
 
     /// `A(μ)` by quadrature (the table's nodes; also used by tests): per population

@@ -26,7 +26,7 @@ use flakescatter_optics::{Vec3, fresnel};
 use flakescatter_stats::Orientation;
 
 use crate::PaintError;
-use crate::base::{base_brdf, internal_diffuse_reflectance};
+use crate::base::base_brdf;
 use crate::channel::Channel;
 use crate::coat::{CoatParams, CoatSurface};
 use crate::layer::FlakeShadowing;
@@ -203,7 +203,7 @@ impl PaintModel {
         }
         let shadowing = FlakeShadowing::new(&params.orientation, n);
         Ok(Self {
-            r_i: internal_diffuse_reflectance(n),
+            r_i: coat.internal_diffuse_reflectance(),
             coat,
             flakes,
             shadowing,

@@ -287,7 +287,7 @@ fn energy_is_conserved() {
             1.0,
         ),
         // No flakes, white base, a rough coat: what the rough surface does not reflect
-        // enters, at most what a flat one would let in (the cap of τ).
+        // enters and, after the base, leaves again.
         (
             CoatParams {
                 n: 1.5,
@@ -320,11 +320,21 @@ fn energy_is_conserved() {
             let ti = f64::to_radians(ti);
             let inc = m.incidence(ti).unwrap();
             let total = hemisphere(&|r| m.brdf(&inc, r, 0), ti) + m.specular_delta(ti);
-            assert!(total <= 1.0 + 1e-6, "case {case} at {ti}: albedo {total}");
+            // A rough coat's transmitted power is 1 − A from its albedo table, within
+            // 2e-4 of the exact albedo (coat.rs): the bound holds to that.
+            let tolerance = if m.coat().is_flat() { 1e-6 } else { 2e-4 };
+            assert!(
+                total <= 1.0 + tolerance,
+                "case {case} at {ti}: albedo {total}"
+            );
             assert!(total > 0.0);
-            if case == 1 {
-                // A white base under a flat coat returns everything (to the quadrature).
-                assert!((total - 1.0).abs() < 1e-6, "white base: {total}");
+            if case == 1 || case == 2 {
+                // A white base with no flakes returns everything that enters, under a flat
+                // coat and (with its own internal reflectance) under a rough one.
+                assert!(
+                    (total - 1.0).abs() < tolerance,
+                    "white base, case {case}: {total}"
+                );
             }
         }
     }

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use super::data::{Measurement, Point};
 use super::layout::Layout;
 use crate::PaintError;
-use crate::base::{base_brdf, internal_diffuse_reflectance};
+use crate::base::base_brdf;
 use crate::coat::{AlbedoTable, CoatSurface, lobe_value};
 use crate::layer::FlakeShadowing;
 use crate::model::FlakeMetal;
@@ -56,7 +56,6 @@ struct IncidenceGeometry {
 #[derive(Debug)]
 struct Geometry {
     n: f64,
-    r_i: f64,
     incidences: Vec<IncidenceGeometry>,
     points: Vec<PointGeometry>,
 }
@@ -186,7 +185,6 @@ impl<'a> Engine<'a> {
             .collect();
         Ok(Geometry {
             n,
-            r_i: internal_diffuse_reflectance(n),
             incidences,
             points,
         })
@@ -254,6 +252,7 @@ impl<'a> Engine<'a> {
                 (tau, tau * g.t_in, shadowing.g1(g.theta_t))
             })
             .collect();
+        let r_i = coat.internal_diffuse_reflectance();
         let values = self
             .points
             .par_iter()
@@ -289,14 +288,7 @@ impl<'a> Engine<'a> {
                     }
                     None => 0.0,
                 };
-                let base = base_brdf(
-                    1.0,
-                    base_amp[k],
-                    t_in,
-                    tau_out * g.t_out,
-                    geometry.n,
-                    geometry.r_i,
-                );
+                let base = base_brdf(1.0, base_amp[k], t_in, tau_out * g.t_out, geometry.n, r_i);
                 coat_term + flakes + base
             })
             .collect();
