@@ -20,9 +20,9 @@ use crate::PipelineError;
 use crate::pipeline::{Coating, Settings, distribution_model};
 
 /// Half-width of the specular region, radians (5°).
-pub const SPECULAR_REGION: f64 = 5.0 * std::f64::consts::PI / 180.0;
+pub const SPECULAR_REGION: f64 = flakescatter_paint::fit::report::NEAR_FROM;
 /// Start of the far region, radians (40° from specular).
-pub const FAR_REGION: f64 = 40.0 * std::f64::consts::PI / 180.0;
+pub const FAR_REGION: f64 = flakescatter_paint::fit::report::FAR_FROM;
 
 /// What the measured `value` column holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -87,15 +87,12 @@ impl Region {
     /// The region of detector `theta_s` at incidence `theta_i` (radians).
     #[must_use]
     pub fn of(theta_i: f64, theta_s: f64) -> Self {
-        // Points exactly on a boundary (5°, 40°) belong to the near-specular region; the
-        // 1e-12 rad slack absorbs rounding of degree inputs.
-        let d = (theta_s + theta_i).abs();
-        if d < SPECULAR_REGION - 1e-12 {
-            Self::Specular
-        } else if d <= FAR_REGION + 1e-12 {
-            Self::NearSpecular
-        } else {
-            Self::Far
+        // One classification for curves and tables (the paint crate's, physics.md §7):
+        // points exactly on a boundary (5°, 40°) belong to the near-specular region.
+        match flakescatter_paint::fit::Region::of((theta_s + theta_i).abs()) {
+            flakescatter_paint::fit::Region::Specular => Self::Specular,
+            flakescatter_paint::fit::Region::Far => Self::Far,
+            _ => Self::NearSpecular,
         }
     }
 

@@ -44,23 +44,8 @@ pub fn fit_paint<'py>(
     flake_index: Option<(f64, f64)>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let path = path_of(py, "measured", measured)?;
-    let families = match family {
-        "auto" => Family::all(),
-        "gaussian" => vec![Family::Gaussian],
-        "trowbridge-reitz" => vec![Family::TrowbridgeReitz],
-        "pearson-vii" => vec![Family::PearsonVii],
-        "table" => vec![Family::LogLinear {
-            knots: Family::default_knots(),
-        }],
-        other => {
-            return Err(input(
-                py,
-                format!(
-                    "family={other:?}: expected auto, gaussian, trowbridge-reitz, pearson-vii or table"
-                ),
-            ));
-        }
-    };
+    let families =
+        Family::choice(family).map_err(|e| input(py, format!("family={family:?}: {e}")))?;
     let (lo, hi) = region;
     if !(lo >= 0.0 && hi > lo && hi <= 180.0) {
         return Err(input(

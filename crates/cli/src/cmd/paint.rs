@@ -103,14 +103,9 @@ pub fn model(
         ),
         None => {
             let (orientation, echo) = args.source.orientation()?;
-            let coating = args.instrument.optics.coating()?;
-            let metal = match (&args.instrument.optics.flake_index, coating.flake) {
-                (Some(_), flakescatter::optics::flake::FlakeReflectance::Complex { n, k }) => {
-                    flakescatter::paint_model::FlakeMetal::Index { n, k }
-                }
-                _ => flakescatter::paint_model::FlakeMetal::Aluminium,
-            };
-            let m = args.paint.model(orientation, coating.n, metal)?;
+            let n = args.instrument.optics.coating()?.n;
+            let metal = crate::flags::flake_metal(&args.instrument.optics)?;
+            let m = args.paint.model(orientation, n, metal)?;
             let file = flakescatter::paint::file::ParamsFile::new(m.params(), None);
             (m, json!({"paint": file, "orientation": echo}))
         }
@@ -230,15 +225,10 @@ pub fn compare(
         Some(path) => (model_of(path)?, format!("--params {}", path.display())),
         None => {
             let (orientation, _) = args.orientation.orientation()?;
-            let coating = args.measured.optics.coating()?;
-            let metal = match (&args.measured.optics.flake_index, coating.flake) {
-                (Some(_), flakescatter::optics::flake::FlakeReflectance::Complex { n, k }) => {
-                    flakescatter::paint_model::FlakeMetal::Index { n, k }
-                }
-                _ => flakescatter::paint_model::FlakeMetal::Aluminium,
-            };
+            let n = args.measured.optics.coating()?.n;
+            let metal = crate::flags::flake_metal(&args.measured.optics)?;
             (
-                args.paint.model(orientation, coating.n, metal)?,
+                args.paint.model(orientation, n, metal)?,
                 "--paint".to_string(),
             )
         }

@@ -71,6 +71,20 @@ pub struct PaintFlags {
     pub haze_roughness: Option<f64>,
 }
 
+/// The flake metal of a paint from the coating flags: `--flake-index N,K` if given,
+/// else aluminium at each channel's wavelength (a paint's default; the bare models'
+/// default is a perfect conductor).
+pub fn flake_metal(optics: &super::OpticsArgs) -> anyhow::Result<FlakeMetal> {
+    Ok(match optics.coating()?.flake {
+        flakescatter::optics::flake::FlakeReflectance::Complex { n, k }
+            if optics.flake_index.is_some() =>
+        {
+            FlakeMetal::Index { n, k }
+        }
+        _ => FlakeMetal::Aluminium,
+    })
+}
+
 /// `n` values for `n` channels from a list of one or `n` numbers (`flag` for messages).
 fn per_channel(flag: &str, text: Option<&str>, n: usize, default: f64) -> anyhow::Result<Vec<f64>> {
     let Some(text) = text else {

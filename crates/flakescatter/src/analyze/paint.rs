@@ -35,15 +35,8 @@ pub struct PaintOutcome {
 /// The fit's options of a `[paint]` section.
 fn options(s: &PaintSection, n: f64) -> FitOptions {
     let mut o = FitOptions::new();
-    o.families = match s.family.as_str() {
-        "gaussian" => vec![Family::Gaussian],
-        "trowbridge-reitz" => vec![Family::TrowbridgeReitz],
-        "pearson-vii" => vec![Family::PearsonVii],
-        "table" => vec![Family::LogLinear {
-            knots: Family::default_knots(),
-        }],
-        _ => Family::all(),
-    };
+    // The manifest's check has refused any other name.
+    o.families = Family::choice(&s.family).unwrap_or_else(|_| Family::all());
     o.n = n;
     o.coverage = s.coverage;
     let mut sel = Selection::default();

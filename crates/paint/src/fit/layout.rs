@@ -55,6 +55,30 @@ impl Family {
         .collect()
     }
 
+    /// The families of a choice by name, as the command line and manifests give it:
+    /// `auto` (every family, [`Family::all`]) or one family's [`Family::name`].
+    ///
+    /// # Errors
+    /// [`PaintError::Parameter`] for another name, listing [`Family::CHOICES`].
+    pub fn choice(name: &str) -> Result<Vec<Self>, PaintError> {
+        if name == "auto" {
+            return Ok(Self::all());
+        }
+        Self::all()
+            .into_iter()
+            .find(|f| f.name() == name)
+            .map(|f| vec![f])
+            .ok_or_else(|| {
+                PaintError::Parameter(format!(
+                    "orientation family `{name}`: expected {}",
+                    Self::CHOICES
+                ))
+            })
+    }
+
+    /// The names [`Family::choice`] takes.
+    pub const CHOICES: &'static str = "auto, gaussian, trowbridge-reitz, pearson-vii or table";
+
     /// The four families, the table on its default knots.
     #[must_use]
     pub fn all() -> Vec<Self> {

@@ -3,7 +3,8 @@
 //! that choose between orientation families.
 //!
 //! Groups: in the plane of incidence, per incidence angle, the *specular* (aspecular
-//! angle below 5°), *near* (5°–40°) and *far* (beyond 40°) regions of physics.md §7; out
+//! angle below 5°), *near* (5°–40°, both ends included) and *far* (beyond 40°) regions of
+//! physics.md §7; out
 //! of the plane, all incidences together, the same three regions by the angle from the
 //! specular direction, and all out-of-plane points. Every channel's points are pooled in
 //! a group. The residual of a point is `log10(model/measured)`.
@@ -29,12 +30,14 @@ pub enum Region {
 }
 
 impl Region {
-    /// The region of an aspecular angle (radians).
+    /// The region of an aspecular angle (radians). Points exactly on a boundary (5°,
+    /// 40°) belong to the near region; the 1e-12 rad slack absorbs rounding of degree
+    /// inputs (as the in-plane comparison of physics.md §7).
     #[must_use]
     pub fn of(aspecular: f64) -> Self {
-        if aspecular < NEAR_FROM {
+        if aspecular < NEAR_FROM - 1e-12 {
             Self::Specular
-        } else if aspecular < FAR_FROM {
+        } else if aspecular <= FAR_FROM + 1e-12 {
             Self::Near
         } else {
             Self::Far

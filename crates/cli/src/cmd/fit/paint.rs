@@ -7,7 +7,6 @@ use anyhow::{Context, bail};
 use flakescatter::paint::file::ParamsFile;
 use flakescatter::paint::report::{fit_json, fit_text, in_plane_chart, points_csv, residual_map};
 use flakescatter::paint::{Family, FitOptions, Measurement, PaintFit, Selection};
-use flakescatter::paint_model::FlakeMetal;
 use serde_json::json;
 
 use super::Args;
@@ -77,22 +76,6 @@ impl PaintArgs {
         .find(|(set, _)| *set)
         .map(|(_, name)| name)
     }
-}
-
-/// The families of `--family`.
-fn families(text: &str) -> anyhow::Result<Vec<Family>> {
-    Ok(match text {
-        "auto" => Family::all(),
-        "gaussian" => vec![Family::Gaussian],
-        "trowbridge-reitz" => vec![Family::TrowbridgeReitz],
-        "pearson-vii" => vec![Family::PearsonVii],
-        "table" => vec![Family::LogLinear {
-            knots: Family::default_knots(),
-        }],
-        other => bail!(
-            "--family {other}: expected auto, gaussian, trowbridge-reitz, pearson-vii or table"
-        ),
-    })
 }
 
 /// `--region LO:HI` for a paint (default 2:180 degrees).
@@ -184,15 +167,10 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
         selection.min_value = v;
     }
     let coating = optics.coating()?;
-    let flake_metal = match (&optics.flake_index, coating.flake) {
-        (None, _) => FlakeMetal::Aluminium,
-        (Some(_), flakescatter::optics::flake::FlakeReflectance::Complex { n, k }) => {
-            FlakeMetal::Index { n, k }
-        }
-        (Some(_), _) => FlakeMetal::PerfectConductor,
-    };
+    let flake_metal = crate::flags::flake_metal(optics)?;
     Ok(FitOptions {
-        families: families(&p.family)?,
+        families: Family::choice(&p.family)
+            .map_err(|e| anyhow::anyhow!("--family {}: {e}", p.family))?,
         n: coating.n,
         fit_n: args.fit_n,
         coverage: p.coverage,
