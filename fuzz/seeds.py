@@ -125,6 +125,10 @@ tables = {
     "histogram": [os.path.join("docs", "figures", "fig7.csv")],
     "curves": [os.path.join("docs", "figures", "fig4.csv")],
     "detectors": [],
+    "brdf": [
+        os.path.join("fixtures", "real", "paints", "gold-metallic-paint2.csv"),
+        os.path.join("fixtures", "real", "paints", "ilm_l3_37_metallic_rgb.csv"),
+    ],
 }
 for target, files in tables.items():
     for rel in files:
@@ -145,6 +149,10 @@ extra = {
         b"# d\r\ntheta_r_deg;phi_r_deg\r\n30;0\r\n",
     ],
     "curves": [b"theta_i_deg,theta_s_deg,phi_s_deg,aperture_deg,brdf_per_sr,reflectance,relative\n30,-30,0,1.5,0.25,,\n30,-29.5,0,1.5,0.2,1e-3,0.8\n"],
+    "brdf": [
+        b"theta_i_deg,theta_r_deg,phi_r_deg,brdf_550nm_per_sr,brdf_550nm_per_sr_uncertainty,note\n30,0,0,1.5,0.1,a\n30,10,180,0.5,0.02,b\n30,20,45,0.25,0.01,c\n",
+        b"# t\r\ntheta_i_deg,theta_r_deg,phi_r_deg,brdf_r_per_sr,brdf_g_per_sr\r\n15,5,-30,1e-2,2e-2\r\n15,5,330,1,1\r\n",
+    ],
 }
 for target, seeds in extra.items():
     for s in seeds:
