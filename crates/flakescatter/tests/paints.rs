@@ -44,6 +44,19 @@ fn blue_and_gold_meet_the_targets() {
                     v
                 });
         assert_eq!(incidences.len(), 5, "{name}");
+        // A parameter held on its bound has no standard uncertainty, and then no
+        // interval either (not one clamped to the bound). Both paints hold their base
+        // amplitudes at the floor (no base light in the trusted rows).
+        let held: Vec<_> = f
+            .fitted
+            .iter()
+            .chain(&f.physical)
+            .filter(|e| e.std.is_nan())
+            .collect();
+        assert!(!held.is_empty(), "{name}: nothing held on a bound");
+        for e in held {
+            assert!(e.lo95.is_nan() && e.hi95.is_nan(), "{name}: {e:?}");
+        }
     }
 }
 
