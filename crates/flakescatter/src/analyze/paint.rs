@@ -14,9 +14,9 @@ use super::{AnalyzeError, Content, OutFile};
 use crate::compare::MeasuredKind;
 use crate::paint::file::ParamsFile;
 use crate::paint::report::{
-    fit_json, groups_text, in_plane_chart, points_csv, residual_map, worst_ratio,
+    ResidualPanel, fit_json, groups_text, in_plane_chart, points_csv, residual_map, worst_ratio,
 };
-use crate::paint::{Family, FitOptions, Selection};
+use crate::paint::{Family, FitOptions, Measurement, PaintComparison, Selection};
 
 /// What the paint part adds to a report.
 pub struct PaintOutcome {
@@ -114,20 +114,60 @@ pub fn paint_part(
             content: Content::Text(points_csv(&m, &cmp.points, &cmp.model)),
         },
     ];
-    let mut incidences: Vec<f64> =
-        cmp.points
-            .iter()
-            .map(|p| m.rows[p.row].theta_i)
-            .fold(Vec::new(), |mut v, t| {
-                if !v.contains(&t) {
-                    v.push(t);
-                }
-                v
-            });
+    let images = pictures(&m, &cmp, &name, &mut files);
+    files.push(OutFile {
+        path: "cache/paint.json".into(),
+        content: Content::Text(
+            serde_json::to_string(&json!({"key": key, "params": params_file})).unwrap_or_default(),
+        ),
+    });
+    let mut blocks = section(&name, &report, params_file.flakes.coverage, &cmp);
+    for (path, caption) in images {
+        blocks.push(Block::Image(path, caption));
+    }
+    let warnings: Vec<String> = report["warnings"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|w| w.as_str().map(|w| format!("paint fit of {name}: {w}")))
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(PaintOutcome {
+        files,
+        blocks,
+        summary: json!({
+            "file": name,
+            "sha256": sha,
+            "params": "paint/params.json",
+            "fit": report,
+            "worst_ratio_to_target": worst_ratio(&cmp.groups),
+            "reused": !fitted,
+        }),
+        warnings,
+        fitted,
+    })
+}
+
+/// The in-plane charts (one per incidence with points) and the out-of-plane residual
+/// maps, added to `files`; their paths and captions for the report.
+fn pictures(
+    m: &Measurement,
+    cmp: &PaintComparison,
+    name: &str,
+    files: &mut Vec<OutFile>,
+) -> Vec<(String, String)> {
+    let mut incidences: Vec<f64> = Vec::new();
+    for p in &cmp.points {
+        let t = m.rows[p.row].theta_i;
+        if !incidences.contains(&t) {
+            incidences.push(t);
+        }
+    }
     incidences.sort_by(f64::total_cmp);
     let mut images = Vec::new();
     for &t in &incidences {
-        let chart = in_plane_chart(&m, &cmp.points, &cmp.model, t);
+        let chart = in_plane_chart(m, &cmp.points, &cmp.model, t);
         if chart.series.iter().all(|s| s.points.is_empty()) {
             continue;
         }
@@ -147,9 +187,9 @@ pub fn paint_part(
             content: Content::Chart(chart),
         });
     }
-    let maps: Vec<crate::paint::report::ResidualPanel> = incidences
+    let maps: Vec<ResidualPanel> = incidences
         .iter()
-        .map(|&t| (t, residual_map(&m, &cmp.points, &cmp.model, t)))
+        .map(|&t| (t, residual_map(m, &cmp.points, &cmp.model, t)))
         .filter(|(_, c)| !c.is_empty())
         .collect();
     if !maps.is_empty() {
@@ -160,17 +200,15 @@ pub fn paint_part(
         ));
         files.push(OutFile {
             path,
-            content: Content::ResidualMaps(maps, name.clone()),
+            content: Content::ResidualMaps(maps, name.to_string()),
         });
     }
-    files.push(OutFile {
-        path: "cache/paint.json".into(),
-        content: Content::Text(
-            serde_json::to_string(&json!({"key": key, "params": params_file})).unwrap_or_default(),
-        ),
-    });
+    images
+}
 
-    // The report's section.
+/// The report's section: what was fitted, the physical parameters with their intervals
+/// (from the fit's JSON `report`), and the residuals by region of the comparison.
+fn section(name: &str, report: &Value, coverage: f64, cmp: &PaintComparison) -> Vec<Block> {
     let mut blocks = vec![
         Block::Heading(2, "Paint fitted to the measured BRDF table".into()),
         Block::Para(format!(
@@ -182,7 +220,7 @@ pub fn paint_part(
                 .zip(report["dof"].as_f64())
                 .map(|(c, d)| c / d)),
             report["weighting"].as_str().unwrap_or(""),
-            params_file.flakes.coverage,
+            coverage,
             if report["coverage"]["given"].as_bool() == Some(true) {
                 "given"
             } else {
@@ -215,31 +253,7 @@ pub fn paint_part(
         worst_ratio(&cmp.groups)
     )));
     blocks.push(Block::List(groups_text(&cmp.groups)));
-    for (path, caption) in images {
-        blocks.push(Block::Image(path, caption));
-    }
-    let warnings: Vec<String> = report["warnings"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|w| w.as_str().map(|w| format!("paint fit of {name}: {w}")))
-                .collect()
-        })
-        .unwrap_or_default();
-    Ok(PaintOutcome {
-        files,
-        blocks,
-        summary: json!({
-            "file": name,
-            "sha256": sha,
-            "params": "paint/params.json",
-            "fit": report,
-            "worst_ratio_to_target": worst_ratio(&cmp.groups),
-            "reused": !fitted,
-        }),
-        warnings,
-        fitted,
-    })
+    blocks
 }
 
 /// A number for a report table (6 significant digits; `—` for none).
