@@ -135,27 +135,7 @@ fn start_amplitudes(
                 s.layout.flake_amplitude(&s.fit.x, k),
                 s.layout.base_amplitude(&s.fit.x, k),
             );
-            let (fa, fb) = match layout.amplitudes {
-                Amplitudes::Free => (a, b),
-                Amplitudes::Coverage(c) => (
-                    if c > 0.0 { a / c } else { 1.0 },
-                    if c < 1.0 {
-                        b / ((1.0 - c) * (1.0 - c))
-                    } else {
-                        1.0
-                    },
-                ),
-            };
-            let i = layout.amplitude_index(k);
-            q0[i] = fa
-                .max(1e-300)
-                .ln()
-                .clamp(layout.bounds[i].0, layout.bounds[i].1);
-            let j = i + nc;
-            q0[j] = fb
-                .max(1e-300)
-                .ln()
-                .clamp(layout.bounds[j].0, layout.bounds[j].1);
+            set_amplitudes(layout, q0, k, a, b);
         }
         return Ok(());
     }
@@ -196,29 +176,33 @@ fn start_amplitudes(
                 .map(|&i| (points[i].value - coat[i]) / points[i].value),
         );
         let x = nnls(&a, &b).unwrap_or_else(|| DVector::from_vec(vec![0.1, 0.1]));
-        let i = layout.amplitude_index(k);
         // The base column was made at amplitude 0.1.
-        let (fa, fb) = (x[0], 0.1 * x[1]);
-        let (fa, fb) = match layout.amplitudes {
-            Amplitudes::Free => (fa, fb),
-            Amplitudes::Coverage(c) => (
-                if c > 0.0 { fa / c } else { 1.0 },
-                if c < 1.0 {
-                    fb / ((1.0 - c) * (1.0 - c))
-                } else {
-                    1.0
-                },
-            ),
-        };
-        q0[i] = fa
-            .max(1e-300)
-            .ln()
-            .clamp(layout.bounds[i].0, layout.bounds[i].1);
-        let j = i + nc;
-        q0[j] = fb
-            .max(1e-300)
-            .ln()
-            .clamp(layout.bounds[j].0, layout.bounds[j].1);
+        set_amplitudes(layout, q0, k, x[0], 0.1 * x[1]);
     }
     Ok(())
+}
+
+/// Channel `k`'s fitted amplitude entries in `q0` for the amplitudes `a` (coverage ×
+/// flake scale) and `b` ((1 − coverage)² × base albedo): their logarithms, or those of
+/// the scale and albedo at a fixed coverage, inside the bounds.
+fn set_amplitudes(layout: &Layout, q0: &mut [f64], k: usize, a: f64, b: f64) {
+    let (fa, fb) = match layout.amplitudes {
+        Amplitudes::Free => (a, b),
+        Amplitudes::Coverage(c) => (
+            if c > 0.0 { a / c } else { 1.0 },
+            if c < 1.0 {
+                b / ((1.0 - c) * (1.0 - c))
+            } else {
+                1.0
+            },
+        ),
+    };
+    let i = layout.amplitude_index(k);
+    let j = i + layout.channels;
+    for (idx, v) in [(i, fa), (j, fb)] {
+        q0[idx] = v
+            .max(1e-300)
+            .ln()
+            .clamp(layout.bounds[idx].0, layout.bounds[idx].1);
+    }
 }
