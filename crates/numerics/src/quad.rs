@@ -134,35 +134,39 @@ const WG3: [f64; 2] = [5.0 / 9.0, 8.0 / 9.0];
 /// The 7 Kronrod nodes mapped to `[a, b]` with their Kronrod and Gauss-3 weights.
 #[must_use]
 pub fn gk7_nodes(a: f64, b: f64) -> [(f64, f64, f64); 7] {
-    let c = 0.5 * (a + b);
-    let h = 0.5 * (b - a);
-    let mut out = [(0.0, 0.0, 0.0); 7];
-    for (j, (&x, &wk)) in XGK7.iter().zip(WGK7.iter()).enumerate() {
-        let wg = if j % 2 == 1 { WG3[j / 2] } else { 0.0 };
-        if j == 3 {
-            out[6] = (c, wk * h, wg * h);
-        } else {
-            out[2 * j] = (c - h * x, wk * h, wg * h);
-            out[2 * j + 1] = (c + h * x, wk * h, wg * h);
-        }
-    }
-    out
+    mapped(&XGK7, &WGK7, &WG3, a, b)
 }
 
 /// The 15 Kronrod nodes mapped to `[a, b]` with their Kronrod and Gauss weights
 /// (Gauss weight 0 for nodes that belong only to the Kronrod rule).
 #[must_use]
 pub fn gk15_nodes(a: f64, b: f64) -> [(f64, f64, f64); 15] {
+    mapped(&XGK, &WGK, &WG, a, b)
+}
+
+/// A Gauss–Kronrod rule's `N = 2 xs.len() − 1` nodes mapped to `[a, b]`, from its
+/// non-negative abscissae `xs` on [−1, 1] (largest first, the centre last) with Kronrod
+/// weights `wk` and Gauss weights `wg` of the odd-indexed abscissae; the pair of `xs[j]`
+/// lands at `2j, 2j + 1`, the centre at `N − 1`.
+fn mapped<const N: usize>(
+    xs: &[f64],
+    wk: &[f64],
+    wg: &[f64],
+    a: f64,
+    b: f64,
+) -> [(f64, f64, f64); N] {
+    debug_assert_eq!(2 * xs.len() - 1, N);
     let c = 0.5 * (a + b);
     let h = 0.5 * (b - a);
-    let mut out = [(0.0, 0.0, 0.0); 15];
-    for (j, (&x, &wk)) in XGK.iter().zip(WGK.iter()).enumerate() {
-        let wg = if j % 2 == 1 { WG[j / 2] } else { 0.0 };
-        if j == 7 {
-            out[14] = (c, wk * h, wg * h);
+    let centre = xs.len() - 1;
+    let mut out = [(0.0, 0.0, 0.0); N];
+    for (j, (&x, &k)) in xs.iter().zip(wk).enumerate() {
+        let g = if j % 2 == 1 { wg[j / 2] } else { 0.0 };
+        if j == centre {
+            out[N - 1] = (c, k * h, g * h);
         } else {
-            out[2 * j] = (c - h * x, wk * h, wg * h);
-            out[2 * j + 1] = (c + h * x, wk * h, wg * h);
+            out[2 * j] = (c - h * x, k * h, g * h);
+            out[2 * j + 1] = (c + h * x, k * h, g * h);
         }
     }
     out
