@@ -33,11 +33,12 @@ pub fn groups_json(groups: &[GroupResidual]) -> Value {
             .map(|g| {
                 json!({
                     "plane": if g.theta_i.is_some() { "in" } else { "out" },
-                    "theta_i_deg": g.theta_i.map(f64::to_degrees),
+                    "theta_i_deg": g.theta_i.map(|t| shortest(t.to_degrees())),
                     "region": g.region.name(),
                     "points": g.points,
                     "rms_log10": g.rms_log10,
                     "mean_log10": g.mean_log10,
+                    "target_rms_log10": target_of(g),
                 })
             })
             .collect(),
@@ -87,6 +88,7 @@ pub fn fit_json(fit: &PaintFit, m: &Measurement, opts: &FitOptions) -> Value {
         },
         "physical": fit.physical.iter().map(est).collect::<Vec<_>>(),
         "residuals": groups_json(&fit.groups),
+        "worst_ratio_to_target": worst_ratio(&fit.groups),
         "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
     })
 }
@@ -95,8 +97,8 @@ pub fn fit_json(fit: &PaintFit, m: &Measurement, opts: &FitOptions) -> Value {
 #[must_use]
 pub fn selection_json(sel: &super::Selection) -> Value {
     json!({
-        "aspecular_deg": [sel.aspecular.0.to_degrees(), sel.aspecular.1.to_degrees()],
-        "max_theta_r_deg": sel.max_theta_r.to_degrees(),
+        "aspecular_deg": [shortest(sel.aspecular.0.to_degrees()), shortest(sel.aspecular.1.to_degrees())],
+        "max_theta_r_deg": shortest(sel.max_theta_r.to_degrees()),
         "min_value_per_sr": sel.min_value,
     })
 }
@@ -109,30 +111,35 @@ pub fn comparison_json(c: &PaintComparison, m: &Measurement, sel: &super::Select
         "points": c.points.len(),
         "selection": selection_json(sel),
         "residuals": groups_json(&c.groups),
+        "worst_ratio_to_target": worst_ratio(&c.groups),
     })
+}
+
+/// A group's target rms `log10` ([`TARGETS`]): near and far in the plane (the 75° one
+/// above 67.5°), and out of the plane overall; `None` for the groups with no target
+/// (specular, out of plane by region).
+#[must_use]
+pub fn target_of(g: &GroupResidual) -> Option<f64> {
+    let ((near, far), at75, oop) = TARGETS;
+    match (g.theta_i, g.region) {
+        (Some(t), Region::Near) if t.to_degrees() <= 67.5 => Some(near),
+        (Some(t), Region::Far) if t.to_degrees() <= 67.5 => Some(far),
+        (Some(_), Region::Near | Region::Far) => Some(at75),
+        (None, Region::All) => Some(oop),
+        _ => None,
+    }
 }
 
 /// The group table as lines of text (one per group, the target where one applies).
 #[must_use]
 pub fn groups_text(groups: &[GroupResidual]) -> Vec<String> {
-    let ((near, far), at75, oop) = TARGETS;
     groups
         .iter()
         .map(|g| {
-            let (plane, target) = match (g.theta_i, g.region) {
-                (Some(t), Region::Near | Region::Far) => (
-                    format!("in plane, theta_i {:>5.1}", t.to_degrees()),
-                    Some(if t.to_degrees() > 67.5 {
-                        at75
-                    } else if g.region == Region::Near {
-                        near
-                    } else {
-                        far
-                    }),
-                ),
-                (Some(t), _) => (format!("in plane, theta_i {:>5.1}", t.to_degrees()), None),
-                (None, Region::All) => ("out of plane, all      ".into(), Some(oop)),
-                (None, _) => ("out of plane           ".into(), None),
+            let plane = match (g.theta_i, g.region) {
+                (Some(t), _) => format!("in plane, theta_i {:>5.1}", t.to_degrees()),
+                (None, Region::All) => "out of plane, all      ".into(),
+                (None, _) => "out of plane           ".into(),
             };
             format!(
                 "{plane} {:<8} {:>5} points  rms log10 {:.3}  mean {:+.3}{}",
@@ -140,26 +147,19 @@ pub fn groups_text(groups: &[GroupResidual]) -> Vec<String> {
                 g.points,
                 g.rms_log10,
                 g.mean_log10,
-                target.map_or(String::new(), |t| format!("  (target {t})"))
+                target_of(g).map_or(String::new(), |t| format!("  (target {t})"))
             )
         })
         .collect()
 }
 
-/// The largest ratio of a group's rms `log10` to its target ([`TARGETS`]; the measure of
-/// the real-paints check, below 1 when every target is met).
+/// The largest ratio of a group's rms `log10` to its target ([`target_of`]; the measure
+/// of the real-paints check, below 1 when every target is met).
 #[must_use]
 pub fn worst_ratio(groups: &[GroupResidual]) -> f64 {
-    let ((near, far), at75, oop) = TARGETS;
     groups
         .iter()
-        .filter_map(|g| match (g.theta_i, g.region) {
-            (Some(t), Region::Near) if t.to_degrees() <= 67.5 => Some(g.rms_log10 / near),
-            (Some(t), Region::Far) if t.to_degrees() <= 67.5 => Some(g.rms_log10 / far),
-            (Some(_), Region::Near | Region::Far) => Some(g.rms_log10 / at75),
-            (None, Region::All) => Some(g.rms_log10 / oop),
-            _ => None,
-        })
+        .filter_map(|g| target_of(g).map(|t| g.rms_log10 / t))
         .fold(0.0, f64::max)
 }
 
