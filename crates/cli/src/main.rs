@@ -64,7 +64,10 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return common::clap_exit(&e),
+    };
     let result: anyhow::Result<()> = match cli.command {
         Command::Model(a) => cmd::model::run(a),
         Command::Compare(a) => cmd::compare::run(a),

@@ -95,8 +95,11 @@ pub struct PixelOrientation {
     /// reads; write it with `flakescatter_io::write_histogram_bins(…,
     /// &tilts.edges, &tilts.area_fractions())`).
     pub orientation: Orientation,
-    /// Least-squares Gaussian fit to the histogram's `p̃` (`stats::fit`).
-    pub histogram_fit: HistogramFit,
+    /// Least-squares Gaussian fit to the histogram's `p̃` (`stats::fit`), or why it
+    /// failed (e.g. the best width at an end of the searched range: a histogram
+    /// narrower than its bins); an optional statistic, so its failure is not the
+    /// whole statistics' failure.
+    pub histogram_fit: Result<HistogramFit, String>,
     /// Maximum-likelihood width over all usable pixels with its tile interval; `None`
     /// when the mean square tilt reaches the uniform limit (windows across flake edges
     /// have tilts near 90° and can dominate `θ²`).
@@ -177,8 +180,9 @@ fn model(topo: &TopoSettings) -> Result<TopoModel, PipelineError> {
 /// its Gaussian width (module docs).
 ///
 /// # Errors
-/// [`PipelineError::Topo`] for invalid settings, bin width or maps (no usable pixel);
-/// [`PipelineError::Fit`] when no Gaussian fits the histogram (all pixels flat).
+/// [`PipelineError::Topo`] for invalid settings, bin width or maps (no usable pixel).
+/// A histogram no Gaussian fits (all pixels flat) is not an error: its
+/// [`PixelOrientation::histogram_fit`] says why.
 pub fn pixel_orientation(
     maps: &[&HeightMap],
     topo: &TopoSettings,
@@ -197,8 +201,7 @@ pub fn pixel_orientation(
         .map(|(e, &a)| (0.5 * (e[0] + e[1]), a));
     let histogram = AreaHistogram::new(samples, bin_width)
         .map_err(|e| PipelineError::Orientation(e.to_string()))?;
-    let histogram_fit = fit_gaussian_histogram(&histogram)
-        .map_err(|e| PipelineError::Fit(format!("pixel-level histogram: {e}")))?;
+    let histogram_fit = fit_gaussian_histogram(&histogram).map_err(|e| e.to_string());
     Ok(PixelOrientation {
         width: width_of(&tilts).ok(),
         tilts,

@@ -63,8 +63,9 @@ pub struct SampleStatistics {
     /// The area-weighted histogram of all flakes of all maps.
     pub histogram: AreaHistogram,
     /// Least-squares Gaussian fit to that histogram's `p̃` (what `stats --plot` draws
-    /// beside the maximum-likelihood width); `None` when the bins cannot resolve it.
-    pub histogram_fit: Option<HistogramFit>,
+    /// beside the maximum-likelihood width), or why it failed (e.g. bins that cannot
+    /// resolve it).
+    pub histogram_fit: Result<HistogramFit, String>,
     /// The pixel-level statistics when asked for.
     pub pixel: Option<PixelLevel>,
 }
@@ -177,13 +178,10 @@ pub fn statistics_of(
     }
     let refs: Vec<&Segmentation> = segmentations.iter().collect();
     let (pooled, histogram) = pool_segmentations(&refs, settings.bin_width)?;
-    let histogram_fit = fit_gaussian_histogram(&histogram).ok();
+    let histogram_fit = fit_gaussian_histogram(&histogram).map_err(|e| e.to_string());
     let pixel = match settings.pixel_normals {
         None => None,
-        Some(topo) => Some(PixelLevel {
-            orientation: pixel_orientation(maps, &topo, settings.bin_width)?,
-            sources: width_sources_from(maps, &refs, &topo).map_err(|e| e.to_string()),
-        }),
+        Some(topo) => Some(pixel_level(maps, &refs, &topo, settings.bin_width)?),
     };
     Ok(SampleStatistics {
         segmentations,
@@ -191,5 +189,23 @@ pub fn statistics_of(
         histogram,
         histogram_fit,
         pixel,
+    })
+}
+
+/// The pixel-level statistics of segmented maps (`segmentations[k]` of `maps[k]`) with
+/// the topographic settings `topo`, in bins of `bin_width` radians.
+///
+/// # Errors
+/// [`PipelineError::Topo`] for settings the topographic layer refuses or a map it
+/// cannot use (smaller than the window, no valid pixel), naming the map by its index.
+pub fn pixel_level(
+    maps: &[&HeightMap],
+    segmentations: &[&Segmentation],
+    topo: &TopoSettings,
+    bin_width: f64,
+) -> Result<PixelLevel, PipelineError> {
+    Ok(PixelLevel {
+        orientation: pixel_orientation(maps, topo, bin_width)?,
+        sources: width_sources_from(maps, segmentations, topo).map_err(|e| e.to_string()),
     })
 }

@@ -118,7 +118,7 @@ fn pixel_orientation_histogram_is_the_tabulated_distribution() {
     for (i, w) in p.tilts.edges.windows(2).enumerate().take(40) {
         assert!((p.orientation.mass_between(w[0], w[1]) - f[i]).abs() < 1e-12);
     }
-    let s = p.histogram_fit.sigma.to_degrees();
+    let s = p.histogram_fit.as_ref().unwrap().sigma.to_degrees();
     eprintln!(
         "histogram fit s = {s:.3}°, ML over all pixels {:?}",
         p.width.map(|w| w.sigma.to_degrees())

@@ -3,9 +3,9 @@
 //! [`flakescatter::figures::reproduce`]); this command reads the fixtures, draws the
 //! charts and writes the files.
 //!
-//! Every file is made in a temporary directory beside `--out` first and moved into
-//! place when all are complete, so a failed run leaves neither half a directory nor an
-//! empty one.
+//! Every file is made in a temporary directory beside `--out` first and swapped in
+//! when all are complete (`output::owned`), so a failed run leaves neither half a
+//! directory nor an empty one, and the directory holds exactly this run's files.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -17,8 +17,7 @@ use flakescatter::io::flakes::read_flakes;
 use flakescatter::io::{ReadOptions, read_intensity, read_map};
 use flakescatter::optics::polarization::Weighting;
 
-use crate::common::Failure;
-use crate::output::{Plan, note, temp_dir_beside};
+use crate::output::{Plan, note};
 
 /// Reproduces the paper's figures in kind (Figs. 4, 7, 9, 10) and the volume model's
 /// answer to its multiple-scattering question into a directory: CSV for every curve, SVG
@@ -26,7 +25,8 @@ use crate::output::{Plan, note, temp_dir_beside};
 /// (fixed seeds); run from the repository root (or give --fixtures).
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Output directory (created if missing; the files it gets are replaced).
+    /// Output directory: created, or replaced whole when empty or an earlier
+    /// `reproduce` output; a directory holding other files (or the fixtures) is refused.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Directory holding the shipped fixtures (`synth-hwhm3-smooth.*`,
@@ -81,6 +81,9 @@ fn read_fixtures(dir: &Path) -> anyhow::Result<Vec<Fixture>> {
         .collect()
 }
 
+/// The owner recorded in the output directory's marker (`output::owned`).
+const OWNER: &str = "reproduce";
+
 /// Runs the reproduction (module docs).
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
@@ -92,7 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut plan = Plan::new();
     plan.input("--fixtures", &args.fixtures);
-    plan.output_dir("--out", &args.out);
+    plan.output_dir("--out", &args.out, OWNER);
     for (stem, _, _) in FIXTURES {
         for suffix in FIXTURE_FILES {
             let p = args.fixtures.join(format!("{stem}.{suffix}"));
@@ -115,43 +118,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let report = reproduce(&fixtures, &spec, &say)?;
 
-    // Everything into a staging directory beside --out, moved into place at the end.
-    let stage = temp_dir_beside(&args.out)?;
-    let fail =
-        |p: &Path, e: &dyn std::fmt::Display| Failure(format!("cannot write {}: {e}", p.display()));
-    let mut names = Vec::new();
+    // Everything into a staging directory beside --out, swapped in at the end.
+    let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     for file in &report.files {
-        let items: Vec<(String, Vec<u8>)> = match &file.content {
-            Content::Text(t) => vec![(file.name.clone(), t.clone().into_bytes())],
-            Content::Chart(c) => vec![
-                (
-                    format!("{}.svg", file.name),
+        match &file.content {
+            Content::Text(t) => files.push((file.name.clone().into(), t.clone().into_bytes())),
+            Content::Chart(c) => {
+                files.push((
+                    format!("{}.svg", file.name).into(),
                     crate::plot::svg(c, &file.name)?.into_bytes(),
-                ),
-                (
-                    format!("{}.png", file.name),
+                ));
+                files.push((
+                    format!("{}.png", file.name).into(),
                     crate::plot::png(c, &file.name)?,
-                ),
-            ],
-        };
-        for (name, bytes) in items {
-            let p = stage.path().join(&name);
-            std::fs::write(&p, bytes).map_err(|e| fail(&p, &e))?;
-            names.push(name);
+                ));
+            }
         }
     }
-    if args.out.exists() {
-        for name in &names {
-            let target = args.out.join(name);
-            std::fs::rename(stage.path().join(name), &target).map_err(|e| fail(&target, &e))?;
-        }
-    } else {
-        let staged = stage.keep();
-        std::fs::rename(&staged, &args.out).map_err(|e| {
-            let _ = std::fs::remove_dir_all(&staged);
-            fail(&args.out, &e)
-        })?;
-    }
+    let count = files.len();
+    plan.write_dir(
+        "--out",
+        &args.out,
+        OWNER,
+        &files,
+        Some(format!("{count} files")),
+    )?;
     say(&format!(
         "done: {} figures in {}",
         report
@@ -161,7 +152,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .count(),
         args.out.display()
     ));
-    plan.wrote(&args.out, Some(format!("{} files", names.len())));
     plan.finish()
 }
 

@@ -45,10 +45,11 @@ pub struct Args {
     /// stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Write one PNG per map into this directory (created if missing): the height map
-    /// in grey, each flake filled with the colour of its tilt and outlined, flake
-    /// numbers on large flakes, pixels in no flake hatched, pixels without data dark,
-    /// a colour bar in degrees.
+    /// Write one PNG per map into this directory: the height map in grey, each flake
+    /// filled with the colour of its tilt and outlined, flake numbers on large flakes,
+    /// pixels in no flake hatched, pixels without data dark, a colour bar in degrees.
+    /// The directory is created, or replaced whole when empty or an earlier overlay
+    /// directory; a directory holding other files is refused.
     #[arg(long, value_name = "DIR")]
     pub overlay: Option<PathBuf>,
     /// Top of the overlays' tilt colour scale, degrees (flakes tilted more take its
@@ -66,6 +67,9 @@ pub struct Args {
     pub json: bool,
 }
 
+/// The owner recorded in an overlay directory's marker (`output::owned`).
+const OVERLAY_OWNER: &str = "segment --overlay";
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
@@ -74,7 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan.stdout("--json");
     }
     if let Some(dir) = &args.overlay {
-        plan.output_dir("--overlay", dir);
+        plan.output_dir("--overlay", dir, OVERLAY_OWNER);
     }
     if !(args.overlay_max_deg.is_finite()
         && args.overlay_max_deg > 0.0
@@ -125,7 +129,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let bytes = overlay_png(&o, file, &dir.join(&png_name).display().to_string())?;
             files.push((PathBuf::from(png_name), bytes));
         }
-        plan.write_dir(dir, &files, Some(format!("{} overlays", files.len())))?;
+        plan.write_dir(
+            "--overlay",
+            dir,
+            OVERLAY_OWNER,
+            &files,
+            Some(format!("{} overlays", files.len())),
+        )?;
     }
     plan.finish()?;
     if args.json {

@@ -1,13 +1,15 @@
 //! The checks of [`Plan::check`], made before any work starts: every output against the
-//! inputs (by canonical path and by device and inode) and the other outputs, and each
-//! target on its own (directory, parent directory, extension).
+//! inputs (by canonical path and by device and inode) and the other outputs, every
+//! output directory against the inputs inside it and the files it holds
+//! ([`owned::check_owned`]), and each target on its own (directory, parent directory,
+//! extension).
 
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 
 use anyhow::bail;
 
-use super::{Dest, Kind, Plan, parent_dir};
+use super::{Dest, Kind, Plan, owned, parent_dir};
 use crate::common::Failure;
 
 /// Identity of an existing file: canonical path and (device, inode).
@@ -84,10 +86,24 @@ impl Plan {
             };
             let shown = path.display();
             let flag = out.flag.as_str();
-            check_target(flag, path, out.kind, out.dir)?;
+            check_target(flag, path, out.kind, out.owner.is_some())?;
             let Some(id) = Identity::of(path) else {
                 continue;
             };
+            if let Some(owner) = &out.owner {
+                for (iflag, ipath, iid) in &inputs {
+                    if iid
+                        .as_ref()
+                        .is_some_and(|i| i.canonical.starts_with(&id.canonical))
+                    {
+                        bail!(
+                            "{flag} {shown} holds the input {iflag} {}: refusing to write the output directory over the run's inputs; give another directory",
+                            ipath.display()
+                        );
+                    }
+                }
+                owned::check_owned(flag, path, owner)?;
+            }
             for (iflag, ipath, iid) in &inputs {
                 if iid.as_ref().is_some_and(|i| i.same(&id)) {
                     bail!(
@@ -105,6 +121,25 @@ impl Plan {
                 }
             }
             seen.push((flag, path, id));
+        }
+        // No output inside an output directory (the directory is replaced whole).
+        for (dflag, dpath, did) in &seen {
+            if !self
+                .outputs
+                .iter()
+                .any(|o| o.owner.is_some() && o.dest == Dest::File(dpath.to_path_buf()))
+            {
+                continue;
+            }
+            for (oflag, opath, oid) in &seen {
+                if oid.canonical != did.canonical && oid.canonical.starts_with(&did.canonical) {
+                    bail!(
+                        "{oflag} {} lies inside the output directory {dflag} {}, which is replaced whole: give it a name outside",
+                        opath.display(),
+                        dpath.display()
+                    );
+                }
+            }
         }
         Ok(())
     }

@@ -9,14 +9,21 @@
 //! * Files are written atomically: into a temporary file in the target's directory,
 //!   renamed into place when complete, so a failure leaves nothing behind and a crash
 //!   never leaves half a file. Devices and pipes (`/dev/null`, `/dev/full`, a FIFO) are
-//!   written in place.
+//!   written in place. An output named through a symbolic link replaces the file the
+//!   link points to (the link stays).
 //! * Stdout is written through [`stdout`], whose errors end the command: a closed pipe
 //!   (`| head -1`) ends it quietly with exit status 0, any other error (a full disk) is
 //!   exit status 1 with a message naming "stdout".
+//! * Output directories (`analyze --out`, `reproduce --out`, `segment --overlay`,
+//!   `fit --paint --plot`) are owned by their command ([`owned`]): built whole beside
+//!   the target and swapped in by [`Plan::finish`]; an existing directory is replaced
+//!   only when it is empty or an earlier output of the same command holding nothing
+//!   else, and never when an input of the run lies inside it.
 //! * [`Plan::finish`] prints one line on stderr naming the files written
 //!   (`wrote out.csv (1405 rows), plot.png`).
 
 mod check;
+pub mod owned;
 mod stdout;
 mod write;
 
@@ -26,7 +33,7 @@ use std::path::{Path, PathBuf};
 pub use stdout::{note, print, print_json, print_json_with, stdout_closed, stdout_failed, warn};
 use stdout::{stdout, stdout_error};
 pub use write::temp_dir_beside;
-use write::{is_special, temp_in, write_file};
+use write::{is_special, real_path, temp_in, write_file};
 
 use crate::common::Failure;
 
@@ -78,7 +85,17 @@ struct Output {
     flag: String,
     dest: Dest,
     kind: Kind,
-    dir: bool,
+    /// For an output directory, the command that owns it ([`owned`]).
+    owner: Option<String>,
+}
+
+/// A complete output directory waiting to be swapped in by [`Plan::finish`].
+#[derive(Debug)]
+struct StagedDir {
+    stage: tempfile::TempDir,
+    target: PathBuf,
+    flag: String,
+    owner: String,
 }
 
 /// The inputs and outputs of one command, checked before any work starts.
@@ -90,8 +107,8 @@ pub struct Plan {
     wrote: Vec<String>,
     /// Complete temporary files, renamed into place by [`Plan::finish`].
     staged: Vec<(tempfile::NamedTempFile, PathBuf)>,
-    /// Complete temporary directories, renamed into place by [`Plan::finish`].
-    staged_dirs: Vec<(tempfile::TempDir, PathBuf)>,
+    /// Complete temporary directories, swapped into place by [`Plan::finish`].
+    staged_dirs: Vec<StagedDir>,
 }
 
 impl Plan {
@@ -120,18 +137,19 @@ impl Plan {
             flag: flag.to_owned(),
             dest: dest.clone(),
             kind,
-            dir: false,
+            owner: None,
         });
         Some(dest)
     }
 
-    /// Registers an output directory (`reproduce --out DIR`).
-    pub fn output_dir(&mut self, flag: &str, path: &Path) {
+    /// Registers an output directory (`reproduce --out DIR`) owned by the command
+    /// `owner` (the name its marker records, [`owned`]).
+    pub fn output_dir(&mut self, flag: &str, path: &Path, owner: &str) {
         self.outputs.push(Output {
             flag: flag.to_owned(),
             dest: Dest::File(path.to_path_buf()),
             kind: Kind::Table,
-            dir: true,
+            owner: Some(owner.to_owned()),
         });
     }
 
@@ -174,8 +192,9 @@ impl Plan {
                 out.flush().map_err(|e| stdout_error(&e))
             }
             Dest::File(path) => {
-                if let Some(tmp) = write_file(path, body)? {
-                    self.staged.push((tmp, path.clone()));
+                let real = real_path(path);
+                if let Some(tmp) = write_file(&real, body)? {
+                    self.staged.push((tmp, real));
                 }
                 self.wrote(path, detail);
                 Ok(())
@@ -193,57 +212,73 @@ impl Plan {
         detail: Option<String>,
     ) -> anyhow::Result<()> {
         let name = path.display();
-        if is_special(path) {
-            body(path)?;
+        let real = real_path(path);
+        if is_special(&real) {
+            body(&real)?;
         } else {
-            let tmp = temp_in(path)?;
+            let tmp = temp_in(&real)?;
             body(tmp.path()).map_err(|e| match e.downcast::<Failure>() {
                 Ok(f) => anyhow::Error::from(f),
                 Err(e) => anyhow::Error::from(Failure(format!("writing {name}: {e:#}"))),
             })?;
-            self.staged.push((tmp, path.to_path_buf()));
+            self.staged.push((tmp, real));
         }
         self.wrote(path, detail);
         Ok(())
     }
 
-    /// Writes the files `(path relative to dir, bytes)` into the directory `dir`
-    /// (registered with [`Plan::output_dir`]): a new directory is built whole beside it
-    /// and renamed into place by [`Plan::finish`]; into an existing one each file is
-    /// written atomically (subdirectories created as needed), other files left as they
-    /// are. `detail` goes into the "wrote" line.
+    /// Writes the files `(path relative to dir, bytes)` as the directory `dir`
+    /// (registered with [`Plan::output_dir`] as `flag`, owned by `owner`): the
+    /// directory is built whole beside `dir`, with its [`owned::MARKER`], and swapped
+    /// in by [`Plan::finish`]. `detail` goes into the "wrote" line.
     pub fn write_dir(
         &mut self,
+        flag: &str,
         dir: &Path,
+        owner: &str,
         files: &[(PathBuf, Vec<u8>)],
         detail: Option<String>,
     ) -> anyhow::Result<()> {
+        let stage = self.stage_dir(dir, owner, files)?;
+        self.staged_dirs.push(StagedDir {
+            stage,
+            target: dir.to_path_buf(),
+            flag: flag.to_owned(),
+            owner: owner.to_owned(),
+        });
+        self.wrote(dir, detail);
+        Ok(())
+    }
+
+    /// A temporary directory beside `dir` holding `files` and the marker of `owner`.
+    fn stage_dir(
+        &self,
+        dir: &Path,
+        owner: &str,
+        files: &[(PathBuf, Vec<u8>)],
+    ) -> anyhow::Result<tempfile::TempDir> {
         let fail = |p: &Path, e: &dyn std::fmt::Display| {
             anyhow::Error::from(Failure(format!("cannot write {}: {e}", p.display())))
         };
-        if dir.is_dir() {
-            for (rel, bytes) in files {
-                let path = dir.join(rel);
-                if let Some(parent) = path.parent() {
-                    std::fs::create_dir_all(parent).map_err(|e| fail(parent, &e))?;
-                }
-                if let Some(tmp) = write_file(&path, |w| Ok(w.write_all(bytes)?))? {
-                    self.staged.push((tmp, path));
-                }
+        let stage = temp_dir_beside(&owned::real_target(dir))?;
+        let mut listed = Vec::with_capacity(files.len());
+        for (rel, bytes) in files {
+            let path = stage.path().join(rel);
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent).map_err(|e| fail(&dir.join(rel), &e))?;
             }
-        } else {
-            let stage = temp_dir_beside(dir)?;
-            for (rel, bytes) in files {
-                let path = stage.path().join(rel);
-                if let Some(parent) = path.parent() {
-                    std::fs::create_dir_all(parent).map_err(|e| fail(parent, &e))?;
-                }
-                std::fs::write(&path, bytes).map_err(|e| fail(&dir.join(rel), &e))?;
-            }
-            self.staged_dirs.push((stage, dir.to_path_buf()));
+            std::fs::write(&path, bytes).map_err(|e| fail(&dir.join(rel), &e))?;
+            listed.push(
+                rel.components()
+                    .map(|c| c.as_os_str().to_string_lossy())
+                    .collect::<Vec<_>>()
+                    .join("/"),
+            );
         }
-        self.wrote(dir, detail);
-        Ok(())
+        let marker = owned::Marker::new(owner, listed, Vec::new());
+        std::fs::write(stage.path().join(owned::MARKER), marker.to_json())
+            .map_err(|e| fail(&dir.join(owned::MARKER), &e))?;
+        Ok(stage)
     }
 
     /// Records a file written outside [`Plan::write`] (e.g. a directory of figures).
@@ -254,20 +289,21 @@ impl Plan {
         });
     }
 
-    /// Renames every staged file into place, then prints the one "wrote" line on
-    /// stderr (if any file was written). Until this is called no output file exists;
-    /// dropping the plan instead removes the temporary files.
+    /// Renames every staged file into place and swaps every staged directory in, then
+    /// prints the one "wrote" line on stderr (if any file was written). Until this is
+    /// called no output file exists; dropping the plan instead removes the temporary
+    /// files and directories.
     pub fn finish(self) -> anyhow::Result<()> {
+        // Checked again: a directory may have changed while the command worked.
+        for d in &self.staged_dirs {
+            owned::check_owned(&d.flag, &d.target, &d.owner)?;
+        }
         for (tmp, path) in self.staged {
             tmp.persist(&path)
                 .map_err(|e| Failure(format!("cannot write {}: {}", path.display(), e.error)))?;
         }
-        for (stage, path) in self.staged_dirs {
-            let staged = stage.keep();
-            std::fs::rename(&staged, &path).map_err(|e| {
-                let _ = std::fs::remove_dir_all(&staged);
-                Failure(format!("cannot write {}: {e}", path.display()))
-            })?;
+        for d in self.staged_dirs {
+            owned::swap_in(&d.stage.keep(), &d.target)?;
         }
         if !self.wrote.is_empty() {
             note(&format!("wrote {}", self.wrote.join(", ")));

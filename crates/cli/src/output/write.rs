@@ -20,6 +20,18 @@ pub(super) fn is_special(path: &Path) -> bool {
     })
 }
 
+/// Where a write of `path` lands: the file a symbolic link points to (so the link
+/// keeps pointing at the new content, and the temporary file is made beside the real
+/// file, on its file system), else `path`.
+pub(super) fn real_path(path: &Path) -> std::path::PathBuf {
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        if let Ok(real) = std::fs::canonicalize(path) {
+            return real;
+        }
+    }
+    path.to_path_buf()
+}
+
 /// A temporary file next to `path`, created with the usual permissions (0666 less the
 /// umask, like a plain create).
 pub(super) fn temp_in(path: &Path) -> anyhow::Result<tempfile::NamedTempFile> {

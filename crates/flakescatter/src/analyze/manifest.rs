@@ -127,8 +127,8 @@ pub struct Maps {
 }
 
 /// A channel in a manifest: an integer index or a string (all digits: an index; else a
-/// name).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+/// name). Read by hand (`keys` module) so that a wrong value names the accepted forms.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 #[serde(untagged)]
 pub enum ChannelKey {
     /// A 0-based index.
@@ -327,8 +327,9 @@ impl Default for StatsSection {
     }
 }
 
-/// In-plane detector angles: a list, or an inclusive range.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// In-plane detector angles: a list, or an inclusive range. Read by hand (`keys`
+/// module) so that a wrong value names the key and the accepted forms.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Angles {
     /// Degrees.

@@ -8,9 +8,11 @@
 //! draws charts and overlays.
 //!
 //! **Resuming.** Each map's segmentation is kept in the report (`cache/maps/NAME.json`)
-//! under a key, the SHA-256 of its inputs' bytes, of the settings that shape it and of
-//! the program version; the model results likewise (`cache/models.json`) under a key of
-//! every map key, the model settings and the measured curve's bytes. A rerun with the
+//! under a key, the SHA-256 of its inputs' bytes, of the settings that shape it, of
+//! the program version and of the build's identity (the caller's, e.g. the CLI's hash
+//! of its sources, compiler and profile: a new build never reuses an older build's
+//! results); the model results likewise (`cache/models.json`) under a key of every map
+//! key, the model settings and the measured curve's bytes. A rerun with the
 //! same key takes them from the cache instead of computing them, so a batch can be
 //! resumed; [`Work`] (`summary.json` key `work`) counts what was computed and what was
 //! reused. The statistics, comparisons and report are always recomputed from those
@@ -20,7 +22,9 @@
 //! column names say.
 
 pub mod document;
+mod keys;
 pub mod manifest;
+mod optional;
 mod paint;
 
 use std::collections::BTreeMap;
@@ -54,6 +58,7 @@ use crate::pipeline::{
 use crate::sample::{SampleSettings, SampleStatistics, segment_maps, statistics_of};
 use document::{Block, Document};
 pub use manifest::{Manifest, ManifestError, TopoKind};
+pub use optional::FailedStatistic;
 
 /// Errors of an analysis.
 #[derive(Debug, thiserror::Error)]
@@ -708,7 +713,9 @@ fn run_models(
 }
 
 /// Analyses one sample (module docs); `cache` is what [`read_cache`] found in its
-/// report directory; `progress(stage, done, total)` is told what is being done.
+/// report directory; `build` identifies the program build (any text that changes
+/// whenever the code, its dependencies, the compiler or the profile do: it enters
+/// every cache key); `progress(stage, done, total)` is told what is being done.
 ///
 /// # Errors
 /// [`AnalyzeError::Input`] for an input that cannot be read (naming it),
@@ -718,6 +725,7 @@ fn run_models(
 pub fn analyze_sample(
     input: &SampleInput,
     cache: &Cache,
+    build: &str,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<SampleReport, AnalyzeError> {
     let m = &input.manifest;
@@ -746,6 +754,7 @@ pub fn analyze_sample(
         let loaded = load_map(src, &options, &|_, _| {}).map_err(input_err)?;
         let key = hash_json(&json!({
             "version": version,
+            "build": build,
             "height_sha256": h,
             "intensity_sha256": ih,
             "maps": {
@@ -812,21 +821,25 @@ pub fn analyze_sample(
         segs.push(seg);
     }
     progress("pooled statistics", 0, 1);
+    optional::require_flakes(m, &refs, &input.map_names, &segs)
+        .map_err(|e| AnalyzeError::Input(format!("{file}: {e}")))?;
+    // The pixel-level statistics are optional: computed apart, so that their failure
+    // is reported rather than fatal (optional module docs).
     let sample_settings = SampleSettings {
         segment: params,
         bin_width: m.stats.bin_deg.to_radians(),
-        pixel_normals: m.stats.pixel_normals.then_some(TopoSettings {
-            window: m.models.window,
-            tile_um: m.models.tile_um,
-        }),
+        pixel_normals: None,
     };
-    let stats = statistics_of(&refs, segs, &sample_settings).map_err(stage("statistics"))?;
+    let mut stats = statistics_of(&refs, segs, &sample_settings).map_err(stage("statistics"))?;
     warnings.extend(stats.pooled.warnings.iter().map(ToString::to_string));
+    let failed = optional::optional_statistics(m, &refs, &input.map_names, &mut stats);
+    warnings.extend(failed.iter().map(FailedStatistic::warning));
 
     // Models, from the cache where the key matches.
     let instrument = instrument_of(m, measured.as_ref())?;
     let models_key = hash_json(&json!({
         "version": version,
+        "build": build,
         "maps": keys,
         "models": m.models,
         "coating": m.coating,
@@ -854,7 +867,11 @@ pub fn analyze_sample(
     for (model, e) in &models.failures {
         warnings.push(format!("{model}: {e}"));
     }
-    warnings.extend(models.topo_warnings.iter().cloned());
+    let tiles = optional::tile_hint(m, &refs, &input.map_names);
+    warnings.extend(models.topo_warnings.iter().map(|w| match &tiles {
+        Some(h) if w.contains("tile") => format!("{w} ({h})"),
+        _ => w.clone(),
+    }));
 
     // Comparisons.
     let kind: MeasuredKind = m
@@ -915,7 +932,14 @@ pub fn analyze_sample(
 
     let paint = match (&m.paint, &input.paint) {
         (Some(section), Some(file)) => {
-            let p = paint::paint_part(section, file, coating.n, cache.paint.as_ref(), progress)?;
+            let p = paint::paint_part(
+                section,
+                file,
+                coating.n,
+                cache.paint.as_ref(),
+                build,
+                progress,
+            )?;
             if p.fitted {
                 work.paint_fits += 1;
             }
@@ -938,6 +962,8 @@ pub fn analyze_sample(
         &measured_hashes,
         &map_caches,
         paint,
+        &failed,
+        build,
     );
     Ok(report)
 }
@@ -989,6 +1015,8 @@ fn build_report(
     measured_hashes: &[String],
     map_caches: &[MapCache],
     paint: Option<paint::PaintOutcome>,
+    failed: &[FailedStatistic],
+    build: &str,
 ) -> SampleReport {
     let m = &input.manifest;
     let p = &stats.pooled;
@@ -1295,6 +1323,9 @@ fn build_report(
 
     // summary.json
     let flake = &p.flake_level;
+    let pixel_failure = failed
+        .iter()
+        .find(|f| f.statistic == "statistics.pixel_level");
     let statistics = json!({
         "flakes": stats.histogram.flakes(),
         "total_area_um2": stats.histogram.total_area_um2(),
@@ -1315,7 +1346,8 @@ fn build_report(
         "quoted_interval": if p.map_level.is_some() { "map_level" } else { "flake_level" },
         "heterogeneity": p.heterogeneity.map(|h| json!({"cochran_q": h.q, "dof": h.dof, "p": h.p, "i2": h.i2})),
         "z_bound": p.z_bound,
-        "histogram_fit_hwhm_deg": stats.histogram_fit.map(|h| h.hwhm().to_degrees()),
+        "histogram_fit_hwhm_deg": stats.histogram_fit.as_ref().ok().map(|h| h.hwhm().to_degrees()),
+        "histogram_fit_error": stats.histogram_fit.as_ref().err(),
         "maps": p.maps.iter().enumerate().map(|(k, w)| json!({
             "map": names[k],
             "flakes": w.flakes,
@@ -1326,15 +1358,16 @@ fn build_report(
             "z": w.z,
             "flagged": w.flagged,
         })).collect::<Vec<_>>(),
-        "pixel_level": stats.pixel.as_ref().map(|px| json!({
+        "pixel_level": stats.pixel.as_ref().map_or_else(|| pixel_failure.map(|f| json!({"error": f.error})), |px| Some(json!({
             "usable_pixels": px.orientation.tilts.usable_pixels,
             "hwhm_deg": px.orientation.width.map(|w| w.hwhm().to_degrees()),
             "hwhm_ci95_deg": px.orientation.width.map(|w| ci_deg(w.hwhm_ci95())),
-            "histogram_fit_hwhm_deg": px.orientation.histogram_fit.hwhm().to_degrees(),
+            "histogram_fit_hwhm_deg": px.orientation.histogram_fit.as_ref().ok().map(|h| h.hwhm().to_degrees()),
+            "histogram_fit_error": px.orientation.histogram_fit.as_ref().err(),
             "inside_flakes_hwhm_deg": px.sources.as_ref().ok().map(|w| w.inside.hwhm().to_degrees()),
             "within_flake_sigma_deg": px.sources.as_ref().ok().and_then(|w| w.within_flake_sigma).map(f64::to_degrees),
             "error": px.sources.as_ref().err(),
-        })),
+        }))),
     });
     let comparison_json: Vec<Value> = comparisons
         .iter()
@@ -1388,6 +1421,7 @@ fn build_report(
         .collect();
     let summary = json!({
         "version": env!("CARGO_PKG_VERSION"),
+        "build": build,
         "sample": input.name,
         "manifest": input.file.display().to_string(),
         "description": m.description,
@@ -1422,6 +1456,7 @@ fn build_report(
             "paint_fits": work.paint_fits,
             "model_work": work.model_work(),
         },
+        "failed_statistics": failed.iter().map(FailedStatistic::to_json).collect::<Vec<_>>(),
         "warnings": warnings,
         "files": file_list,
         "units": {
@@ -1559,6 +1594,17 @@ fn build_report(
             w.and_then(|w| w.within_flake_sigma)
                 .map_or_else(|| "—".into(), |s| format!("{:.3}°", s.to_degrees()))
         )));
+    }
+    if !failed.is_empty() {
+        d.push(Block::Para(
+            "Statistics that failed (the rest of the report stands without them):".into(),
+        ));
+        d.push(Block::List(
+            failed
+                .iter()
+                .map(|f| format!("`{}` (manifest key `{}`): {}", f.statistic, f.key, f.error))
+                .collect(),
+        ));
     }
     d.push(Block::Image(
         "histogram.png".into(),

@@ -54,7 +54,8 @@ fn options(s: &PaintSection, n: f64) -> FitOptions {
 }
 
 /// The paint part of a sample (module docs). `file` is the resolved table, `cached`
-/// the content of `cache/paint.json` if any, `n` the coating's index.
+/// the content of `cache/paint.json` if any, `n` the coating's index, `build` the
+/// program build's identity (part of the key, as in [`super::analyze_sample`]).
 ///
 /// # Errors
 /// [`AnalyzeError::Input`] for a table that cannot be read (named), a fit that fails.
@@ -63,6 +64,7 @@ pub fn paint_part(
     file: &Path,
     n: f64,
     cached: Option<&Value>,
+    build: &str,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<PaintOutcome, AnalyzeError> {
     let sha = flakescatter_io::files::sha256_file(file)
@@ -70,6 +72,7 @@ pub fn paint_part(
     let opts = options(s, n);
     let key = json!({
         "version": env!("CARGO_PKG_VERSION"),
+        "build": build,
         "table_sha256": sha,
         "section": s,
         "n": n,

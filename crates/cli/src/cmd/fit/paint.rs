@@ -51,7 +51,9 @@ pub struct PaintArgs {
     #[arg(long, value_name = "FILE")]
     pub params_out: Option<PathBuf>,
     /// --paint: draw measured against fitted in the plane for each incidence and a map
-    /// of the out-of-plane residuals into this directory (PNG).
+    /// of the out-of-plane residuals into this directory (PNG). The directory is
+    /// created, or replaced whole when empty or an earlier plot directory; a directory
+    /// holding other files is refused.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
 }
@@ -181,6 +183,9 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
     })
 }
 
+/// The owner recorded in a plot directory's marker (`output::owned`).
+const PLOT_OWNER: &str = "fit --paint --plot";
+
 /// Runs `fit --paint`.
 pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     let opts = options(args)?;
@@ -188,7 +193,7 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     let params_out = plan.output("--params-out", p.params_out.as_deref(), Kind::Table);
     let out = plan.output("--out", args.out.as_deref(), Kind::Table);
     if let Some(dir) = &p.plot {
-        plan.output_dir("--plot", dir);
+        plan.output_dir("--plot", dir, PLOT_OWNER);
     }
     plan.check()?;
     let m = args.measured.read_paint()?;
@@ -216,7 +221,13 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     }
     if let Some(dir) = &p.plot {
         let files = plots(&m, &fit)?;
-        plan.write_dir(dir, &files, Some(format!("{} plots", files.len())))?;
+        plan.write_dir(
+            "--plot",
+            dir,
+            PLOT_OWNER,
+            &files,
+            Some(format!("{} plots", files.len())),
+        )?;
     }
     plan.finish()?;
     if args.json {

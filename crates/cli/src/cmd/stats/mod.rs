@@ -221,6 +221,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for w in &stats.pooled.warnings {
         warn(&w.to_string());
     }
+    if let Some(Err(e)) = stats.pixel.as_ref().map(|px| &px.orientation.histogram_fit) {
+        warn(&format!(
+            "--pixel-normals: the Gaussian fit to the pixel-level histogram failed (its width is null in the JSON; the histogram is written): {e}"
+        ));
+    }
     if let Some(dest) = &flakes_out {
         let rows: Vec<(String, &[_])> = names
             .iter()

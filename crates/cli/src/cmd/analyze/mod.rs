@@ -7,8 +7,15 @@
 //!
 //! Layout: one manifest writes its report into DIR; several (or a directory of
 //! manifests) write each sample into `DIR/<name>/` and a comparison across samples
-//! (`samples.csv`, `index.md`, `index.html`) into DIR. Each sample's directory is
-//! written when it is complete (a new one whole, an existing one file by file), so an
+//! (`samples.csv`, `index.md`, `index.html`) into DIR ([`batch`]).
+//!
+//! A report directory is owned (`output::owned`): it is built whole beside its place
+//! and swapped in when complete, so it holds exactly one run's files and a run that
+//! fails leaves the previous report as it was. Only a missing or empty directory or an
+//! earlier report holding nothing else is replaced; a directory holding the run's
+//! inputs, or other files, is refused before any work. The previous report's `cache/`
+//! is read before the new one is built, so a rerun still reuses its work. Each
+//! sample's directory of a batch is swapped in when that sample is complete, so an
 //! interrupted batch keeps the samples it finished and a rerun reuses their work.
 
 use std::io::IsTerminal;
@@ -24,7 +31,9 @@ use flakescatter::io::files::read_text;
 use serde_json::json;
 
 use crate::maps::{Pairing, Repeats, expand, pair};
-use crate::output::{Plan, note, print_json, warn};
+use crate::output::{Dest, Plan, note, print_json, warn};
+
+mod batch;
 
 /// Analyses samples from their manifests: segmentation of every map, pooled statistics
 /// with flake-level and map-level intervals, the distribution model (pooled width and
@@ -37,7 +46,9 @@ pub struct Args {
     /// holding them (`*.toml`).
     #[arg(value_name = "SAMPLE.toml", required = true)]
     pub manifests: Vec<PathBuf>,
-    /// Report directory (created if missing; files it gets are replaced, others kept).
+    /// Report directory: created, or replaced whole when the run succeeds if it is empty
+    /// or an earlier report (a run that fails leaves it as it was); a directory holding
+    /// the run's inputs or other files is refused.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Print a JSON summary on stdout: per sample its directory, pooled width, warnings
@@ -182,26 +193,50 @@ fn data_uri(bytes: &[u8]) -> String {
     )
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let files = manifest_files(&args.manifests)?;
-    let mut samples = Vec::with_capacity(files.len());
-    for f in &files {
-        samples.push(resolve(f)?);
-    }
-    for (k, s) in samples.iter().enumerate() {
-        if let Some(o) = samples[..k].iter().find(|o| o.name == s.name) {
-            bail!(
-                "samples {} and {} are both named `{}`: give one of them another `name`",
-                o.file.display(),
-                s.file.display(),
-                s.name
-            );
+/// The owner recorded in a sample report's marker (`output::owned`).
+pub const OWNER: &str = "analyze";
+
+/// The files of a sample's report: `report.files` drawn, `index.md` and `index.html`.
+fn render(
+    s: &SampleInput,
+    report: &flakescatter::analyze::SampleReport,
+    dir: &Path,
+) -> anyhow::Result<Vec<(PathBuf, Vec<u8>)>> {
+    let mut out: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    let mut images: Vec<(String, Vec<u8>)> = Vec::new();
+    for f in &report.files {
+        let target = dir.join(&f.path).display().to_string();
+        let bytes = match &f.content {
+            Content::Text(t) => t.clone().into_bytes(),
+            Content::Chart(c) => crate::plot::png(c, &target)?,
+            Content::Overlay(o, title) => crate::picture::overlay_png(o, title, &target)?,
+            Content::ResidualMaps(maps, table) => {
+                crate::plot::residual_maps_png(maps, table, &target)?
+            }
+        };
+        if f.path.ends_with(".png") {
+            images.push((f.path.clone(), bytes.clone()));
         }
+        out.push((PathBuf::from(&f.path), bytes));
     }
-    let batch = samples.len() > 1;
+    let md = report.document.to_markdown();
+    let html = report
+        .document
+        .to_html(&format!("Sample {}", s.name), &|name| {
+            images
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, b)| data_uri(b))
+        });
+    out.push((PathBuf::from("index.md"), md.into_bytes()));
+    out.push((PathBuf::from("index.html"), html.into_bytes()));
+    Ok(out)
+}
+
+/// The plan of the run: every manifest's inputs, `--out` and `--json`, checked.
+fn plan(samples: &[SampleInput], args: &Args, batch: bool) -> anyhow::Result<Plan> {
     let mut plan = Plan::new();
-    for s in &samples {
+    for s in samples {
         plan.input("SAMPLE", &s.file);
         for m in &s.maps {
             plan.input("maps.files", &m.height);
@@ -216,11 +251,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             plan.input("paint.file", f);
         }
     }
-    plan.output_dir("--out", &args.out);
+    plan.output_dir(
+        "--out",
+        &args.out,
+        if batch { batch::BATCH_OWNER } else { OWNER },
+    );
     if args.json {
         plan.stdout("--json");
     }
     plan.check()?;
+    Ok(plan)
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let files = manifest_files(&args.manifests)?;
+    let mut samples = Vec::with_capacity(files.len());
+    for f in &files {
+        samples.push(resolve(f)?);
+    }
+    let batch = samples.len() > 1;
+    if batch {
+        let names: Vec<(&str, &Path)> = samples
+            .iter()
+            .map(|s| (s.name.as_str(), s.file.as_path()))
+            .collect();
+        batch::check_names(&names)?;
+    }
+    let mut plan = plan(&samples, &args, batch)?;
+    // The identity of this build (build.rs): part of every cache key.
+    let build = env!("FLAKESCATTER_BUILD");
 
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(0);
@@ -230,15 +290,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         b
     });
-    if batch && !args.out.is_dir() {
-        // Each sample's directory is staged beside its final place, inside DIR.
-        std::fs::create_dir_all(&args.out).map_err(|e| {
-            crate::common::Failure(format!("cannot create {}: {e}", args.out.display()))
-        })?;
-    }
     let mut rows = Vec::new();
     let mut echoes = Vec::new();
-    let mut wrote_dirs = Vec::new();
+    let mut open_batch: Option<batch::Batch> = None;
     for (k, s) in samples.iter().enumerate() {
         let dir = if batch {
             args.out.join(&s.name)
@@ -255,45 +309,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 b.set_position(done as u64);
             }
         };
+        // The previous report (checked to be one) is read for its cache only.
         let cache = read_cache(&dir, &s.map_names);
-        let report = analyze_sample(s, &cache, &progress)
+        let report = analyze_sample(s, &cache, build, &progress)
             .with_context(|| format!("sample {} ({})", s.name, s.file.display()))?;
-        let mut out: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-        let mut images: Vec<(String, Vec<u8>)> = Vec::new();
-        for f in &report.files {
-            let target = dir.join(&f.path).display().to_string();
-            let bytes = match &f.content {
-                Content::Text(t) => t.clone().into_bytes(),
-                Content::Chart(c) => crate::plot::png(c, &target)?,
-                Content::Overlay(o, title) => crate::picture::overlay_png(o, title, &target)?,
-                Content::ResidualMaps(maps, table) => {
-                    crate::plot::residual_maps_png(maps, table, &target)?
-                }
-            };
-            if f.path.ends_with(".png") {
-                images.push((f.path.clone(), bytes.clone()));
-            }
-            out.push((PathBuf::from(&f.path), bytes));
-        }
-        let md = report.document.to_markdown();
-        let html = report
-            .document
-            .to_html(&format!("Sample {}", s.name), &|name| {
-                images
-                    .iter()
-                    .find(|(n, _)| n == name)
-                    .map(|(_, b)| data_uri(b))
-            });
-        out.push((PathBuf::from("index.md"), md.into_bytes()));
-        out.push((PathBuf::from("index.html"), html.into_bytes()));
+        let out = render(s, &report, &dir)?;
         for w in &report.warnings {
             warn(&format!("{}: {w}", s.name));
         }
-        // Each sample is written when complete (module docs).
-        let mut p = Plan::new();
-        p.write_dir(&dir, &out, Some(format!("{} files", out.len())))?;
-        p.finish()?;
-        wrote_dirs.push(dir.clone());
+        let detail = Some(format!("{} files", out.len()));
+        if batch {
+            if open_batch.is_none() {
+                open_batch = Some(batch::Batch::open(&args.out)?);
+            }
+            // Each sample is swapped in when complete (module docs).
+            let mut p = Plan::new();
+            p.write_dir("--out", &dir, OWNER, &out, detail)?;
+            p.finish()?;
+            if let Some(b) = open_batch.as_mut() {
+                b.added(&s.name)?;
+            }
+        } else {
+            plan.write_dir("--out", &dir, OWNER, &out, detail)?;
+        }
         note(&format!(
             "{}: hwhm {:.3}° {}; work: {} map(s) segmented, {} reused, {} model run(s){}",
             s.name,
@@ -316,6 +354,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "hwhm_ci95_deg": [report.row.hwhm_ci95_deg.0, report.row.hwhm_ci95_deg.1],
             "interval": report.row.interval,
             "work": report.summary["work"],
+            "failed_statistics": report.summary["failed_statistics"],
             "warnings": report.warnings,
         }));
         rows.push(report.row);
@@ -323,23 +362,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    if batch {
+    if let Some(b) = open_batch {
         let (csv, doc) = comparison_report(&rows);
-        let files = vec![
-            (PathBuf::from("samples.csv"), csv.into_bytes()),
-            (PathBuf::from("index.md"), doc.to_markdown().into_bytes()),
-            (
-                PathBuf::from("index.html"),
-                doc.to_html("Samples compared", &|_| None).into_bytes(),
-            ),
-        ];
-        plan.write_dir(
-            &args.out,
-            &files,
-            Some(format!("{} samples compared", rows.len())),
-        )?;
+        let html = doc.to_html("Samples compared", &|_| None);
+        let detail = format!("{} samples compared", rows.len());
+        for (name, text, detail) in [
+            ("samples.csv", csv, Some(detail)),
+            ("index.md", doc.to_markdown(), None),
+            ("index.html", html, None),
+        ] {
+            let dest = Dest::File(args.out.join(name));
+            plan.write(&dest, |w| Ok(w.write_all(text.as_bytes())?), detail)?;
+        }
+        plan.finish()?;
+        b.finish()?;
+    } else {
+        plan.finish()?;
     }
-    plan.finish()?;
     if args.json {
         print_json(&json!({
             "version": env!("CARGO_PKG_VERSION"),
