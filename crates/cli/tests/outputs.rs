@@ -280,8 +280,8 @@ fn every_output_flag_naming_an_input_by_any_spelling_is_refused() {
     let _ = fs::remove_dir_all(&d);
 }
 
-/// A sample manifest in `d` over its map and measured curve, as in the issue: the
-/// measured curve is named `curves.csv` and the map `flakes.csv`'s neighbour.
+/// A sample manifest `s.toml` in `d` over its map and its measured curve, named
+/// `curves.csv` as in the issue (a report would write a `curves.csv` of its own).
 fn sample(d: &Path) {
     let fx = root().join("fixtures");
     fs::copy(fx.join("synth-hwhm6-rough.height.x3p"), d.join("map.x3p")).unwrap();
@@ -391,6 +391,17 @@ fn only_an_earlier_output_is_replaced_and_then_whole() {
     assert_eq!(snapshot(&d), before);
     // Another command's output folder is not this command's to replace.
     fs::remove_file(ov.join("notes.txt")).unwrap();
+    // An output file inside an output directory (which is replaced whole).
+    let o = run_in(
+        &d,
+        &args("segment map.x3p --out ov/f.csv --overlay ov", "", ""),
+    );
+    expect(
+        &o,
+        2,
+        &["--out ov/f.csv", "inside the output directory --overlay ov"],
+        "inside",
+    );
     let o = run_in(
         &d,
         &args("fit --paint --measured paint.csv --plot ov", "", ""),

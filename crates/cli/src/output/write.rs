@@ -24,10 +24,10 @@ pub(super) fn is_special(path: &Path) -> bool {
 /// keeps pointing at the new content, and the temporary file is made beside the real
 /// file, on its file system), else `path`.
 pub(super) fn real_path(path: &Path) -> std::path::PathBuf {
-    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
-        if let Ok(real) = std::fs::canonicalize(path) {
-            return real;
-        }
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink())
+        && let Ok(real) = std::fs::canonicalize(path)
+    {
+        return real;
     }
     path.to_path_buf()
 }
