@@ -2,20 +2,7 @@
 
 use std::process::ExitCode;
 
-use crate::output;
-
-/// A failure that is not the user's fault (exit status 1), for example an output file
-/// that cannot be written. Every other error is bad usage or bad input (exit status 2).
-#[derive(Debug)]
-pub struct Failure(pub String);
-
-impl std::fmt::Display for Failure {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for Failure {}
+use crate::output::{self, Failure};
 
 /// Print the error chain to stderr and pick the exit status (cli.md: 2 for bad usage or
 /// bad input, 1 for other failures). A stdout closed by its reader ends the command

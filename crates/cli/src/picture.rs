@@ -5,7 +5,7 @@
 use flakescatter::overlay::{HATCH, NO_DATA, Overlay, tilt_colour};
 use plotters::prelude::*;
 
-use crate::common::Failure;
+use crate::output::Failure;
 use crate::plot::{encode_rgb, register_fonts};
 
 /// Width of the colour-bar strip, pixels.

@@ -13,7 +13,7 @@ use flakescatter::chart::{Chart, Style};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::common::Failure;
+use crate::output::Failure;
 
 const PALETTE: [RGBColor; 8] = [
     RGBColor(31, 119, 180),

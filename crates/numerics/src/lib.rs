@@ -8,7 +8,9 @@
 //! * [`lm`]: bounded Levenberg–Marquardt least squares with central-difference
 //!   Jacobians (every fit of the project);
 //! * [`nnls`]: non-negative least squares (Lawson & Hanson), for the non-parametric
-//!   orientation estimate.
+//!   orientation estimate;
+//! * [`Vec3`] and [`UnitVec3`]: the 3-vector and unit 3-vector every layer shares
+//!   (defined here once; `optics` and `stats` re-export them).
 //!
 //! No physics and no units here: the callers state theirs.
 //!
@@ -36,3 +38,10 @@ pub mod legendre;
 pub mod lm;
 pub mod nnls;
 pub mod quad;
+
+/// A 3-vector of `f64` (the math type every flakescatter layer shares; units are the
+/// caller's).
+pub type Vec3 = nalgebra::Vector3<f64>;
+
+/// A unit 3-vector: a direction or a surface normal.
+pub type UnitVec3 = nalgebra::Unit<Vec3>;

@@ -69,11 +69,7 @@ pub mod refraction;
 
 pub use nalgebra;
 
-/// A 3-vector of `f64` (the math type every flakescatter layer shares).
-pub type Vec3 = nalgebra::Vector3<f64>;
-
-/// A unit 3-vector: a direction or a surface normal.
-pub type UnitVec3 = nalgebra::Unit<Vec3>;
+pub use flakescatter_numerics::{UnitVec3, Vec3};
 
 /// Errors from validating optical parameters.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -25,7 +25,6 @@ use std::ops::{Add, AddAssign, Mul};
 use nalgebra::{Complex, Matrix4};
 
 use crate::OpticsError;
-use crate::jones::JonesMatrix;
 
 /// A 4 × 4 Mueller matrix (module docs for the basis and the unit).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,47 +78,6 @@ impl Mueller {
     #[inline]
     pub fn m00(&self) -> f64 {
         self.0[(0, 0)]
-    }
-
-    /// The Mueller matrix of a Jones matrix (module docs), element by element. With
-    /// `J = [[a, b], [c, d]]` (`a` = s→s, `b` = p→s, `c` = s→p, `d` = p→p):
-    /// `m00 = ½(|a|²+|b|²+|c|²+|d|²)`, `m01 = ½(|a|²−|b|²+|c|²−|d|²)`,
-    /// `m10 = ½(|a|²+|b|²−|c|²−|d|²)`, `m11 = ½(|a|²−|b|²−|c|²+|d|²)`,
-    /// `m02 = Re(ab* + dc*)`, `m03 = Im(ab* − dc*)`, `m12 = Re(ab* − dc*)`,
-    /// `m13 = Im(ab* + dc*)`, `m20 = Re(ac* + db*)`, `m21 = Re(ac* − db*)`,
-    /// `m30 = Im(db* − ac*)`, `m31 = −Im(ac* + db*)`, `m22 = Re(da* + bc*)`,
-    /// `m33 = Re(da* − bc*)`, `m23 = −Im(da* + bc*)`, `m32 = Im(da* − bc*)`
-    /// (Bohren and Huffman's form, as SCATMECH writes it; equal to
-    /// `½ tr(σ_i J σ_j J†)`, which the tests check).
-    #[must_use]
-    #[inline]
-    pub fn from_jones(j: &JonesMatrix) -> Self {
-        let [[a, b], [c, d]] = j.0;
-        let (aa, bb, cc, dd) = (a.norm_sqr(), b.norm_sqr(), c.norm_sqr(), d.norm_sqr());
-        let ab = a * b.conj();
-        let dc = d * c.conj();
-        let ac = a * c.conj();
-        let db = d * b.conj();
-        let da = d * a.conj();
-        let bc = b * c.conj();
-        Self(Matrix4::new(
-            0.5 * (aa + bb + cc + dd),
-            0.5 * (aa - bb + cc - dd),
-            ab.re + dc.re,
-            ab.im - dc.im,
-            0.5 * (aa + bb - cc - dd),
-            0.5 * (aa - bb - cc + dd),
-            ab.re - dc.re,
-            ab.im + dc.im,
-            ac.re + db.re,
-            ac.re - db.re,
-            da.re + bc.re,
-            -(da.im + bc.im),
-            db.im - ac.im,
-            -(ac.im + db.im),
-            da.im - bc.im,
-            da.re - bc.re,
-        ))
     }
 
     /// The same matrix with the outgoing Stokes vector expressed in a basis turned by

@@ -17,8 +17,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use nalgebra::{Unit, Vector3};
 use thiserror::Error;
 
-/// Unit vector type for flake normals.
-pub type UnitVec3 = Unit<Vector3<f64>>;
+pub use flakescatter_numerics::UnitVec3;
 
 /// Errors from flake measurements.
 #[derive(Debug, Clone, PartialEq, Error)]

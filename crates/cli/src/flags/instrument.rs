@@ -1,6 +1,6 @@
 //! Coating, model and instrument flags of `model`, `topo`, `compare` and `fit`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flakescatter::optics::flake::FlakeReflectance;
@@ -162,7 +162,7 @@ impl InstrumentArgs {
         let theta_i = self.theta_i_deg()?;
         let aperture = self.optics.aperture_rad()?;
         let detectors = match &self.detectors {
-            Some(path) => DetectorSet::OutOfPlane(crate::maps::read_detectors(path)?),
+            Some(path) => DetectorSet::OutOfPlane(read_detectors(path)?),
             None => {
                 let text = self.theta_s.as_deref().unwrap_or(DEFAULT_THETA_S);
                 let ts = angles("--theta-s", text)?;
@@ -201,4 +201,14 @@ impl InstrumentArgs {
         v["detectors_file"] = json!(self.detectors.as_ref().map(|p| p.display().to_string()));
         v
     }
+}
+
+/// Reads out-of-plane detectors (io's detector reader: CSV with header
+/// `theta_r_deg, phi_r_deg`, degrees, ranges checked); returns `(θr, φr)` in radians.
+fn read_detectors(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
+    Ok(flakescatter::io::detectors::read_detectors(path)
+        .with_context(|| format!("--detectors {}", path.display()))?
+        .into_iter()
+        .map(|d| (d.theta_r, d.phi_r))
+        .collect())
 }

@@ -1,9 +1,6 @@
 //! Loading what was collected: every map source read through the facade (stacks
-//! localised, progress for stacks), and the out-of-plane detector file read through `io`.
+//! localised, progress for stacks).
 
-use std::path::Path;
-
-use anyhow::Context;
 use flakescatter::inputs::{LoadError, LoadOptions, LoadedMap, MapSource, SourceKind, load_map};
 
 /// A map as read, with the file it came from.
@@ -58,14 +55,4 @@ pub fn load_all(sources: &[MapSource], options: &LoadOptions) -> anyhow::Result<
         });
     }
     Ok(out)
-}
-
-/// Reads out-of-plane detectors (io's detector reader: CSV with header
-/// `theta_r_deg, phi_r_deg`, degrees, ranges checked); returns `(θr, φr)` in radians.
-pub fn read_detectors(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
-    Ok(flakescatter::io::detectors::read_detectors(path)
-        .with_context(|| format!("--detectors {}", path.display()))?
-        .into_iter()
-        .map(|d| (d.theta_r, d.phi_r))
-        .collect())
 }

@@ -32,7 +32,7 @@ use flakescatter::io::stack::{PageOrder, StackOptions};
 use crate::flags::MapArgs;
 use crate::output::Plan;
 pub use collect::{expand, pair};
-pub use load::{load_all, read_detectors};
+pub use load::load_all;
 
 /// Extensions of files taken from a directory as maps or stacks: the ISO formats, text
 /// matrices, TIFF stacks and the instrument formats with an extension of their own

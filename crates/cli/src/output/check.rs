@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::bail;
 
+use super::Failure;
 use super::{Dest, Kind, Plan, owned, parent_dir};
-use crate::common::Failure;
 
 /// Identity of an existing file: canonical path and (device, inode).
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -22,7 +22,9 @@
 //! * [`Plan::finish`] prints one line on stderr naming the files written
 //!   (`wrote out.csv (1405 rows), plot.png`).
 
+pub mod batch;
 mod check;
+mod failure;
 pub mod owned;
 mod stdout;
 mod write;
@@ -35,7 +37,7 @@ use stdout::{stdout, stdout_error};
 pub use write::temp_dir_beside;
 use write::{is_special, real_path, temp_in, write_file};
 
-use crate::common::Failure;
+pub use failure::Failure;
 
 /// What kind of file an output is, for the extension check.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -19,8 +19,8 @@ use std::path::{Path, PathBuf};
 use anyhow::bail;
 use serde::{Deserialize, Serialize};
 
+use super::Failure;
 use super::parent_dir;
-use crate::common::Failure;
 
 /// The marker file of an owned directory (JSON: [`Marker`]).
 pub const MARKER: &str = ".flakescatter-output.json";

@@ -5,7 +5,7 @@
 use std::io::{self, Write};
 use std::sync::atomic::{AtomicU8, Ordering};
 
-use crate::common::Failure;
+use super::Failure;
 
 /// State of stdout: 0 fine, 1 closed by the reader, 2 failed otherwise.
 static STDOUT_STATE: AtomicU8 = AtomicU8::new(0);

@@ -8,8 +8,8 @@ use std::io::{self, Write};
 use std::os::unix::fs::{FileTypeExt, PermissionsExt};
 use std::path::Path;
 
+use super::Failure;
 use super::parent_dir;
-use crate::common::Failure;
 
 /// Whether `path` exists and is not a regular file or directory (a device, FIFO or
 /// socket): such targets are written in place, never replaced.

@@ -292,7 +292,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     let mut rows = Vec::new();
     let mut echoes = Vec::new();
-    let mut open_batch: Option<batch::Batch> = None;
+    let mut open_batch: Option<crate::output::batch::Batch> = None;
     for (k, s) in samples.iter().enumerate() {
         let dir = if batch {
             args.out.join(&s.name)
@@ -320,7 +320,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let detail = Some(format!("{} files", out.len()));
         if batch {
             if open_batch.is_none() {
-                open_batch = Some(batch::Batch::open(&args.out)?);
+                open_batch = Some(batch::open(&args.out)?);
             }
             // Each sample is swapped in when complete (module docs).
             let mut p = Plan::new();
