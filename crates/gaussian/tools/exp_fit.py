@@ -1,4 +1,4 @@
-"""Coefficients of the polynomial for e^r in the batch kernel (crates/gaussian/src/batch.rs).
+"""Coefficients of the polynomial for e^r in the batch kernel (crates/gaussian/src/batch/lanes.rs).
 
 A Chebyshev fit of degree 11 to e^r on [-ln 2 / 2, ln 2 / 2] (mpmath's `chebyfit`, 50
 digits), its coefficients rounded to f64, and the largest relative error of the rounded
