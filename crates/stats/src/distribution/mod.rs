@@ -36,68 +36,15 @@ use thiserror::Error;
 
 use flakescatter_numerics::legendre as quad;
 
-/// Width of the Gaussian family `p̃(θ) ∝ exp(-θ²/(2 s²))` on `[0, π/2)`, radians.
-///
-/// The three forms describe the same shape: `w = s·sqrt(2 ln 2)` (half-width at half
-/// maximum of `p̃`, the paper's "half-width"), `s` (standard deviation of each tilt
-/// component for small tilts), `σt = s·√2` (`p̃ ∝ exp(-θ²/σt²)`, the facet-model
-/// software's rms tilt).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum GaussianWidth {
-    /// Half-width at half-maximum `w` of `p̃`, radians.
-    Hwhm(f64),
-    /// The standard deviation `s`, radians.
-    Sigma(f64),
-    /// The rms tilt `σt = s·√2`, radians.
-    RmsTilt(f64),
-}
+mod log_linear;
+mod pearson;
+mod tabulated;
+mod width;
 
-/// The smallest Gaussian width accepted (as `hwhm`, `sigma` or `rms-tilt`), radians.
-///
-/// Below it a detector cone collects the all-flat (delta) value to double precision
-/// wherever it contains the specular direction with a margin; only cones whose edge
-/// passes within ~1e-9 rad of specular still see the width, and there the answer is
-/// set by the last bits of the detector geometry, not by the width.
-pub const MIN_GAUSSIAN_WIDTH: f64 = 1e-10;
-
-/// `sqrt(2 ln 2)`: `hwhm = s · HWHM_PER_SIGMA`.
-pub const HWHM_PER_SIGMA: f64 = 1.177_410_022_515_474_7;
-
-impl GaussianWidth {
-    /// The value as given, radians.
-    pub fn value(self) -> f64 {
-        match self {
-            Self::Hwhm(v) | Self::Sigma(v) | Self::RmsTilt(v) => v,
-        }
-    }
-
-    /// The standard deviation `s`, radians.
-    pub fn sigma(self) -> f64 {
-        match self {
-            Self::Hwhm(w) => w / HWHM_PER_SIGMA,
-            Self::Sigma(s) => s,
-            Self::RmsTilt(t) => t / std::f64::consts::SQRT_2,
-        }
-    }
-
-    /// The half-width at half-maximum `w = s·sqrt(2 ln 2)`, radians.
-    pub fn hwhm(self) -> f64 {
-        self.sigma() * HWHM_PER_SIGMA
-    }
-
-    /// The rms tilt `σt = s·√2`, radians.
-    pub fn rms_tilt(self) -> f64 {
-        self.sigma() * std::f64::consts::SQRT_2
-    }
-
-    fn name(self) -> &'static str {
-        match self {
-            Self::Hwhm(_) => "hwhm",
-            Self::Sigma(_) => "sigma",
-            Self::RmsTilt(_) => "rms-tilt",
-        }
-    }
-}
+use log_linear::{LogLinear, log_linear_panels};
+use pearson::Pearson;
+use tabulated::Tabulated;
+pub use width::{GaussianWidth, HWHM_PER_SIGMA, MIN_GAUSSIAN_WIDTH};
 
 /// Errors from building an [`Orientation`].
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -205,57 +152,6 @@ struct Gaussian {
     mean_cos: f64,
 }
 
-/// Precomputed tabulated member.
-#[derive(Debug, Clone, PartialEq)]
-struct Tabulated {
-    /// `n + 1` strictly increasing edges in `[0, π/2]`, radians.
-    edges: Vec<f64>,
-    /// `n` area fractions summing to 1.
-    masses: Vec<f64>,
-    /// Cumulative masses, `cdf[i] = Σ_{j<=i} masses[j]`, last entry set to exactly 1.
-    cdf: Vec<f64>,
-    /// `p2` in each bin, per steradian.
-    p2: Vec<f64>,
-    mean_cos: f64,
-}
-
-/// Precomputed Pearson VII member.
-#[derive(Debug, Clone)]
-struct Pearson {
-    /// Slope scale `α`.
-    alpha: f64,
-    /// Shape `γ`.
-    shape: f64,
-    /// `1/(γ α²)`.
-    inv_ga2: f64,
-    /// `⟨cos θn⟩ = 1/∫ D dΩ`; `p2 = D ⟨cos θn⟩`.
-    mean_cos: f64,
-    /// Area-weighted CDF in `w` on [`CDF_NODES`] + 1 nodes, for sampling; built on the
-    /// first draw (a fit builds many members and samples none).
-    cdf: std::sync::OnceLock<Vec<(f64, f64)>>,
-}
-
-impl PartialEq for Pearson {
-    fn eq(&self, other: &Self) -> bool {
-        self.alpha == other.alpha && self.shape == other.shape
-    }
-}
-
-/// Precomputed log-linear member.
-#[derive(Debug, Clone, PartialEq)]
-struct LogLinear {
-    /// Knots, radians, `0 = θ0 < … < θK ≤ π/2`.
-    knots: Vec<f64>,
-    /// `ln p̃` at the knots as given.
-    ln_p_tilde: Vec<f64>,
-    /// `ln p̃` at the knots, normalised (`∫ p̃ sin θ dθ = 1`).
-    ln_norm: Vec<f64>,
-    /// Mass of each segment (sums to 1) and cumulative masses.
-    masses: Vec<f64>,
-    cdf: Vec<f64>,
-    mean_cos: f64,
-}
-
 #[derive(Debug, Clone, PartialEq)]
 enum Kind {
     Gaussian(Gaussian),
@@ -264,9 +160,6 @@ enum Kind {
     LogLinear(LogLinear),
     Flat,
 }
-
-/// Nodes of the CDF table a Pearson VII member samples from.
-const CDF_NODES: usize = 512;
 
 /// An azimuthally isotropic, area-weighted distribution of flake normals (see the module
 /// docs for `p2`, `p`, `p̃`, `D` and their normalisations).
@@ -787,203 +680,5 @@ impl Orientation {
         let (st, ct) = theta.sin_cos();
         let (sp, cp) = phi.sin_cos();
         Unit::new_unchecked(Vector3::new(st * cp, st * sp, ct))
-    }
-}
-
-/// Panels of the Gauss–Legendre rule on a log-linear segment from `ln p̃ = la` to `lb`:
-/// one per unit change of `ln p̃` (the rule is exact to rounding for `e^(bθ) sin θ` over
-/// such a panel).
-fn log_linear_panels(la: f64, lb: f64) -> usize {
-    ((lb - la).abs().ceil() as usize).clamp(1, 4096)
-}
-
-impl Pearson {
-    /// The macro-area density `D(θ)` (module docs), for `θ ∈ [0, π/2)`.
-    #[inline]
-    fn macro_density(&self, theta: f64) -> f64 {
-        // In logarithms: the power of (1 + tan²θ/(γα²)) under- or overflows for large γ.
-        let c = theta.cos();
-        let t = theta.tan();
-        (-(self.shape + 1.0) * (t * t * self.inv_ga2).ln_1p() - 4.0 * c.ln()).exp()
-            / (PI * self.alpha * self.alpha)
-    }
-
-    /// The exponent `k` of `u = w^k`: the integrand `k w^(k−1) sqrt(1 + s²)` is then
-    /// `O(w)` at `w → 0`.
-    fn k(&self) -> f64 {
-        (4.0 * self.shape / (2.0 * self.shape - 1.0)).max(2.0)
-    }
-
-    /// The slope `|tan θ|` at tail probability `u = w^k` of the projected slopes:
-    /// `u = (1 + s²/(γα²))^(−γ)`.
-    fn slope_of_w(&self, w: f64) -> f64 {
-        let u_inv_g = w.powf(-self.k() / self.shape);
-        (self.shape * self.alpha * self.alpha * (u_inv_g - 1.0))
-            .max(0.0)
-            .sqrt()
-    }
-
-    /// The `w` of the polar angle `θ` (inverse of [`Pearson::slope_of_w`]).
-    fn w_of_theta(&self, theta: f64) -> f64 {
-        if theta <= 0.0 {
-            return 1.0;
-        }
-        if theta >= FRAC_PI_2 {
-            return 0.0;
-        }
-        let t = theta.tan();
-        // ln u = −γ ln(1 + s²/(γα²)), w = u^(1/k).
-        (-(self.shape / self.k()) * (t * t * self.inv_ga2).ln_1p()).exp()
-    }
-
-    /// The unnormalised integrand in `w`: `k w^(k−1) sqrt(1 + s(w)²)`.
-    fn integrand(&self, w: f64) -> f64 {
-        if w <= 0.0 {
-            return 0.0;
-        }
-        let k = self.k();
-        let s = self.slope_of_w(w);
-        k * w.powf(k - 1.0) * s.mul_add(s, 1.0).sqrt()
-    }
-
-    /// `∫_a^b` of [`Pearson::integrand`] (`0 ≤ a ≤ b ≤ 1`): the area of the normals with
-    /// `w` in `[a, b]`, in units of the projected area (adaptive Gauss–Kronrod, relative
-    /// tolerance 1e-13).
-    fn area_integral(&self, a: f64, b: f64) -> f64 {
-        if !(b > a) {
-            return 0.0;
-        }
-        // Where the slope passes its scale the integrand bends: a break there.
-        let bend = self.w_of_theta(self.alpha.atan());
-        flakescatter_numerics::quad::adaptive(
-            |w| self.integrand(w),
-            a,
-            b,
-            &[bend],
-            1e-300,
-            1e-13,
-            400,
-        )
-        .0
-    }
-
-    /// The polar angle with area-weighted CDF `v` (the CDF runs from the horizon, `w = 0`,
-    /// to the normal, `w = 1`; `θ` of `1 − v` is returned so that `v` small gives small
-    /// tilts): the CDF table's node, then Newton on the exact partial integral.
-    fn sample_theta(&self, v: f64) -> f64 {
-        let target = 1.0 - v;
-        let cdf = self.cdf.get_or_init(|| {
-            let mut cdf = Vec::with_capacity(CDF_NODES + 1);
-            let mut acc = 0.0;
-            cdf.push((0.0, 0.0));
-            for j in 0..CDF_NODES {
-                let (a, b) = (
-                    j as f64 / CDF_NODES as f64,
-                    (j + 1) as f64 / CDF_NODES as f64,
-                );
-                acc += self.area_integral(a, b) * self.mean_cos;
-                cdf.push((b, acc));
-            }
-            cdf.last_mut().expect("nodes").1 = 1.0;
-            cdf
-        });
-        let j = cdf
-            .partition_point(|c| c.1 <= target)
-            .clamp(1, cdf.len() - 1);
-        let (w0, c0) = cdf[j - 1];
-        let (w1, c1) = cdf[j];
-        let mut w = if c1 > c0 {
-            w0 + (target - c0) / (c1 - c0) * (w1 - w0)
-        } else {
-            w0
-        };
-        for _ in 0..8 {
-            let f = c0 + self.area_integral(w0, w) * self.mean_cos - target;
-            let d = self.integrand(w) * self.mean_cos;
-            if !(d > 0.0) {
-                break;
-            }
-            let next = (w - f / d).clamp(w0, w1);
-            if (next - w).abs() <= 1e-15 {
-                w = next;
-                break;
-            }
-            w = next;
-        }
-        self.slope_of_w(w).atan()
-    }
-}
-
-impl LogLinear {
-    /// Normalised `p̃(θ)`, zero outside `[0, θK)`.
-    #[inline]
-    fn p_tilde(&self, theta: f64) -> f64 {
-        let last = *self.knots.last().expect("knots");
-        if !(theta >= 0.0 && theta < last) {
-            return 0.0;
-        }
-        let j = self.knots.partition_point(|&k| k <= theta) - 1;
-        let (a, b) = (self.knots[j], self.knots[j + 1]);
-        let (la, lb) = (self.ln_norm[j], self.ln_norm[j + 1]);
-        (la + (lb - la) * ((theta - a) / (b - a))).exp()
-    }
-
-    /// Area fraction of segment `j` between `a` and `b` (within the segment).
-    fn partial(&self, j: usize, a: f64, b: f64) -> f64 {
-        let (ka, kb) = (self.knots[j], self.knots[j + 1]);
-        let (la, lb) = (self.ln_norm[j], self.ln_norm[j + 1]);
-        let slope = (lb - la) / (kb - ka);
-        let panels = log_linear_panels(la + slope * (a - ka), la + slope * (b - ka));
-        quad::integrate(|t| (la + slope * (t - ka)).exp() * t.sin(), a, b, panels)
-    }
-
-    /// The polar angle with area-weighted CDF `v`: the segment from the cumulative
-    /// masses, then Newton (bracketed) on the exact partial integral.
-    fn sample_theta(&self, v: f64) -> f64 {
-        let j = self
-            .cdf
-            .partition_point(|&c| c <= v)
-            .min(self.masses.len() - 1);
-        let before = if j == 0 { 0.0 } else { self.cdf[j - 1] };
-        let target = v - before;
-        let (a, b) = (self.knots[j], self.knots[j + 1]);
-        let (mut lo, mut hi) = (a, b);
-        let mut t = a + (b - a) * (target / self.masses[j].max(1e-300)).clamp(0.0, 1.0);
-        for _ in 0..60 {
-            let f = self.partial(j, a, t) - target;
-            if f.abs() <= 1e-16 {
-                break;
-            }
-            if f > 0.0 {
-                hi = t;
-            } else {
-                lo = t;
-            }
-            let d = self.p_tilde(t) * t.sin();
-            let next = if d > 0.0 { t - f / d } else { f64::NAN };
-            t = if next > lo && next < hi {
-                next
-            } else {
-                0.5 * (lo + hi)
-            };
-            if hi - lo < 1e-15 {
-                break;
-            }
-        }
-        t
-    }
-}
-
-impl Tabulated {
-    /// Bin containing `theta` (`lo ≤ θ < hi`), `None` outside `[edges[0], edges[n])`.
-    #[inline]
-    fn bin_of(&self, theta: f64) -> Option<usize> {
-        let first = self.edges[0];
-        let last = *self.edges.last()?;
-        if !(theta >= first && theta < last) {
-            return None;
-        }
-        let i = self.edges.partition_point(|&e| e <= theta);
-        Some(i - 1)
     }
 }
