@@ -17,8 +17,9 @@ use crate::chart::{Chart, Series, Style, THETA_S_LABEL};
 use crate::compare::{
     IncidenceComparison, MeasuredKind, ModelPoint, Region, compare, distribution_points,
 };
-use crate::pipeline::{Coating, CurveRow, TopoSettings, isotropic_curves};
+use crate::pipeline::{Coating, CurveRow, Curves, TopoSettings, isotropic_curves};
 use crate::reproduce::SyntheticSample;
+use crate::{Instrument, Settings};
 
 /// The measured curve in the `compare --measured` format.
 pub(super) fn measured_csv(curve: &MeasuredCurve) -> String {
@@ -261,38 +262,8 @@ pub(super) fn fig10(
     // (ratio − 1) / combined uncertainty of the rough sample 5°–40° from specular.
     let mut z_rough: Vec<f64> = Vec::new();
     for (c, f) in samples.iter().enumerate() {
-        let (maps, flakes) = f
-            .sample
-            .masked_maps(&|m| progress(&format!("  {}: {m}", f.name)))?;
-        progress(&format!(
-            "  {}: isotropic topographic model of {} maps",
-            f.name, f.sample.maps
-        ));
-        let refs: Vec<&HeightMap> = maps.iter().collect();
-        let (curves, iso) = isotropic_curves(
-            &Coating::default(),
-            &instrument,
-            &settings,
-            &TopoSettings::default(),
-            None,
-            &refs,
-            &|_, _| {},
-        )?;
-        // The largest interpolation error estimate within 40° of specular, relative.
-        let interp = curves
-            .rows
-            .iter()
-            .zip(&iso.interpolation_error)
-            .filter(|(r, _)| {
-                let ts = ctx.theta_s_deg[r.detector].to_radians();
-                Region::of(r.theta_i, ts) != Region::Far && r.reflectance.is_some_and(|x| x > 0.0)
-            })
-            .map(|(r, e)| e / r.reflectance.unwrap_or(f64::NAN))
-            .fold(0.0, f64::max);
-        notes.push(format!(
-            "{} sample: {} visible flakes, {} usable pixels of {}, {} tiles of 32 µm; largest interpolation error estimate within 40° of specular {:.1e} of the value",
-            f.name, flakes, iso.usable_pixels, iso.pixels, iso.tiles, interp
-        ));
+        let (curves, note) = fig10_model(ctx, f, &instrument, &settings, progress)?;
+        notes.push(note);
         let lookup = |ti: f64, ts: f64| -> Option<&CurveRow> {
             curves.rows.iter().find(|r| {
                 (r.theta_i - ti).abs() < 1e-9
@@ -391,64 +362,11 @@ pub(super) fn fig10(
             if f.name == "rough" {
                 z_rough.extend(&z);
             }
-            // Every detector, zeros included: the line breaks where no ring arrived.
-            let rows = rows_at(&curves, ti);
-            let line = rows
-                .iter()
-                .map(|row| (ctx.theta_s_deg[row.detector], r.scale * row.brdf))
-                .collect();
-            let band = rows.iter().map(|row| {
-                let x = ctx.theta_s_deg[row.detector];
-                let e = row.std_err.unwrap_or(f64::NAN);
-                (x, r.scale * (row.brdf - e), r.scale * (row.brdf + e))
-            });
             let near = r.regions.iter().find(|x| x.region == Region::NearSpecular);
-            let band_label = if c == 0 {
-                "± 1 standard error (map tiles)".to_owned()
-            } else {
-                String::new()
-            };
-            per_incidence[k].push(Series::band(band_label, c, band));
-            per_incidence[k].push(Series {
-                label: format!(
-                    "{}, {} maps (× {:.3}; rms near {:.3})",
-                    f.label,
-                    f.sample.maps,
-                    r.scale,
-                    near.and_then(|x| x.rms_log10).unwrap_or(f64::NAN)
-                ),
-                points: line,
-                style: Style::Line,
-                colour: c,
-            });
+            per_incidence[k].extend(sample_series(ctx, &curves, r, c, f));
             if f.name == "rough" {
-                // Two runs, below and above specular: the line breaks over the specular
-                // region, where the scale is not fitted (and the clear coat's peak is).
-                let gap = (0.0, f64::NAN, f64::NAN);
-                let sides = |v: &[(f64, f64, f64)]| -> Vec<(f64, f64, f64)> {
-                    let (below, above): (Vec<_>, Vec<_>) = v.iter().partition(|p| p.0 < 0.0);
-                    below.into_iter().chain([gap]).chain(above).collect()
-                };
-                let ratio = sides(&ratio);
-                let band_label = if k == 0 {
-                    "± 1 combined standard uncertainty (sample tiles, measurement)".to_owned()
-                } else {
-                    String::new()
-                };
-                ratio_series.push(Series::band(
-                    band_label,
-                    k,
-                    ratio.iter().map(|&(x, q, u)| (x, q - u, q + u)),
-                ));
-                ratio_series.push(Series {
-                    label: format!(
-                        "θi = {ti}°: rough sample ÷ \"measured\" (rms near {:.3} in log10)",
-                        near.and_then(|x| x.rms_log10).unwrap_or(f64::NAN)
-                    ),
-                    points: ratio.iter().map(|&(x, q, _)| (x, q)).collect(),
-                    style: Style::Line,
-                    colour: k,
-                });
+                let rms = near.and_then(|x| x.rms_log10).unwrap_or(f64::NAN);
+                ratio_series.extend(ratio_pair(&ratio, k, ti, rms));
             }
             if dropped > 0 {
                 notes.push(format!(
@@ -459,6 +377,87 @@ pub(super) fn fig10(
             }
         }
     }
+    let files = fig10_charts(report, per_incidence, ratio_series, measured);
+    report.text("fig10.csv", csv);
+    let stats = ratio_stats(&z_rough);
+    let [_, rough] = samples;
+    index.add(
+        "Fig. 10 — topographic model, averaged over the sample's rotation, of a smooth-flake and a rough-flake sample against the \"measured\" curve",
+        &files,
+        fig10_caption(&rough, &notes, &stats),
+    );
+    Ok(Value::Array(json_rows))
+}
+
+/// The index text of Fig. 10: what the figure shows, how its samples were made, the
+/// rough sample's agreement (`stats`, [`ratio_stats`]) and the run's `notes`.
+fn fig10_caption(rough: &Fig10Sample, notes: &[String], stats: &Value) -> String {
+    let pct = |key: &str| 100.0 * stats[key].as_f64().unwrap_or(f64::NAN);
+    format!(
+        "The topographic model averaged over the sample's rotation about its normal \
+         (physics.md §5.1: every pixel sends a ring of rays, one per azimuth, exactly — \
+         what a goniometer sees of an isotropic sample; 5 × 5 least-squares normals, \
+         clear coat on) on two samples of confocal maps of the paper's acquisition: \
+         {n} maps of 512² pixels at 0.18 µm each (92 µm square, about 70 flakes per \
+         map), intensity-masked at the midpoint, with {noise} µm of height noise — the \
+         rms error with which the default estimator recovers heights from 0.3 µm \
+         z-stacks (`flakescatter stack`; 0.0068 µm in `crates/flakescatter/tests/stack.rs`), \
+         standing in for rendering and localising the stacks themselves. Both samples \
+         hold the same flakes (Gaussian hwhm 3°, seeds {s0}–{s1}), those of the \
+         \"measured\" coating: the **rough** sample with their within-flake roughness \
+         (rms {rr} µm, correlation length {rc} µm), the **smooth** sample without it (what \
+         flake-level orientations alone describe). Each curve is scaled to the SYNTHETIC \
+         measured curve 5°–40° from specular (dots); the shaded bands are ± one \
+         standard error of the scaled model from the spread between 32 µm map tiles. \
+         As in the paper, the rough sample agrees with the measurement near specular \
+         and the smooth one is far too narrow. `fig10_ratio` shows the rough sample \
+         divided by the measured curve 5°–40° from specular (where the scale is \
+         fitted), with ± the combined standard uncertainty (sample tiles and \
+         measurement, in quadrature): {w1:.0} % of its points lie within one combined \
+         standard uncertainty of 1 and {w2:.0} % within two (68 % and 95 % for \
+         independent Gaussian errors; here the fitted scale absorbs the errors' common \
+         part, and neighbouring detectors share pixels, so deviations come in smooth \
+         runs; the largest is {zmax:.1} uncertainties). **What changed and why.** This figure used to show \
+         the plain model (one ray per pixel, one orientation) on each 512² fixture map \
+         alone: ~70 flakes at one azimuth left most detectors without a ray (238 of 281 \
+         at θi = 30° for the smooth fixture), and the fixtures' 0.3 µm z steps (argmax \
+         heights) made flat terraces whose exactly vertical normals gave the huge \
+         specular spike the paper attributes to its microscope's interpolation. Now a \
+         sample is 12 maps, as the paper's acquisition, the model is averaged over the \
+         rotation the paper checked its samples to be indifferent to, and heights come \
+         from sub-step localisation, so that the terraces and their spike are gone \
+         (issue 15: the argmax map's specular cone is several times the true map's). The \
+         \"measured\" curve itself is now the same model on the exact surfaces of six \
+         larger maps of the coating at the same 0.18 µm pitch (see above): at the former \
+         0.5 µm pitch the 5 × 5 window smoothed the 2 µm roughness, so a curve measured \
+         that way was narrower than any 0.18 µm map can give. The agreement is \
+         therefore a consistency check of the method on known surfaces, not a test \
+         against a measurement. {notes}. `fig10.csv`: `sample, theta_i_deg, theta_s_deg, \
+         region, measured_brdf_per_sr, measured_uncertainty_per_sr, \
+         model_scaled_brdf_per_sr, model_scaled_std_err_per_sr` (sr⁻¹), `rays` (pixels \
+         whose ring meets the detector), `scale`.",
+        n = rough.sample.maps,
+        noise = FIG10_HEIGHT_NOISE_UM,
+        s0 = rough.sample.seed,
+        s1 = rough.sample.seed + rough.sample.maps as u64 - 1,
+        rr = rough.sample.roughness_rms_um,
+        rc = rough.sample.roughness_correlation_um,
+        notes = notes.join("; "),
+        w1 = pct("within_1"),
+        w2 = pct("within_2"),
+        zmax = stats["max_abs"].as_f64().unwrap_or(f64::NAN),
+    )
+}
+
+/// Fig. 10's charts: per incidence the measured points under the samples' scaled
+/// curves (`per_incidence`), and the rough sample's ratio to the measured curve
+/// (`ratio_series`). Returns the figure's files, `fig10.csv` first.
+fn fig10_charts(
+    report: &mut super::Report,
+    per_incidence: Vec<Vec<Series>>,
+    mut ratio_series: Vec<Series>,
+    measured: &MeasuredCurve,
+) -> Vec<String> {
     let mut files = vec!["fig10.csv".to_string()];
     for (k, models) in per_incidence.into_iter().enumerate() {
         let ti = INCIDENCES[k];
@@ -501,67 +500,123 @@ pub(super) fn fig10(
     );
     files.push("fig10_ratio.svg".into());
     files.push("fig10_ratio.png".into());
-    report.text("fig10.csv", csv);
-    let stats = ratio_stats(&z_rough);
-    let pct = |key: &str| 100.0 * stats[key].as_f64().unwrap_or(f64::NAN);
-    let [_, rough] = samples;
-    index.add(
-        "Fig. 10 — topographic model, averaged over the sample's rotation, of a smooth-flake and a rough-flake sample against the \"measured\" curve",
-        &files,
-        format!(
-            "The topographic model averaged over the sample's rotation about its normal \
-             (physics.md §5.1: every pixel sends a ring of rays, one per azimuth, exactly — \
-             what a goniometer sees of an isotropic sample; 5 × 5 least-squares normals, \
-             clear coat on) on two samples of confocal maps of the paper's acquisition: \
-             {n} maps of 512² pixels at 0.18 µm each (92 µm square, about 70 flakes per \
-             map), intensity-masked at the midpoint, with {noise} µm of height noise — the \
-             rms error with which the default estimator recovers heights from 0.3 µm \
-             z-stacks (`flakescatter stack`; 0.0068 µm in `crates/flakescatter/tests/stack.rs`), \
-             standing in for rendering and localising the stacks themselves. Both samples \
-             hold the same flakes (Gaussian hwhm 3°, seeds {s0}–{s1}), those of the \
-             \"measured\" coating: the **rough** sample with their within-flake roughness \
-             (rms {rr} µm, correlation length {rc} µm), the **smooth** sample without it (what \
-             flake-level orientations alone describe). Each curve is scaled to the SYNTHETIC \
-             measured curve 5°–40° from specular (dots); the shaded bands are ± one \
-             standard error of the scaled model from the spread between 32 µm map tiles. \
-             As in the paper, the rough sample agrees with the measurement near specular \
-             and the smooth one is far too narrow. `fig10_ratio` shows the rough sample \
-             divided by the measured curve 5°–40° from specular (where the scale is \
-             fitted), with ± the combined standard uncertainty (sample tiles and \
-             measurement, in quadrature): {w1:.0} % of its points lie within one combined \
-             standard uncertainty of 1 and {w2:.0} % within two (68 % and 95 % for \
-             independent Gaussian errors; here the fitted scale absorbs the errors' common \
-             part, and neighbouring detectors share pixels, so deviations come in smooth \
-             runs; the largest is {zmax:.1} uncertainties). **What changed and why.** This figure used to show \
-             the plain model (one ray per pixel, one orientation) on each 512² fixture map \
-             alone: ~70 flakes at one azimuth left most detectors without a ray (238 of 281 \
-             at θi = 30° for the smooth fixture), and the fixtures' 0.3 µm z steps (argmax \
-             heights) made flat terraces whose exactly vertical normals gave the huge \
-             specular spike the paper attributes to its microscope's interpolation. Now a \
-             sample is 12 maps, as the paper's acquisition, the model is averaged over the \
-             rotation the paper checked its samples to be indifferent to, and heights come \
-             from sub-step localisation, so that the terraces and their spike are gone \
-             (issue 15: the argmax map's specular cone is several times the true map's). The \
-             \"measured\" curve itself is now the same model on the exact surfaces of six \
-             larger maps of the coating at the same 0.18 µm pitch (see above): at the former \
-             0.5 µm pitch the 5 × 5 window smoothed the 2 µm roughness, so a curve measured \
-             that way was narrower than any 0.18 µm map can give. The agreement is \
-             therefore a consistency check of the method on known surfaces, not a test \
-             against a measurement. {notes}. `fig10.csv`: `sample, theta_i_deg, theta_s_deg, \
-             region, measured_brdf_per_sr, measured_uncertainty_per_sr, \
-             model_scaled_brdf_per_sr, model_scaled_std_err_per_sr` (sr⁻¹), `rays` (pixels \
-             whose ring meets the detector), `scale`.",
-            n = rough.sample.maps,
-            noise = FIG10_HEIGHT_NOISE_UM,
-            s0 = rough.sample.seed,
-            s1 = rough.sample.seed + rough.sample.maps as u64 - 1,
-            rr = rough.sample.roughness_rms_um,
-            rc = rough.sample.roughness_correlation_um,
-            notes = notes.join("; "),
-            w1 = pct("within_1"),
-            w2 = pct("within_2"),
-            zmax = stats["max_abs"].as_f64().unwrap_or(f64::NAN),
+    files
+}
+
+/// The rough sample's ratio to the measured curve at incidence `ti` (colour `k`) as a
+/// band of ± its combined standard uncertainty and a line, `ratio` holding
+/// `(aspecular angle, ratio, uncertainty)`: two runs, below and above specular, so that
+/// the line breaks over the specular region, where the scale is not fitted (and the
+/// clear coat's peak is). `rms` is the near-specular rms of log10 residuals.
+fn ratio_pair(ratio: &[(f64, f64, f64)], k: usize, ti: f64, rms: f64) -> [Series; 2] {
+    let gap = (0.0, f64::NAN, f64::NAN);
+    let (below, above): (Vec<_>, Vec<_>) = ratio.iter().partition(|p| p.0 < 0.0);
+    let ratio: Vec<(f64, f64, f64)> = below.into_iter().chain([gap]).chain(above).collect();
+    let band_label = if k == 0 {
+        "± 1 combined standard uncertainty (sample tiles, measurement)".to_owned()
+    } else {
+        String::new()
+    };
+    [
+        Series::band(
+            band_label,
+            k,
+            ratio.iter().map(|&(x, q, u)| (x, q - u, q + u)),
         ),
+        Series {
+            label: format!("θi = {ti}°: rough sample ÷ \"measured\" (rms near {rms:.3} in log10)"),
+            points: ratio.iter().map(|&(x, q, _)| (x, q)).collect(),
+            style: Style::Line,
+            colour: k,
+        },
+    ]
+}
+
+/// The isotropic topographic model (clear coat on) on the masked maps of sample `f`,
+/// with the note on its flakes, pixels, tiles and largest interpolation error estimate
+/// within 40° of specular.
+fn fig10_model(
+    ctx: &Ctx,
+    f: &Fig10Sample,
+    instrument: &Instrument,
+    settings: &Settings,
+    progress: &dyn Fn(&str),
+) -> Result<(Curves, String), FiguresError> {
+    let (maps, flakes) = f
+        .sample
+        .masked_maps(&|m| progress(&format!("  {}: {m}", f.name)))?;
+    progress(&format!(
+        "  {}: isotropic topographic model of {} maps",
+        f.name, f.sample.maps
+    ));
+    let refs: Vec<&HeightMap> = maps.iter().collect();
+    let (curves, iso) = isotropic_curves(
+        &Coating::default(),
+        instrument,
+        settings,
+        &TopoSettings::default(),
+        None,
+        &refs,
+        &|_, _| {},
+    )?;
+    // The largest interpolation error estimate within 40° of specular, relative.
+    let interp = curves
+        .rows
+        .iter()
+        .zip(&iso.interpolation_error)
+        .filter(|(r, _)| {
+            let ts = ctx.theta_s_deg[r.detector].to_radians();
+            Region::of(r.theta_i, ts) != Region::Far && r.reflectance.is_some_and(|x| x > 0.0)
+        })
+        .map(|(r, e)| e / r.reflectance.unwrap_or(f64::NAN))
+        .fold(0.0, f64::max);
+    let note = format!(
+        "{} sample: {} visible flakes, {} usable pixels of {}, {} tiles of 32 µm; largest interpolation error estimate within 40° of specular {:.1e} of the value",
+        f.name, flakes, iso.usable_pixels, iso.pixels, iso.tiles, interp
     );
-    Ok(Value::Array(json_rows))
+    Ok((curves, note))
+}
+
+/// Sample `f`'s scaled curve at the incidence of comparison `r` (colour `c`) over every
+/// detector, zeros included (the line breaks where no ring arrived), and its band of ± one
+/// standard error from the map tiles.
+fn sample_series(
+    ctx: &Ctx,
+    curves: &Curves,
+    r: &IncidenceComparison,
+    c: usize,
+    f: &Fig10Sample,
+) -> [Series; 2] {
+    let ti = r.theta_i.to_degrees().round();
+    let rows = rows_at(curves, ti);
+    let line = rows
+        .iter()
+        .map(|row| (ctx.theta_s_deg[row.detector], r.scale * row.brdf))
+        .collect();
+    let band = rows.iter().map(|row| {
+        let x = ctx.theta_s_deg[row.detector];
+        let e = row.std_err.unwrap_or(f64::NAN);
+        (x, r.scale * (row.brdf - e), r.scale * (row.brdf + e))
+    });
+    let near = r.regions.iter().find(|x| x.region == Region::NearSpecular);
+    let band_label = if c == 0 {
+        "± 1 standard error (map tiles)".to_owned()
+    } else {
+        String::new()
+    };
+    [
+        Series::band(band_label, c, band),
+        Series {
+            label: format!(
+                "{}, {} maps (× {:.3}; rms near {:.3})",
+                f.label,
+                f.sample.maps,
+                r.scale,
+                near.and_then(|x| x.rms_log10).unwrap_or(f64::NAN)
+            ),
+            points: line,
+            style: Style::Line,
+            colour: c,
+        },
+    ]
 }
