@@ -28,7 +28,7 @@ use flakescatter_stats::{GaussianWidth, Orientation};
 use super::SpectralCoating;
 use flakescatter_io::spectral::MultiAngleFile;
 
-use super::colour::{MultiAngleSource, measured_colours, multi_angle_colour};
+use super::colour::{MeasuredGeometry, MultiAngleSource, measured_colours, multi_angle_colour};
 use crate::PipelineError;
 use crate::fit::{MIN_POINTS_PER_PARAMETER, UncertaintyBasis, chi2_per_dof_999};
 use crate::pipeline::{OrientationSource, Settings};
@@ -173,33 +173,7 @@ pub fn fit_lightness(
     hwhm_start: f64,
 ) -> Result<LightnessFit, PipelineError> {
     let measured = &measured_colours(file, setup.illuminant, setup.observer)?[..];
-    let n0 = match (&setup.coating.coat, setup.fit_n) {
-        (CoatIndex::Constant(n), _) => Some(*n),
-        (_, true) => {
-            return Err(PipelineError::Measurement(
-                "fitting n fits one constant clear-coat index; the coat is dispersive (Cauchy or a table): fix its dispersion or fit without n".into(),
-            ));
-        }
-        _ => None,
-    };
-    for m in measured {
-        if m.geometry.aspecular().abs() <= setup.aperture {
-            return Err(PipelineError::Measurement(format!(
-                "line {}: the geometry at {:.6}° aspecular has the specular direction inside its {:.6}° cone; the L* fit scales the flakes' light and would scale the clear coat's reflection with it: leave that geometry out",
-                m.line,
-                m.geometry.aspecular().to_degrees(),
-                setup.aperture.to_degrees()
-            )));
-        }
-    }
-    let np = if setup.fit_n { 3 } else { 2 };
-    if measured.len() <= np {
-        return Err(PipelineError::Measurement(format!(
-            "{} geometries are too few to fit {np} parameters (width, scale{})",
-            measured.len(),
-            if setup.fit_n { ", n" } else { "" }
-        )));
-    }
+    let (n0, np) = check_lightness_fit(measured, setup)?;
     let have_u = measured
         .iter()
         .all(|m| m.l_uncertainty.is_some_and(|u| u > 0.0));
@@ -274,42 +248,21 @@ pub fn fit_lightness(
             .map(|((l, m), s)| (l.l - m.lab.l) / s)
             .collect())
     };
-    let bounds: Vec<(f64, f64, &'static str)> = {
-        let mut b = vec![
-            (0.05f64.to_radians().ln(), 60f64.to_radians().ln(), "hwhm"),
-            (1e-3f64.ln(), 1e3f64.ln(), "scale"),
-        ];
-        if setup.fit_n {
-            b.push((1.0, 3.0, "n"));
-        }
-        b
-    };
+    let bounds = lightness_bounds(setup.fit_n);
     let clamp = |q: &mut Vec<f64>| {
         for (v, (lo, hi, _)) in q.iter_mut().zip(&bounds) {
             *v = v.clamp(*lo, *hi);
         }
     };
 
-    // Start: the scale that matches the mean luminance factor at the start width.
     let mut q = vec![hwhm_start.max(1e-4).ln(), 0.0];
     if setup.fit_n {
         q.push(n0.unwrap_or(1.5));
     }
     clamp(&mut q);
-    {
-        let (xyz, white) = xyz_of(q[0].exp(), setup.fit_n.then(|| q[2]))?;
-        let ratios: Vec<f64> = xyz
-            .iter()
-            .zip(measured)
-            .map(|(x, m)| inverse_lightness(m.lab.l) * white.y / x.y)
-            .filter(|r| r.is_finite() && *r > 0.0)
-            .map(f64::ln)
-            .collect();
-        if !ratios.is_empty() {
-            q[1] = ratios.iter().sum::<f64>() / ratios.len() as f64;
-        }
-        clamp(&mut q);
-    }
+    q[1] =
+        start_log_scale(&xyz_of(q[0].exp(), setup.fit_n.then(|| q[2]))?, measured).unwrap_or(q[1]);
+    clamp(&mut q);
     let m = measured.len();
     let box_: Vec<(f64, f64)> = bounds.iter().map(|&(lo, hi, _)| (lo, hi)).collect();
     let steps: Vec<f64> = (0..np).map(|j| if j == 2 { 1e-5 } else { 1e-4 }).collect();
@@ -320,14 +273,7 @@ pub fn fit_lightness(
         &steps,
         lm::Settings::default(),
     )
-    .map_err(|e| match e {
-        LmError::Model(e) => e,
-        LmError::NotConverged { iterations, x } => PipelineError::Fit(format!(
-            "the L* fit did not converge in {iterations} iterations (last hwhm {:.3}°); try another start width",
-            x[0].exp().to_degrees()
-        )),
-        other => PipelineError::Fit(format!("the L* fit failed: {other}")),
-    })?;
+    .map_err(lm_error)?;
     let q = fitted.x.clone();
     let iterations = fitted.iterations;
     let chi2 = fitted.chi2;
@@ -340,34 +286,7 @@ pub fn fit_lightness(
     let reduced = chi2 / dof as f64;
     let (basis, factor) = lm::noise_scale(reduced, have_u);
     let std = |j: usize| (cov[(j, j)] * factor).max(0.0).sqrt();
-    let mut warnings = Vec::new();
-    let threshold = if have_u {
-        chi2_per_dof_999(dof)
-    } else {
-        POOR_FIT_RMS_L * POOR_FIT_RMS_L
-    };
-    if reduced > threshold {
-        warnings.push(LightnessFitWarning::PoorFit {
-            chi2_per_dof: reduced,
-            threshold,
-            uncertainties_given: have_u,
-        });
-    }
-    for (j, (lo, hi, name)) in bounds.iter().enumerate() {
-        if q[j] <= *lo || q[j] >= *hi {
-            let at = if q[j] <= *lo { *lo } else { *hi };
-            warnings.push(LightnessFitWarning::AtBound {
-                parameter: name,
-                bound: if j < 2 { at.exp() } else { at },
-            });
-        }
-    }
-    if m < MIN_POINTS_PER_PARAMETER * np {
-        warnings.push(LightnessFitWarning::FewPoints {
-            points: m,
-            parameters: np,
-        });
-    }
+    let warnings = lightness_warnings(reduced, dof, have_u, &q, &bounds, m, np);
     let hwhm = q[0].exp();
     let scale = q[1].exp();
     let fitted = labs(&q)?;
@@ -403,5 +322,125 @@ fn inverse_lightness(l: f64) -> f64 {
         f * f * f
     } else {
         3.0 * d * d * (f - 4.0 / 29.0)
+    }
+}
+
+/// The checks of [`fit_lightness`] before any model run: a constant coat index when `n`
+/// is fitted, no geometry with the specular direction inside its cone, more geometries
+/// than parameters. Returns the fixed index (`None` for a dispersive coat that is not
+/// fitted) and the number of parameters.
+fn check_lightness_fit(
+    measured: &[MeasuredGeometry],
+    setup: &LightnessFitSetup<'_>,
+) -> Result<(Option<f64>, usize), PipelineError> {
+    let n0 = match (&setup.coating.coat, setup.fit_n) {
+        (CoatIndex::Constant(n), _) => Some(*n),
+        (_, true) => {
+            return Err(PipelineError::Measurement(
+                "fitting n fits one constant clear-coat index; the coat is dispersive (Cauchy or a table): fix its dispersion or fit without n".into(),
+            ));
+        }
+        _ => None,
+    };
+    for m in measured {
+        if m.geometry.aspecular().abs() <= setup.aperture {
+            return Err(PipelineError::Measurement(format!(
+                "line {}: the geometry at {:.6}° aspecular has the specular direction inside its {:.6}° cone; the L* fit scales the flakes' light and would scale the clear coat's reflection with it: leave that geometry out",
+                m.line,
+                m.geometry.aspecular().to_degrees(),
+                setup.aperture.to_degrees()
+            )));
+        }
+    }
+    let np = if setup.fit_n { 3 } else { 2 };
+    if measured.len() <= np {
+        return Err(PipelineError::Measurement(format!(
+            "{} geometries are too few to fit {np} parameters (width, scale{})",
+            measured.len(),
+            if setup.fit_n { ", n" } else { "" }
+        )));
+    }
+    Ok((n0, np))
+}
+
+/// The warnings of a finished L* fit: a poor fit (`reduced` χ²/dof above the 99.9 %
+/// point with uncertainties, rms above [`POOR_FIT_RMS_L`] without), a parameter on a
+/// bound of `bounds` (log-parameters reported as values), too few points per parameter.
+fn lightness_warnings(
+    reduced: f64,
+    dof: usize,
+    have_u: bool,
+    q: &[f64],
+    bounds: &[(f64, f64, &'static str)],
+    m: usize,
+    np: usize,
+) -> Vec<LightnessFitWarning> {
+    let mut warnings = Vec::new();
+    let threshold = if have_u {
+        chi2_per_dof_999(dof)
+    } else {
+        POOR_FIT_RMS_L * POOR_FIT_RMS_L
+    };
+    if reduced > threshold {
+        warnings.push(LightnessFitWarning::PoorFit {
+            chi2_per_dof: reduced,
+            threshold,
+            uncertainties_given: have_u,
+        });
+    }
+    for (j, (lo, hi, name)) in bounds.iter().enumerate() {
+        if q[j] <= *lo || q[j] >= *hi {
+            let at = if q[j] <= *lo { *lo } else { *hi };
+            warnings.push(LightnessFitWarning::AtBound {
+                parameter: name,
+                bound: if j < 2 { at.exp() } else { at },
+            });
+        }
+    }
+    if m < MIN_POINTS_PER_PARAMETER * np {
+        warnings.push(LightnessFitWarning::FewPoints {
+            points: m,
+            parameters: np,
+        });
+    }
+    warnings
+}
+
+/// The start of the log-scale: the mean log ratio of the luminance factors the
+/// measured `L*` imply to those of the model `(xyz, white)` at the start width, `None`
+/// when no geometry gives a finite positive ratio.
+fn start_log_scale((xyz, white): &Tristimulus, measured: &[MeasuredGeometry]) -> Option<f64> {
+    let ratios: Vec<f64> = xyz
+        .iter()
+        .zip(measured)
+        .map(|(x, m)| inverse_lightness(m.lab.l) * white.y / x.y)
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .map(f64::ln)
+        .collect();
+    (!ratios.is_empty()).then(|| ratios.iter().sum::<f64>() / ratios.len() as f64)
+}
+
+/// The bounds of the fitted parameters `(ln hwhm, ln scale[, n])` with their names:
+/// hwhm 0.05°–60°, scale 1e-3–1e3, n 1–3.
+fn lightness_bounds(fit_n: bool) -> Vec<(f64, f64, &'static str)> {
+    let mut b = vec![
+        (0.05f64.to_radians().ln(), 60f64.to_radians().ln(), "hwhm"),
+        (1e-3f64.ln(), 1e3f64.ln(), "scale"),
+    ];
+    if fit_n {
+        b.push((1.0, 3.0, "n"));
+    }
+    b
+}
+
+/// The minimiser's failure as the fit's error.
+fn lm_error(e: LmError<PipelineError>) -> PipelineError {
+    match e {
+        LmError::Model(e) => e,
+        LmError::NotConverged { iterations, x } => PipelineError::Fit(format!(
+            "the L* fit did not converge in {iterations} iterations (last hwhm {:.3}°); try another start width",
+            x[0].exp().to_degrees()
+        )),
+        other => PipelineError::Fit(format!("the L* fit failed: {other}")),
     }
 }
