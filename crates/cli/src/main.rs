@@ -68,6 +68,10 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return common::clap_exit(&e),
     };
+    // Flags that act only in another mode are refused before any work (flags/modes.rs).
+    if let Err(err) = flags::modes::check() {
+        return common::report(&err);
+    }
     let result: anyhow::Result<()> = match cli.command {
         Command::Model(a) => cmd::model::run(a),
         Command::Compare(a) => cmd::compare::run(a),

@@ -332,7 +332,7 @@ fn negative_and_odd_numbers_parse_and_are_refused_with_their_range() {
     let cases: Vec<(Vec<&str>, &[&str])> = vec![
         (
             vec!["fit", "--measured", &m, "--nonparametric", "--lambda", "-1"],
-            &["--lambda -1", ">= 0"],
+            &["--lambda", "-1", ">= 0"],
         ),
         (
             vec!["fit", "--measured", &m, "--hwhm-start", "-2"],

@@ -101,9 +101,18 @@ fn select(
                 measured.file, p.line, p.value
             )));
         }
+        // A curve with an uncertainty column has one > 0 on every point (the reader
+        // refuses others); a zero in a curve built in code is refused here too, not read
+        // as "no uncertainties" for the whole curve.
         let sigma = match p.uncertainty {
-            Some(u) if u > 0.0 => u / p.value,
-            _ => {
+            Some(u) if u > 0.0 && u.is_finite() => u / p.value,
+            Some(u) => {
+                return Err(PipelineError::Measurement(format!(
+                    "{}, line {}, column uncertainty: {u} is not a positive finite standard uncertainty",
+                    measured.file, p.line
+                )));
+            }
+            None => {
                 have_u = false;
                 1.0
             }

@@ -226,6 +226,25 @@ fn unusable_measurements_are_clear_errors() {
     };
     let e = compare(&neg, MeasuredKind::Brdf, &model).unwrap_err();
     assert!(e.to_string().contains("line 7"), "{e}");
+    // One uncertainty of 0 among positive ones (a curve built in code; the reader
+    // refuses it too): refused naming the line, not read as "no uncertainties".
+    let mut zero = MeasuredCurve {
+        file: "z.csv".into(),
+        points: (0..6)
+            .map(|k: u32| pt(-20.0 + 2.0 * f64::from(k), 1.0, 2 + u64::from(k)))
+            .collect(),
+    };
+    for p in &mut zero.points {
+        p.uncertainty = Some(0.05);
+    }
+    zero.points[3].uncertainty = Some(0.0);
+    for e in [
+        fit_gaussian(&zero, &setup, deg(3.0), false).unwrap_err(),
+        fit_nonparametric(&zero, &setup, &[0.0, deg(10.0), deg(20.0)], 0.1).unwrap_err(),
+    ] {
+        let e = e.to_string();
+        assert!(e.contains("z.csv, line 5, column uncertainty"), "{e}");
+    }
     // Too few points for the parameters.
     let few = MeasuredCurve {
         file: "f.csv".into(),

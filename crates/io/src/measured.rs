@@ -2,7 +2,8 @@
 //!
 //! Columns (header required, any order, other columns ignored): `theta_i_deg`,
 //! `theta_s_deg` (signed in-plane detector angle, `θs = −θi` specular), `value`, and
-//! optionally `uncertainty` (same unit as `value`, one standard uncertainty). What
+//! optionally `uncertainty` (same unit as `value`, one standard uncertainty, > 0 on
+//! every row: a zero is refused, naming its line, not read as "no uncertainty"). What
 //! `value` is — a BRDF (sr⁻¹), a reflectance factor (π × BRDF) or a relative value —
 //! is not in the file; the caller says it. Angles are returned in radians.
 
@@ -54,7 +55,7 @@ impl MeasuredCurve {
 ///
 /// # Errors
 /// [`FlakeTableError`] naming the file, line and column: missing columns, non-numeric
-/// or non-finite values, angles out of range, a negative uncertainty, no rows.
+/// or non-finite values, angles out of range, an uncertainty that is not > 0, no rows.
 pub fn read_measured(path: &Path) -> Result<MeasuredCurve, FlakeTableError> {
     let name = path.display().to_string();
     let f = File::open(path).map_err(|source| FlakeTableError::Io {
@@ -90,8 +91,16 @@ pub fn read_measured_from(reader: impl Read, file: &str) -> Result<MeasuredCurve
         let uncertainty = match cu {
             Some(c) => {
                 let u = t.num(line, rec, c, "uncertainty")?;
-                if u < 0.0 {
-                    return Err(t.bad(line, "uncertainty", format!("{u} is negative")));
+                // A fit weighs each point by 1/u²: u = 0 would be an infinite weight (and
+                // the fit used to drop the whole column for it), so only u > 0 is read.
+                if !(u > 0.0) {
+                    return Err(t.bad(
+                        line,
+                        "uncertainty",
+                        format!(
+                            "{u} is not positive: a standard uncertainty must be > 0 (leave out the uncertainty column to fit without uncertainties)"
+                        ),
+                    ));
                 }
                 Some(u)
             }
@@ -122,7 +131,7 @@ mod tests {
 
     #[test]
     fn reads_points_in_radians() {
-        let text = "theta_i_deg,theta_s_deg,value,uncertainty\n30,-30,1.5,0.01\n30,-20,0.5,0.004\n60,-60,2,0\n";
+        let text = "theta_i_deg,theta_s_deg,value,uncertainty\n30,-30,1.5,0.01\n30,-20,0.5,0.004\n60,-60,2,0.02\n";
         let c = read_measured_from(text.as_bytes(), "m.csv").unwrap();
         assert_eq!(c.points.len(), 3);
         assert!((c.points[0].theta_i - std::f64::consts::PI / 6.0).abs() < 1e-15);
@@ -155,6 +164,12 @@ mod tests {
             (
                 "theta_i_deg,theta_s_deg,value,uncertainty\n30,-30,1,-1\n",
                 "column uncertainty",
+            ),
+            // One zero among positive uncertainties (it used to make a fit drop the whole
+            // column, and its JSON say there was none).
+            (
+                "theta_i_deg,theta_s_deg,value,uncertainty\n30,-30,1,0.1\n30,-20,1,0\n30,-10,1,0.1\n",
+                "line 3, column uncertainty: 0 is not positive",
             ),
             ("theta_i_deg,theta_s_deg,value\n", "no data rows"),
             ("theta_i_deg,theta_s_deg,value\n30,-30\n", "line 2"),

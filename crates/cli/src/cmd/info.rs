@@ -147,6 +147,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.calibration.channel()?,
         crate::flags::selector("--intensity-channel", args.intensity_channel.as_deref())?,
     );
+    args.stack
+        .refuse_without_stacks(std::slice::from_ref(&source))?;
     let load = LoadOptions {
         read: options,
         cutoff: args.cutoff,

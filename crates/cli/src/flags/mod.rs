@@ -8,6 +8,7 @@
 mod colour;
 mod instrument;
 mod measured;
+pub mod modes;
 mod paint;
 mod polarization;
 mod source;

@@ -75,6 +75,38 @@ pub struct StackInputArgs {
 }
 
 impl StackInputArgs {
+    /// Refuses the stack flags typed on the command line when none of `sources` is a
+    /// z-stack: they would act on nothing (issue 52, item 14).
+    pub fn refuse_without_stacks(&self, sources: &[MapSource]) -> anyhow::Result<()> {
+        if sources.iter().any(|s| s.kind == SourceKind::Stack) {
+            return Ok(());
+        }
+        let typed: Vec<&str> = [
+            ("peak", "--peak"),
+            ("min_signal", "--min-signal"),
+            ("stack_z_step_um", "--stack-z-step-um"),
+            ("first_page", "--first-page"),
+        ]
+        .into_iter()
+        .filter(|(id, _)| crate::flags::modes::given(id))
+        .map(|(_, flag)| flag)
+        .collect();
+        if let Some(first) = typed.first() {
+            let names: Vec<String> = sources
+                .iter()
+                .take(3)
+                .map(|s| s.height.display().to_string())
+                .collect();
+            bail!(
+                "{first} applies to z-stacks (.tif, .tiff) given as maps, and no input is one ({}{}): leave {} out",
+                names.join(", "),
+                if sources.len() > 3 { ", ..." } else { "" },
+                typed.join(", ")
+            );
+        }
+        Ok(())
+    }
+
     /// Stack reading and peak options; errors name the flag.
     pub fn options(&self, read: &ReadOptions) -> anyhow::Result<(StackOptions, PeakOptions)> {
         let method = PeakMethod::from_name(&self.peak).with_context(|| {
@@ -209,6 +241,7 @@ impl MapInputArgs {
             .into_iter()
             .map(|s| s.with_channels(channel.clone(), intensity_channel.clone()))
             .collect();
+        self.stack.refuse_without_stacks(&sources)?;
         for s in &sources {
             match (&s.intensity, &s.intensity_channel, self.cutoff, s.kind) {
                 (Some(i), _, None, _) => bail!(

@@ -59,7 +59,7 @@ pub struct Args {
     /// Estimate a tabulated p~ instead of a Gaussian.
     #[arg(long)]
     pub nonparametric: bool,
-    /// Bin edges of the tabulated p~, degrees (list or range), for --nonparametric.
+    /// --nonparametric: bin edges of the tabulated p~, degrees (list or range).
     #[arg(
         long,
         value_name = "LIST",
@@ -67,12 +67,13 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     pub bins: String,
-    /// Smoothness weight of the non-parametric estimate (second differences of p~,
-    /// relative to the data), >= 0.
+    /// --nonparametric: smoothness weight of the estimate (second differences of p~,
+    /// relative to the data), a finite number >= 0.
     #[arg(
         long,
         value_name = "X",
         default_value_t = 0.05,
+        value_parser = non_negative,
         allow_negative_numbers = true
     )]
     pub lambda: f64,
@@ -85,6 +86,14 @@ pub struct Args {
     pub json: bool,
     #[command(flatten)]
     pub paint: paint::PaintArgs,
+}
+
+/// A finite number >= 0, for clap (`--lambda -1` is refused whatever the mode).
+fn non_negative(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err("expected a finite number >= 0".into()),
+    }
 }
 
 /// `--region LO:HI` in radians (default 5:40).
@@ -172,9 +181,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let edges = if args.nonparametric {
         if args.fit_n {
             bail!("--fit-n applies to the Gaussian fit, not --nonparametric");
-        }
-        if !(args.lambda.is_finite() && args.lambda >= 0.0) {
-            bail!("--lambda {}: expected a finite number >= 0", args.lambda);
         }
         Some(bins(&args.bins)?)
     } else {
