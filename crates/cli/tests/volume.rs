@@ -410,3 +410,51 @@ fn bad_flags_exit_2_naming_the_flag_and_leave_nothing() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 52, item 18: a 6 µm film holds a typical flake (16 µm at 6°, about 2.6 µm
+/// tall), so the run is placed, every flake taller than the film resized (normals kept)
+/// and counted in the JSON with a warning; a film too thin for a typical flake is exit 2
+/// naming the flags. Before, the first tail flake ended the run with exit 2.
+#[test]
+fn a_film_too_thin_for_tail_flakes_places_them_and_says_how_many() {
+    let (code, out, err) = run(&[
+        "volume",
+        "--film-um",
+        "6",
+        "--tile-um",
+        "600",
+        "--rays",
+        "640",
+        "--theta-i",
+        "30",
+        "--theta-s",
+        "-30",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let l = &j["layer"];
+    let resized = l["flakes_resized"].as_u64().unwrap();
+    assert!(
+        resized > 0 && resized < l["flakes"].as_u64().unwrap(),
+        "{l}"
+    );
+    assert_eq!(l["flakes_moved"], 0);
+    let lost = l["resized_area_fraction"].as_f64().unwrap();
+    assert!(lost > 0.0 && lost < 0.2, "{lost}");
+    assert!(
+        err.contains(&format!("{resized} of")) && err.contains("6 µm film"),
+        "{err}"
+    );
+    assert_eq!(
+        j["warnings"].as_array().unwrap().len(),
+        err.matches("warning:").count()
+    );
+    // Too thin for a typical flake.
+    let (code, _, err) = run(&["volume", "--film-um", "2", "--rays", "64"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--film-um 2") && err.contains("typical flake") && err.contains("median"),
+        "{err}"
+    );
+}

@@ -644,6 +644,9 @@ pub fn volume_model<'py>(
     layer.set_item("projected_coverage", l.projected_coverage)?;
     layer.set_item("area_coverage", l.area_coverage)?;
     layer.set_item("attempts", l.attempts)?;
+    layer.set_item("flakes_resized", l.resized)?;
+    layer.set_item("flakes_moved", l.moved)?;
+    layer.set_item("resized_area_fraction", l.resized_area_fraction)?;
     d.set_item("layer", layer)?;
     d.set_item("rays_per_incidence", curves.rays_per_incidence)?;
     d.set_item("seed", curves.seed)?;

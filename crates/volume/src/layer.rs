@@ -31,6 +31,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, LogNormal};
 
 use crate::VolumeError;
+use crate::inside::{Inside, half_extent, nearest_allowed};
 use crate::params::{Amount, DepthBins, Diameter, LayerParams, MAX_FLAKES};
 
 /// ChaCha8 stream of the layer's draws (the rays have generators of their own, module
@@ -111,6 +112,16 @@ pub struct LayerStats {
     pub area_coverage: f64,
     /// Centre positions tried in all (accepted and rejected).
     pub attempts: u64,
+    /// Flakes taller than the film at their tilt, given a diameter that fits (module
+    /// `inside`, rule 1; their normals are kept).
+    pub resized: usize,
+    /// Flakes whose centre the depth rule could not put inside the film, placed at the
+    /// nearest depth that is (rule 2).
+    pub moved: usize,
+    /// The face area the resized flakes lost, as a fraction of the face area of all
+    /// flakes as drawn (0 when none was resized): how much the area-weighted
+    /// orientation distribution of the layer is short of its tail.
+    pub resized_area_fraction: f64,
 }
 
 /// A placed flake layer: the film, the tile and the flakes.
@@ -128,8 +139,8 @@ impl Layer {
     ///
     /// # Errors
     /// [`VolumeError::LoadingTooHigh`] when a flake finds no free position;
-    /// [`VolumeError::DepthRange`] when a drawn flake cannot lie wholly inside the film
-    /// at any depth the depth rule allows; [`VolumeError::Geometry`] if the overlap test
+    /// [`VolumeError::DepthRange`] when the film or the depth rule cannot hold a typical
+    /// flake (module `inside`; other flakes are resized or moved by its rules); [`VolumeError::Geometry`] if the overlap test
     /// cannot be evaluated.
     pub fn generate(params: &LayerParams) -> Result<Self, VolumeError> {
         let spec = params.spec();
@@ -141,6 +152,7 @@ impl Layer {
             Amount::Count(c) => Some(c),
             _ => None,
         };
+        let mut inside = Inside::new(params)?;
         let mut placer = Placer::new(l, spec.diameter.max_um() + t);
         let mut flakes: Vec<Flake> = Vec::new();
         let mut volume = 0.0;
@@ -164,17 +176,22 @@ impl Layer {
             }
             let d = draw_diameter(&spec.diameter, lognormal.as_ref(), &mut rng);
             let normal = sample_normal(&spec.orientation, &mut rng);
+            // Rule 1 of module `inside`: a flake taller than the film gets a diameter
+            // that fits at its tilt.
+            let d = inside.diameter(d, normal.z, &mut rng);
             let r = 0.5 * d;
-            let hz = r * (1.0 - normal.z * normal.z).max(0.0).sqrt() + 0.5 * t * normal.z;
-            let (lo, hi) = (hz, f - hz);
+            let hz = half_extent(r, t, normal.z);
+            let (lo, hi) = if hz <= 0.5 * f {
+                (hz, f - hz)
+            } else {
+                (0.5 * f, 0.5 * f)
+            };
             let index = flakes.len();
-            let depth =
-                DepthSampler::new(params.depth_bins(), lo, hi).ok_or(VolumeError::DepthRange {
-                    flake: index,
-                    tilt: normal.z.clamp(-1.0, 1.0).acos(),
-                    min_depth_um: lo,
-                    max_depth_um: hi,
-                })?;
+            // Rule 2: no depth of the rule lets it lie in the film: the nearest that does.
+            let depth = DepthSampler::new(params.depth_bins(), lo, hi).unwrap_or_else(|| {
+                inside.moved += 1;
+                DepthSampler::at(nearest_allowed(params.depth_bins(), lo, hi))
+            });
             let mut placed = false;
             for _ in 0..spec.max_attempts {
                 attempts += 1;
@@ -221,6 +238,14 @@ impl Layer {
             projected_coverage: projected / (l * l),
             area_coverage: area / (l * l),
             attempts,
+            resized: inside.resized,
+            moved: inside.moved,
+            resized_area_fraction: if inside.resized > 0 {
+                (inside.area_drawn - inside.area_resized)
+                    / (area - inside.area_resized + inside.area_drawn)
+            } else {
+                0.0
+            },
         };
         Ok(Self {
             film_um: f,
@@ -324,6 +349,9 @@ impl Layer {
             projected_coverage: projected / (tile_um * tile_um),
             area_coverage: area / (tile_um * tile_um),
             attempts: flakes.len() as u64,
+            resized: 0,
+            moved: 0,
+            resized_area_fraction: 0.0,
         };
         Ok(Self {
             film_um,
@@ -409,6 +437,13 @@ struct DepthSampler {
 }
 
 impl DepthSampler {
+    /// Every centre at depth `z`.
+    fn at(z: f64) -> Self {
+        Self {
+            bins: vec![(z, z, 1.0)],
+        }
+    }
+
     fn new(depth: &DepthBins, lo: f64, hi: f64) -> Option<Self> {
         if !(hi >= lo) {
             return None;

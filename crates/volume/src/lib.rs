@@ -21,7 +21,11 @@
 //!   loading (aluminium 2.70 g/cm³, binder density given; conversion in [`Amount`]) or
 //!   a count. Centre depths are uniform over the film, uniform in `[A, B]`, or follow
 //!   a piecewise-constant profile ([`Depth`]), always restricted per flake so that the
-//!   flake lies wholly inside the film.
+//!   flake lies wholly inside the film. A flake taller than the film at its tilt keeps
+//!   its normal and gets a diameter that fits; one the depth rule cannot put inside the
+//!   film goes to the nearest depth that is (module [`inside`], counted in
+//!   [`LayerStats`]); only a film or depth rule that cannot hold a typical flake is
+//!   an error ([`VolumeError::DepthRange`]).
 //! * No interpenetration: random sequential addition with an exact (GJK) cylinder
 //!   overlap test and a bounded number of position attempts per flake (module
 //!   [`layer`]); too high a loading is an error ([`VolumeError::LoadingTooHigh`]).
@@ -94,6 +98,7 @@
 //! ```
 
 pub mod grid;
+pub mod inside;
 pub mod layer;
 pub mod params;
 pub mod trace;
@@ -150,19 +155,22 @@ pub enum VolumeError {
         /// Attempts allowed per flake.
         attempts: u32,
     },
-    /// A drawn flake cannot lie wholly in the film within the depth rule.
+    /// The film or the depth rule cannot hold a typical flake: the median diameter at
+    /// the median tilt (module [`inside`]; flakes beyond it are resized or moved).
     #[error(
-        "depth_um: flake {flake} (tilt {tilt:.4} rad) needs its centre between {min_depth_um:.4} and {max_depth_um:.4} µm deep to lie inside the film, which the depth range or profile does not allow"
+        "depth_um: a typical flake (the median diameter {diameter_um:.4} µm at the median tilt {tilt:.4} rad) needs its centre between {min_depth_um:.4} and {max_depth_um:.4} µm deep to lie inside the film, which {reason} it"
     )]
     DepthRange {
-        /// Index of the flake.
-        flake: usize,
-        /// Its tilt, radians.
+        /// The median diameter, µm.
+        diameter_um: f64,
+        /// The median tilt, radians.
         tilt: f64,
-        /// Shallowest allowed centre depth, µm.
+        /// Shallowest centre depth inside the film, µm.
         min_depth_um: f64,
-        /// Deepest allowed centre depth, µm.
+        /// Deepest centre depth inside the film, µm.
         max_depth_um: f64,
+        /// What cannot hold it.
+        reason: &'static str,
     },
     /// The amount asks for too many flakes.
     #[error(

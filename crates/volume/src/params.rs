@@ -111,7 +111,9 @@ impl Amount {
 /// wholly inside the film: a flake whose half-extent in `z` is
 /// `h = r sin θn + (t/2) cos θn` can only have its centre at depths `[h, film − h]`,
 /// so each flake's centre is drawn from the rule below **restricted to that range**
-/// (exact inverse-CDF sampling of the restricted density).
+/// (exact inverse-CDF sampling of the restricted density); a flake for which the rule
+/// has no depth in that range is put at the nearest depth that is, and one taller than
+/// the film gets a smaller diameter (module [`crate::inside`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Depth {
     /// Uniform over the whole film (the default): `[h, film − h]` for each flake.

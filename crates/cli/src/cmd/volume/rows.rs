@@ -97,9 +97,26 @@ pub(super) fn rows_json(c: &VolumeCurves) -> Value {
     )
 }
 
-/// Warnings: undefined `relative`, detectors no ray reached, rows resting on few rays.
+/// Warnings: flakes the film could not hold as drawn, undefined `relative`, detectors no
+/// ray reached, rows resting on few rays.
 pub(super) fn volume_warnings(c: &VolumeCurves) -> Vec<String> {
     let mut out = Vec::new();
+    let l = &c.layer;
+    if l.resized > 0 {
+        out.push(format!(
+            "{} of {} flakes were taller than the {} µm film at their tilt and got a diameter that fits (normals kept; {:.2} % of the flake area lost, physics.md §10); a thicker --film-um keeps them whole",
+            l.resized,
+            l.flakes,
+            c.settings.film_um,
+            100.0 * l.resized_area_fraction
+        ));
+    }
+    if l.moved > 0 {
+        out.push(format!(
+            "{} of {} flakes could not lie inside the film at a depth --depth-um allows and were put at the nearest depth that does (physics.md §10)",
+            l.moved, l.flakes
+        ));
+    }
     let mut seen: Vec<f64> = Vec::new();
     for r in c.rows.iter().filter(|r| !r.relative.is_finite()) {
         if !seen.contains(&r.theta_i) {

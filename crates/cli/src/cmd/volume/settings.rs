@@ -172,9 +172,10 @@ pub(super) fn explain(err: PipelineError, args: &Args) -> anyhow::Error {
             args.tile_um, args.diameter_um
         ),
         PipelineError::Volume(V::DepthRange { .. }) => format!(
-            "--depth-um {} with --film-um {}",
+            "--depth-um {} with --film-um {}, --diameter-um {} and the orientation",
             args.depth_um.as_deref().unwrap_or("(whole film)"),
-            args.film_um
+            args.film_um,
+            args.diameter_um
         ),
         PipelineError::Volume(V::Parameter { name, .. }) => format!("--{}", name.replace('_', "-")),
         _ => return err.into(),
