@@ -141,7 +141,10 @@ fn the_cli_writes_the_facades_curves_energy_and_layer() {
             "single_bounce_brdf_per_sr",
             "single_bounce_std_err_per_sr",
             "multiple_bounce_brdf_per_sr",
-            "multiple_bounce_std_err_per_sr"
+            "multiple_bounce_std_err_per_sr",
+            "ray_std_err_per_sr",
+            "layer_std_err_per_sr",
+            "ci95_per_sr"
         ]
     );
     assert!(std::fs::read_to_string(&plot).unwrap().starts_with("<svg"));
@@ -384,6 +387,26 @@ fn bad_flags_exit_2_naming_the_flag_and_leave_nothing() {
         (vec!["--tile-um", "20"], "--tile-um 20"),
         (vec!["--rays", "0"], "--rays 0"),
         (vec!["--rays", "-5"], "--rays"),
+        (
+            vec!["--layers", "0"],
+            "'0' for '--layers <K>': expected a whole number of layers from 1 to 10000",
+        ),
+        (
+            vec!["--layers", "10001"],
+            "'10001' for '--layers <K>': expected a whole number of layers from 1 to 10000",
+        ),
+        (
+            vec!["--layers", "-1"],
+            "'-1' for '--layers <K>': expected a whole number of layers from 1 to 10000",
+        ),
+        (
+            vec!["--layers", "2.5"],
+            "'2.5' for '--layers <K>': expected a whole number of layers from 1 to 10000",
+        ),
+        (
+            vec!["--layers", "1e20"],
+            "'1e20' for '--layers <K>': expected a whole number of layers from 1 to 10000",
+        ),
         (vec!["--seed", "1.5"], "--seed"),
         (vec!["--aperture", "0"], "--aperture 0"),
         (
@@ -457,4 +480,102 @@ fn a_film_too_thin_for_tail_flakes_places_them_and_says_how_many() {
         err.contains("--film-um 2") && err.contains("typical flake") && err.contains("median"),
         "{err}"
     );
+}
+
+/// Issue 52, item 19: `--layers K` draws K independent layers; every CSV row gives the
+/// standard error over the layers with its ray and between-layer parts and the Student's
+/// t interval, and the JSON says what each column is. Checked against the definitions:
+/// total² = ray² + layer² where the spread exceeds the rays, ci95 = t_{0.975, K−1} ·
+/// total (t_{0.975, 3} = 3.182446305284263 from tables), rays shared among the layers.
+#[test]
+fn layers_split_the_standard_error_and_one_layer_warns() {
+    let dir = tmp("layers");
+    let out = dir.join("v.csv");
+    let args = |k: &'static str| {
+        vec![
+            "volume",
+            "--theta-i",
+            "30",
+            "--theta-s",
+            "-45:-15:3",
+            "--aperture",
+            "2.5",
+            "--hwhm",
+            "5",
+            "--tile-um",
+            "300",
+            "--rays",
+            "20000",
+            "--layers",
+            k,
+            "--json",
+        ]
+    };
+    let mut a = args("4");
+    a.extend(["--out", s(&out)]);
+    let (code, json, err) = run(&a);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    // 20000 rays over 4 layers: 5000 each, rounded up to whole batches of 64 (5056).
+    assert_eq!(v["inputs"]["layers"], 4);
+    assert_eq!(v["rays_per_layer"], 5056);
+    assert_eq!(v["rays_per_incidence"], 4 * 5056);
+    let t = v["t975"].as_f64().unwrap();
+    assert!((t - 3.182_446_305_284_263).abs() < 1e-9, "{t}");
+    let per = v["layer"]["per_layer"].as_array().unwrap();
+    assert_eq!(per.len(), 4);
+    let flakes: u64 = per.iter().map(|l| l["flakes"].as_u64().unwrap()).sum();
+    assert_eq!(v["layer"]["flakes"], flakes);
+    // Every CSV column is described in the JSON's units.
+    let (h, rows) = table(&std::fs::read_to_string(&out).unwrap());
+    for name in &h {
+        assert!(v["units"]["columns"][name.as_str()].is_string(), "{name}");
+    }
+    let c = |name: &str| h.iter().position(|x| x == name).unwrap();
+    let mut layered = 0;
+    for row in rows.iter().filter(|r| r[c("rays")] > 0.0) {
+        let (se, ray, layer, ci) = (
+            row[c("std_err_per_sr")],
+            row[c("ray_std_err_per_sr")],
+            row[c("layer_std_err_per_sr")],
+            row[c("ci95_per_sr")],
+        );
+        assert!((ci - t * se).abs() <= 1e-9 * ci, "{row:?}");
+        if layer > 0.0 {
+            layered += 1;
+            assert!((se * se - ray * ray - layer * layer).abs() <= 1e-9 * se * se);
+        } else {
+            assert!(se <= ray * (1.0 + 1e-12), "{row:?}");
+        }
+    }
+    // Off the specular cone a few flakes feed each detector: the layers differ.
+    assert!(layered >= rows.len() / 2, "{layered} of {}", rows.len());
+    assert!(!err.contains("--layers 1"), "{err}");
+
+    // One layer: the rays' part only, said once on stderr and in the JSON; the
+    // between-layer part and the interval are empty cells.
+    let mut a = args("1");
+    a.extend(["--out", s(&out)]);
+    let (code, json, err) = run(&a);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert!(v["t975"].is_null());
+    assert!(err.contains("warning: --layers 1"), "{err}");
+    assert!(
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().starts_with("--layers 1")),
+        "{v}"
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    let (h, rows) = table(&text);
+    let c = |name: &str| h.iter().position(|x| x == name).unwrap();
+    for row in &rows {
+        assert!(row[c("layer_std_err_per_sr")].is_nan());
+        assert!(row[c("ci95_per_sr")].is_nan());
+        assert!(same(row[c("std_err_per_sr")], row[c("ray_std_err_per_sr")]));
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

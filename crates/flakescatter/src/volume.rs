@@ -5,14 +5,16 @@
 //! Conventions: radians and micrometres; reflectances are fractions of the incident
 //! beam power, BRDFs per steradian averaged over each detector cone; `relative` is the
 //! collected power over that of the same aperture at the specular direction (coat
-//! reflection included, as a measurement sees it). One seed draws both the layer and the
-//! rays (the layer's ChaCha8 stream, a generator per ray), so a run is reproducible
-//! from it alone.
+//! reflection included, as a measurement sees it). One seed draws both the layers and
+//! the rays (a ChaCha8 stream per layer, a generator per ray), so a run is reproducible
+//! from it alone. The rays are shared among [`VolumeSettings::layers`] independent
+//! layers, and the standard errors are those of the mean over layers, which include the
+//! scatter between layers (crate `volume`, module `layers`).
 
-use flakescatter_volume::{Layer, LayerParams, LayerSpec, TraceOptions, Tracer};
+use flakescatter_volume::{LayerParams, LayerSpec, TraceOptions, run_layers};
 
 pub use flakescatter_volume::{
-    Amount, Depth, Diameter, EnergyBalance, LayerStats, RimRule, Substrate, VolumeError,
+    Amount, Depth, Diameter, EnergyBalance, LayerStats, MAX_LAYERS, RimRule, Substrate, VolumeError,
 };
 
 use crate::PipelineError;
@@ -40,8 +42,13 @@ pub struct VolumeSettings {
     pub substrate: Substrate,
     /// Rim rule (default absorb).
     pub rims: RimRule,
-    /// Rays per incidence, rounded up to whole batches (default 10⁶).
+    /// Rays per incidence in all, shared among the layers (each gets `⌈rays/layers⌉`,
+    /// rounded up to whole batches of 64; default 10⁶).
     pub rays: u64,
+    /// Independent layers drawn from the seed (default [`DEFAULT_LAYERS`], in
+    /// `1..=10000`): their spread gives the between-layer part of the standard errors
+    /// (with one layer only the rays' part is known).
+    pub layers: u32,
     /// Seed of the layer and the rays (default 1).
     pub seed: u64,
     /// Largest number of interactions per path (default 1000).
@@ -49,6 +56,10 @@ pub struct VolumeSettings {
     /// Weight below which a path ends, its rest tallied as cut-off (default 1e-6).
     pub min_weight: f64,
 }
+
+/// Default number of layers: enough for a between-layer spread on 7 degrees of freedom
+/// (`t_{0.975} = 2.36`), with the rays of one layer (10⁶/8 per incidence) still many.
+pub const DEFAULT_LAYERS: u32 = 8;
 
 impl Default for VolumeSettings {
     fn default() -> Self {
@@ -64,6 +75,7 @@ impl Default for VolumeSettings {
             substrate: trace.substrate,
             rims: trace.rims,
             rays: trace.rays,
+            layers: DEFAULT_LAYERS,
             seed: 1,
             max_events: trace.max_events,
             min_weight: trace.min_weight,
@@ -78,10 +90,17 @@ pub struct VolumeRow {
     pub theta_i: f64,
     /// Index of the detector in the instrument's list.
     pub detector: usize,
-    /// Total cone-averaged BRDF (coat + single + multiple), sr⁻¹.
+    /// Total cone-averaged BRDF (coat + single + multiple), sr⁻¹: the mean over layers.
     pub brdf: f64,
-    /// Its standard error, sr⁻¹.
+    /// Its standard error over layers (rays and layers together), sr⁻¹.
     pub std_err: f64,
+    /// The rays' part of `std_err`, sr⁻¹.
+    pub ray_std_err: f64,
+    /// The between-layer part of `std_err`, sr⁻¹ (`None` with one layer).
+    pub layer_std_err: Option<f64>,
+    /// Half-width of the 95 % interval of `brdf`, Student's t on `layers − 1` degrees of
+    /// freedom, sr⁻¹ (`None` with one layer).
+    pub ci95: Option<f64>,
     /// First-surface (clear coat) part, sr⁻¹ (exact).
     pub coat_brdf: f64,
     /// Exactly one flake-face reflection, sr⁻¹.
@@ -115,10 +134,17 @@ pub struct VolumeCurves {
     pub energy: Vec<(f64, EnergyBalance)>,
     /// Standard errors of the energy balance, same order.
     pub energy_std_err: Vec<EnergyBalance>,
-    /// What placement realised (flake count, volume fraction, coverage).
+    /// What placement realised over all layers: counts (flakes, attempts, resized and
+    /// moved flakes) summed, fractions averaged.
     pub layer: LayerStats,
-    /// Rays traced per incidence.
+    /// What placement realised, per layer.
+    pub layers: Vec<LayerStats>,
+    /// Rays traced per incidence, all layers.
     pub rays_per_incidence: u64,
+    /// Rays traced per incidence through each layer.
+    pub rays_per_layer: u64,
+    /// `t_{0.975}` on `layers − 1` degrees of freedom (NaN with one layer).
+    pub t975: f64,
     /// Straight segments traced over all incidences.
     pub segments: u64,
     /// The seed.
@@ -127,8 +153,9 @@ pub struct VolumeCurves {
     pub source: String,
 }
 
-/// Places the layer and traces it (crate `flakescatter-volume`) for every incidence and
-/// detector of `instrument`. `progress(done, total)` is called from the calling thread as
+/// Places [`VolumeSettings::layers`] independent layers and traces them (crate
+/// `flakescatter-volume`, `run_layers`) for every incidence and detector of
+/// `instrument`. `progress(done, total)` is called from the calling thread as
 /// chunks of rays finish.
 ///
 /// # Errors
@@ -167,41 +194,63 @@ pub fn volume_curves(
         max_attempts: flakescatter_volume::params::DEFAULT_MAX_ATTEMPTS,
         seed: settings.seed,
     };
-    let layer = Layer::generate(&LayerParams::new(spec)?)?;
-    let tracer = Tracer::new(
-        &layer,
-        TraceOptions {
-            n: coating.n,
-            flake: coating.flake,
-            substrate: settings.substrate,
-            rims: settings.rims,
-            rays: settings.rays,
-            seed: settings.seed,
-            max_events: settings.max_events,
-            min_weight: settings.min_weight,
-        },
+    let options = TraceOptions {
+        n: coating.n,
+        flake: coating.flake,
+        substrate: settings.substrate,
+        rims: settings.rims,
+        rays: settings.rays,
+        seed: settings.seed,
+        max_events: settings.max_events,
+        min_weight: settings.min_weight,
+    };
+    let result = run_layers(
+        &LayerParams::new(spec)?,
+        &options,
+        settings.layers,
+        instrument.theta_i(),
+        instrument.cones(),
+        progress,
     )?;
-    let result = tracer.run_with_progress(instrument.theta_i(), instrument.cones(), progress)?;
     let nd = instrument.cones().len();
     let rows = result
         .points
         .iter()
         .enumerate()
-        .map(|(k, p)| VolumeRow {
-            theta_i: p.theta_i,
-            detector: k % nd,
-            brdf: p.brdf,
-            std_err: p.brdf_std_err,
-            coat_brdf: p.coat_brdf,
-            single_bounce_brdf: p.single_brdf,
-            single_bounce_std_err: p.single_std_err,
-            multiple_bounce_brdf: p.multiple_brdf,
-            multiple_bounce_std_err: p.multiple_std_err,
-            reflectance: p.reflectance,
-            relative: p.relative,
-            rays: p.rays,
+        .map(|(k, lp)| {
+            let p = &lp.mean;
+            VolumeRow {
+                theta_i: p.theta_i,
+                detector: k % nd,
+                brdf: p.brdf,
+                std_err: p.brdf_std_err,
+                ray_std_err: lp.brdf_error.rays,
+                layer_std_err: lp.brdf_error.layers,
+                ci95: lp.brdf_error.ci95,
+                coat_brdf: p.coat_brdf,
+                single_bounce_brdf: p.single_brdf,
+                single_bounce_std_err: p.single_std_err,
+                multiple_bounce_brdf: p.multiple_brdf,
+                multiple_bounce_std_err: p.multiple_std_err,
+                reflectance: p.reflectance,
+                relative: p.relative,
+                rays: p.rays,
+            }
         })
         .collect();
+    let layers = result.layers.len() as f64;
+    let mean = |f: fn(&LayerStats) -> f64| result.layers.iter().map(f).sum::<f64>() / layers;
+    let layer = LayerStats {
+        flakes: result.layers.iter().map(|l| l.flakes).sum(),
+        requested_volume_fraction: result.layers[0].requested_volume_fraction,
+        volume_fraction: mean(|l| l.volume_fraction),
+        projected_coverage: mean(|l| l.projected_coverage),
+        area_coverage: mean(|l| l.area_coverage),
+        attempts: result.layers.iter().map(|l| l.attempts).sum(),
+        resized: result.layers.iter().map(|l| l.resized).sum(),
+        moved: result.layers.iter().map(|l| l.moved).sum(),
+        resized_area_fraction: mean(|l| l.resized_area_fraction),
+    };
     Ok(VolumeCurves {
         instrument: instrument.clone(),
         coating: *coating,
@@ -214,8 +263,11 @@ pub fn volume_curves(
             .zip(result.energy.iter().copied())
             .collect(),
         energy_std_err: result.energy_std_err,
-        layer: *layer.stats(),
-        rays_per_incidence: result.rays_per_incidence,
+        layer,
+        layers: result.layers,
+        rays_per_incidence: result.rays_per_layer * u64::from(settings.layers),
+        rays_per_layer: result.rays_per_layer,
+        t975: result.t975,
         segments: result.segments,
         seed: settings.seed,
         source: description,

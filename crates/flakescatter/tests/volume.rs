@@ -41,8 +41,12 @@ fn facade_returns_split_curves_energy_and_layer_statistics() {
     let (done, total) = *last.lock().unwrap();
     assert!(done == total && total >= 2, "{done} of {total}");
     assert_eq!(curves.rows.len(), theta_i.len() * ts.len());
-    assert_eq!(curves.rays_per_incidence, 32_000);
-    assert!(curves.segments >= 2 * 32_000);
+    // 32 000 rays over the default 8 layers: 4000 each, rounded up to whole batches of
+    // 64 (4032).
+    assert_eq!(curves.layers.len(), 8);
+    assert_eq!(curves.rays_per_layer, 4032);
+    assert_eq!(curves.rays_per_incidence, 8 * 4032);
+    assert!(curves.segments >= 2 * 8 * 4032);
     // 5 % aluminium by mass in a 1.2 g/cm³ binder is φ = 0.0228571 (derivation in the
     // volume crate's placement tests); placement stops within one flake's volume of it.
     let phi = curves.layer.volume_fraction;

@@ -475,12 +475,17 @@ pub fn topographic_mueller<'py>(
 /// the film, traced with multiple scattering. Columns as the other models, plus the
 /// split by history: `coat_brdf_per_sr` (the clear coat's own reflection),
 /// `single_bounce_brdf_per_sr` / `single_bounce_std_err`,
-/// `multiple_bounce_brdf_per_sr` / `multiple_bounce_std_err` (1/sr); `std_err` and
-/// `rays` as the topographic model. The dict also holds `energy` (per incidence: the
-/// shares of the beam reflected by the coat, escaped after one or more flake events,
-/// absorbed, cut off) and `layer` (what the layer realised). Interruptible with Ctrl-C.
+/// `multiple_bounce_brdf_per_sr` / `multiple_bounce_std_err` (1/sr); `rays` as the
+/// topographic model. Every value is the mean over `layers` independent layers of the
+/// seed (the `rays` shared among them); `std_err` is its standard error over the layers
+/// (rays and layers; the rays only when `layers=1`), `ray_std_err` and `layer_std_err`
+/// its two parts, `ci95` the half-width of its 95 % interval (Student's t on
+/// `layers − 1` degrees of freedom; NaN when `layers=1`). The dict also holds `energy`
+/// (per incidence: the shares of the beam reflected by the coat, escaped after one or
+/// more flake events, absorbed, cut off) and `layer` (what the layers realised: counts
+/// summed, fractions averaged). Interruptible with Ctrl-C.
 #[pyfunction]
-#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, flake_index = None, film_um = 38.0, diameter_um = 16.0, diameter_rel_sd = 0.25, thickness_um = 1.0, mass_fraction = None, binder_density_g_cm3 = 1.2, volume_fraction = None, flakes = None, depth_um = None, tile_um = 1000.0, substrate = "black", substrate_albedo = 0.0, rims = "absorb", rays = 1_000_000, seed = 1, max_events = 1000, min_weight = 1e-6))]
+#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, flake_index = None, film_um = 38.0, diameter_um = 16.0, diameter_rel_sd = 0.25, thickness_um = 1.0, mass_fraction = None, binder_density_g_cm3 = 1.2, volume_fraction = None, flakes = None, depth_um = None, tile_um = 1000.0, substrate = "black", substrate_albedo = 0.0, rims = "absorb", rays = 1_000_000, seed = 1, max_events = 1000, min_weight = 1e-6, layers = 8))]
 pub fn volume_model<'py>(
     py: Python<'py>,
     n: f64,
@@ -510,6 +515,7 @@ pub fn volume_model<'py>(
     seed: u64,
     max_events: u32,
     min_weight: f64,
+    layers: u32,
 ) -> PyResult<Bound<'py, PyDict>> {
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
     let coat = coating(py, n, flake_index)?;
@@ -531,6 +537,14 @@ pub fn volume_model<'py>(
         }
     };
     let substrate = match substrate {
+        "black" if substrate_albedo != 0.0 => {
+            return Err(input(
+                py,
+                format!(
+                    "substrate_albedo={substrate_albedo}: a black substrate has none; give substrate=\"specular\" or \"lambertian\""
+                ),
+            ));
+        }
         "black" => Substrate::Black,
         "specular" => Substrate::Specular(substrate_albedo),
         "lambertian" => Substrate::Lambertian(substrate_albedo),
@@ -568,6 +582,7 @@ pub fn volume_model<'py>(
         substrate,
         rims,
         rays,
+        layers,
         seed,
         max_events,
         min_weight,
@@ -591,6 +606,17 @@ pub fn volume_model<'py>(
                 .collect(),
         )?
         .f64("std_err", rows.iter().map(|r| r.std_err).collect())?
+        .f64("ray_std_err", rows.iter().map(|r| r.ray_std_err).collect())?
+        .f64(
+            "layer_std_err",
+            rows.iter()
+                .map(|r| r.layer_std_err.unwrap_or(f64::NAN))
+                .collect(),
+        )?
+        .f64(
+            "ci95",
+            rows.iter().map(|r| r.ci95.unwrap_or(f64::NAN)).collect(),
+        )?
         .f64(
             "coat_brdf_per_sr",
             rows.iter().map(|r| r.coat_brdf).collect(),
@@ -649,6 +675,8 @@ pub fn volume_model<'py>(
     layer.set_item("resized_area_fraction", l.resized_area_fraction)?;
     d.set_item("layer", layer)?;
     d.set_item("rays_per_incidence", curves.rays_per_incidence)?;
+    d.set_item("rays_per_layer", curves.rays_per_layer)?;
+    d.set_item("layers", layers)?;
     d.set_item("seed", curves.seed)?;
     Ok(d)
 }

@@ -92,6 +92,31 @@ def test_volume_model_conserves_energy_and_is_reproducible():
         fs.volume_model(substrate="glass")
     with pytest.raises(fs.InputError):
         fs.volume_model(film_um=-1.0, rays=1000)
+    # A black substrate has no albedo (it was ignored).
+    with pytest.raises(fs.InputError, match="substrate_albedo"):
+        fs.volume_model(substrate_albedo=0.5, rays=1000)
+
+
+def test_volume_model_errors_include_the_scatter_between_layers():
+    # Issue 52, item 19: the default draws 8 layers; std_err is the standard error of
+    # their mean, its parts add in quadrature, and the 95 % interval is Student's t on
+    # 7 degrees of freedom (t = 2.3646). One layer gives the rays' part only.
+    kw = dict(hwhm=6.0, theta_i=[30], theta_s=[-30.0, -20.0], rays=16000, tile_um=300.0)
+    r = fs.volume_model(**kw)
+    assert r["layers"] == 8 and r["rays_per_layer"] == 2048
+    assert r["rays_per_incidence"] == 8 * 2048
+    # The between-layer part is sqrt(max(0, total² - rays²)).
+    layer = r["layer_std_err"]
+    assert np.all(layer >= 0.0)
+    big = layer > 0.0
+    np.testing.assert_allclose(r["std_err"][big] ** 2,
+                               r["ray_std_err"][big] ** 2 + layer[big] ** 2, rtol=1e-9)
+    np.testing.assert_allclose(r["ci95"], 2.364624251592785 * r["std_err"], rtol=1e-6)
+    one = fs.volume_model(layers=1, **kw)
+    np.testing.assert_array_equal(one["std_err"], one["ray_std_err"])
+    assert np.all(np.isnan(one["layer_std_err"])) and np.all(np.isnan(one["ci95"]))
+    with pytest.raises(fs.InputError, match="layers"):
+        fs.volume_model(layers=0, rays=1000)
 
 
 def test_spectrum_to_lab_closed_forms():

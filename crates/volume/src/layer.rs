@@ -143,10 +143,20 @@ impl Layer {
     /// flake (module `inside`; other flakes are resized or moved by its rules); [`VolumeError::Geometry`] if the overlap test
     /// cannot be evaluated.
     pub fn generate(params: &LayerParams) -> Result<Self, VolumeError> {
+        Self::generate_realisation(params, 0)
+    }
+
+    /// Realisation `k` of the layer: the same placement rule drawing from ChaCha8
+    /// stream `LAYER_STREAM + k` of the seed, so realisations `0, 1, …` of one seed are
+    /// independent layers (realisation 0 is [`Layer::generate`]'s). `k` below 2⁶².
+    ///
+    /// # Errors
+    /// As [`Layer::generate`].
+    pub fn generate_realisation(params: &LayerParams, k: u64) -> Result<Self, VolumeError> {
         let spec = params.spec();
         let (l, f, t) = (spec.tile_um, spec.film_um, spec.thickness_um);
         let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
-        rng.set_stream(LAYER_STREAM);
+        rng.set_stream(LAYER_STREAM.wrapping_add(k));
         let target_volume = spec.amount.volume_fraction().map(|phi| phi * l * l * f);
         let target_count = match spec.amount {
             Amount::Count(c) => Some(c),

@@ -64,10 +64,14 @@
 //! history: two or more interactions, or any internal reflection at the top). The
 //! energy balance ([`EnergyBalance`]) gives `coat_reflected`, `escaped_single`,
 //! `escaped_multiple`, `absorbed_substrate`, `absorbed_flakes` and `absorbed_other`
-//! (`absorbed_rims + cut_off`), summing to 1. Standard errors come from 64 fixed batches
-//! of rays (module [`trace`]); every ray has its own generator (Xoshiro256++ from the
-//! seed and the ray's index), so a ray is the same whichever thread traces it, and
-//! results are bit-identical for any thread count.
+//! (`absorbed_rims + cut_off`), summing to 1. One layer's standard errors come from 64
+//! fixed batches of rays (module [`trace`]); every ray has its own generator
+//! (Xoshiro256++ from the seed and the ray's index), so a ray is the same whichever
+//! thread traces it, and results are bit-identical for any thread count. Those errors
+//! leave out the scatter between layers, which dominates cones fed by few flakes:
+//! [`run_layers`] traces several independent layers of one seed and states the standard
+//! error of their mean, split into its ray and between-layer parts, with Student's t
+//! intervals (module [`layers`]).
 //!
 //! # Acceleration
 //! A periodic uniform grid of columns (module [`grid`]): the film is a thin slab, so a
@@ -100,10 +104,12 @@
 pub mod grid;
 pub mod inside;
 pub mod layer;
+pub mod layers;
 pub mod params;
 pub mod trace;
 
 pub use layer::{Flake, Layer, LayerStats};
+pub use layers::{LayeredError, LayeredPoint, LayeredResult, MAX_LAYERS, run_layers};
 pub use params::{
     ALUMINIUM_DENSITY_G_CM3, Amount, Depth, Diameter, LayerParams, LayerSpec,
     TYPICAL_BINDER_DENSITY_G_CM3,

@@ -206,6 +206,8 @@ pub struct VolumePoint {
     /// `reflectance` over that of a cone of the same aperture at the specular direction
     /// (NaN when that is 0).
     pub relative: f64,
+    /// The reflectance of that specular cone (the denominator of `relative`).
+    pub specular_reflectance: f64,
     /// Escapes counted in the cone (rays, not weight).
     pub rays: u64,
 }
@@ -233,6 +235,8 @@ pub struct Tracer<'a> {
     layer: &'a Layer,
     grid: FlakeGrid,
     options: TraceOptions,
+    /// Which realisation's rays (module `layers`; 0 for a single layer).
+    realisation: u64,
 }
 
 // Energy slots of a batch.
@@ -413,6 +417,7 @@ impl<'a> Tracer<'a> {
             layer,
             grid: FlakeGrid::new(layer.flakes(), layer.tile_um(), cell_um),
             options,
+            realisation: 0,
         })
     }
 
@@ -465,6 +470,15 @@ impl<'a> Tracer<'a> {
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
         self.layer.memory_bytes() + self.grid.memory_bytes()
+    }
+
+    /// The rays of realisation `k` of a layered run (module `layers`): their generators
+    /// start from the key of `(seed, k)`, independent of those of other realisations;
+    /// `k = 0` is a single layer's.
+    #[must_use]
+    pub(crate) fn with_realisation(mut self, k: u64) -> Self {
+        self.realisation = k;
+        self
     }
 
     /// Columns per side of the grid.
@@ -543,7 +557,7 @@ impl<'a> Tracer<'a> {
             batch_rays,
             // A segment may wrap around the tile a few times; longer ones are cut.
             max_cells: 8 * g + 64,
-            key: ray_key(self.options.seed),
+            key: ray_key(self.options.seed, self.realisation),
         };
         let ni = theta_i.len();
         let nd = run.ndet;
@@ -671,6 +685,7 @@ impl<'a> Tracer<'a> {
                     reflectance: total,
                     reflectance_std_err: total_se,
                     relative: if spec > 0.0 { total / spec } else { f64::NAN },
+                    specular_reflectance: spec,
                     rays: a.counts[j],
                 });
             }
@@ -866,10 +881,17 @@ impl Acc {
     }
 }
 
-/// The two words every ray's generator starts from: SplitMix64 of the seed.
-fn ray_key(seed: u64) -> [u64; 2] {
+/// The two words every ray's generator starts from: SplitMix64 of the seed, the second
+/// word XORed with SplitMix64's finaliser of the realisation `k` (a bijection with
+/// `0 ↦ 0`, so realisation 0 is a single layer's key and distinct `k` give distinct
+/// keys).
+fn ray_key(seed: u64, k: u64) -> [u64; 2] {
     let mut sm = SplitMix64::seed_from_u64(seed);
-    [sm.next_u64(), sm.next_u64()]
+    let mut z = k;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    [sm.next_u64(), sm.next_u64() ^ z]
 }
 
 /// The generator of the ray with index `stream` (`i·N + r`: incidence `i`, ray `r` of

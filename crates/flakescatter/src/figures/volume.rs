@@ -169,6 +169,8 @@ pub(super) fn multiple_scattering(
             substrate: Substrate::Black,
             rims: RimRule::Absorb,
             rays: sampling.rays,
+            // One layer per seed: the figure draws its layers itself, one per seed.
+            layers: 1,
             seed,
             ..VolumeSettings::default()
         };

@@ -296,16 +296,24 @@ def volume_model(
     seed: int = 1,
     max_events: int = 1000,
     min_weight: float = 1e-6,
+    layers: int = 8,
 ) -> dict[str, Any]:
     """The volume model: a 3-D layer of cylinder flakes with multiple scattering.
 
     Lengths in µm; the amount is one of ``mass_fraction`` (default 0.05, with
-    ``binder_density_g_cm3``), ``volume_fraction`` or ``flakes`` (a count). Columns as
-    ``topographic_model`` plus ``coat_brdf_per_sr``, ``single_bounce_brdf_per_sr``,
-    ``single_bounce_std_err``, ``multiple_bounce_brdf_per_sr``,
-    ``multiple_bounce_std_err`` (1/sr); also ``energy`` (dict of per-incidence arrays:
-    shares of the beam), ``layer`` (realised layer), ``rays_per_incidence``, ``seed``.
-    Releases the GIL; Ctrl-C interrupts.
+    ``binder_density_g_cm3``), ``volume_fraction`` or ``flakes`` (a count). Every value
+    is the mean over ``layers`` independent layers of the seed, the ``rays`` per
+    incidence shared among them. Columns as ``topographic_model`` plus
+    ``coat_brdf_per_sr``, ``single_bounce_brdf_per_sr``, ``single_bounce_std_err``,
+    ``multiple_bounce_brdf_per_sr``, ``multiple_bounce_std_err`` (1/sr); ``std_err`` is
+    the standard error over the layers (rays and layers; the rays only with
+    ``layers=1``), ``ray_std_err`` and ``layer_std_err`` its two parts, ``ci95`` the
+    half-width of the 95 % interval (Student's t on ``layers - 1`` degrees of freedom;
+    NaN with one layer). Also ``energy`` (dict of per-incidence arrays: shares of the
+    beam), ``layer`` (realised layers: counts summed, fractions averaged, with
+    ``flakes_resized``, ``flakes_moved``, ``resized_area_fraction``),
+    ``rays_per_incidence``, ``rays_per_layer``, ``layers``, ``seed``. A black
+    ``substrate`` takes no ``substrate_albedo``. Releases the GIL; Ctrl-C interrupts.
     """
 
 def compare(

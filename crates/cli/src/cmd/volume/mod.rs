@@ -49,8 +49,11 @@ pub enum SubstrateKind {
 /// aperture_deg, brdf_per_sr, reflectance, relative (as `model`), rays (escapes counted
 /// in the detector), std_err_per_sr, and the split coat_brdf_per_sr (first surface),
 /// single_bounce_brdf_per_sr (one flake reflection) and multiple_bounce_brdf_per_sr
-/// (everything else), with standard errors. The defaults are the paper's coating: 38 µm
-/// film, 16 µm flakes (relative sd 0.25), 1 µm thick, 5 % aluminium by mass.
+/// (everything else), with standard errors; then ray_std_err_per_sr,
+/// layer_std_err_per_sr (the two parts of std_err_per_sr) and ci95_per_sr (half-width of
+/// the 95 % interval). The values are means over --layers independent layers. The
+/// defaults are the paper's coating: 38 µm film, 16 µm flakes (relative sd 0.25), 1 µm
+/// thick, 5 % aluminium by mass.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Film thickness, µm (the flakes lie wholly inside it).
@@ -140,10 +143,16 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub aperture: f64,
-    /// Rays per incidence (rounded up to a multiple of 64, the batches of the standard
-    /// errors).
+    /// Rays per incidence in all, shared among the --layers (each layer gets rays/layers,
+    /// rounded up to a multiple of 64, the batches of its ray errors).
     #[arg(long, value_name = "N", default_value_t = 1_000_000, value_parser = crate::parse::whole_u64, allow_negative_numbers = true)]
     pub rays: u64,
+    /// Independent layers drawn from the seed, 1 to 10000: the curves are their mean,
+    /// std_err its standard error over layers (rays and layers; with 1 layer the rays
+    /// only), split into ray_std_err and layer_std_err, with a Student's t 95 %
+    /// interval.
+    #[arg(long, value_name = "K", default_value_t = flakescatter::volume::DEFAULT_LAYERS, value_parser = layers_arg, allow_negative_numbers = true)]
+    pub layers: u32,
     /// Seed of the layer and of the rays (separate streams); a run is reproducible
     /// from it alone, for any number of threads.
     #[arg(long, value_name = "S", default_value_t = 1, value_parser = crate::parse::whole_u64, allow_negative_numbers = true)]
@@ -261,4 +270,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print_json(&s)?;
     }
     Ok(())
+}
+
+/// `--layers K`: a whole number from 1 to [`flakescatter::volume::MAX_LAYERS`], with one
+/// message for every value outside (0, −1, 2.5, 1e20).
+fn layers_arg(s: &str) -> Result<u32, String> {
+    let max = flakescatter::volume::MAX_LAYERS;
+    s.trim()
+        .parse::<u32>()
+        .ok()
+        .filter(|k| (1..=max).contains(k))
+        .ok_or_else(|| format!("expected a whole number of layers from 1 to {max}"))
 }

@@ -14,7 +14,7 @@ use crate::tables::{detector_rad, num};
 const FEW_RAYS: u64 = 100;
 
 /// The CSV columns (docs/cli.md "volume").
-pub const COLUMNS: [&str; 14] = [
+pub const COLUMNS: [&str; 17] = [
     "theta_i_deg",
     "theta_s_deg",
     "phi_s_deg",
@@ -29,11 +29,19 @@ pub const COLUMNS: [&str; 14] = [
     "single_bounce_std_err_per_sr",
     "multiple_bounce_brdf_per_sr",
     "multiple_bounce_std_err_per_sr",
+    "ray_std_err_per_sr",
+    "layer_std_err_per_sr",
+    "ci95_per_sr",
 ];
 
 /// A standard error, empty where no ray reached the detector (not estimable).
 fn se(rays: u64, x: f64) -> String {
     if rays == 0 { String::new() } else { num(x) }
+}
+
+/// A between-layer part or interval: empty with one layer, or where no ray arrived.
+fn se_opt(rays: u64, x: Option<f64>) -> String {
+    x.map_or_else(String::new, |v| se(rays, v))
 }
 
 /// Writes the curve CSV.
@@ -58,6 +66,9 @@ pub(super) fn write_volume(out: &mut dyn Write, c: &VolumeCurves) -> anyhow::Res
             se(r.rays, r.single_bounce_std_err),
             num(r.multiple_bounce_brdf),
             se(r.rays, r.multiple_bounce_std_err),
+            se(r.rays, r.ray_std_err),
+            se_opt(r.rays, r.layer_std_err),
+            se_opt(r.rays, r.ci95),
         ];
         text.push_str(&cells.join(","));
         text.push('\n');
@@ -91,6 +102,9 @@ pub(super) fn rows_json(c: &VolumeCurves) -> Value {
                     "single_bounce_std_err_per_sr": se(r.single_bounce_std_err),
                     "multiple_bounce_brdf_per_sr": finite(r.multiple_bounce_brdf),
                     "multiple_bounce_std_err_per_sr": se(r.multiple_bounce_std_err),
+                    "ray_std_err_per_sr": se(r.ray_std_err),
+                    "layer_std_err_per_sr": r.layer_std_err.and_then(se),
+                    "ci95_per_sr": r.ci95.and_then(se),
                 })
             })
             .collect(),
@@ -102,9 +116,14 @@ pub(super) fn rows_json(c: &VolumeCurves) -> Value {
 pub(super) fn volume_warnings(c: &VolumeCurves) -> Vec<String> {
     let mut out = Vec::new();
     let l = &c.layer;
+    if c.settings.layers == 1 {
+        out.push(
+            "--layers 1: the standard errors count the rays only; the scatter between layers of other seeds, often several times larger, is not in them (layer_std_err and ci95 are empty); use --layers 2 or more".to_owned(),
+        );
+    }
     if l.resized > 0 {
         out.push(format!(
-            "{} of {} flakes were taller than the {} µm film at their tilt and got a diameter that fits (normals kept; {:.2} % of the flake area lost, physics.md §10); a thicker --film-um keeps them whole",
+            "{} of {} flakes (all layers) were taller than the {} µm film at their tilt and got a diameter that fits (normals kept; {:.2} % of the flake area lost, physics.md §10); a thicker --film-um keeps them whole",
             l.resized,
             l.flakes,
             c.settings.film_um,
@@ -113,7 +132,7 @@ pub(super) fn volume_warnings(c: &VolumeCurves) -> Vec<String> {
     }
     if l.moved > 0 {
         out.push(format!(
-            "{} of {} flakes could not lie inside the film at a depth --depth-um allows and were put at the nearest depth that does (physics.md §10)",
+            "{} of {} flakes (all layers) could not lie inside the film at a depth --depth-um allows and were put at the nearest depth that does (physics.md §10)",
             l.moved, l.flakes
         ));
     }

@@ -141,6 +141,7 @@ impl Args {
                 Rims::Diffuse => RimRule::Diffuse,
             },
             rays: self.rays,
+            layers: self.layers,
             seed: self.seed,
             ..VolumeSettings::default()
         })
