@@ -11,6 +11,8 @@
 
 use flakescatter_optics::detector::Cone;
 
+use crate::simd::{Block, LANES, Lanes};
+
 /// One cone as the inner loop needs it.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Entry {
@@ -33,144 +35,8 @@ impl Entry {
     }
 }
 
-/// Lanes of a [`Block`]: one AVX-512 register of `f64`, two of AVX2.
-pub(crate) const LANES: usize = 8;
-
 /// [`ConeIndex::runs`] of a block whose detectors are not consecutive.
 pub(crate) const NO_RUN: u32 = u32::MAX;
-
-/// Up to [`LANES`] consecutive entries of one cell's list, field by field, so that a
-/// direction is tested against all of them in one loop of fixed length (vector
-/// compares): four cache lines, aligned to them. Unused lanes have a zero axis and
-/// `cos_alpha = +∞`, which no direction passes. The lanes' detectors are apart, in
-/// [`ConeIndex::detectors`] (only a ray that enters some cone needs them).
-#[derive(Debug, Clone, Copy)]
-#[repr(C, align(64))]
-pub(crate) struct Block {
-    ax: [f64; LANES],
-    ay: [f64; LANES],
-    az: [f64; LANES],
-    cos_alpha: [f64; LANES],
-}
-
-impl Block {
-    /// Bit `l` set when `k` is inside lane `l`'s cone, `ax·x + ay·y + az·z > cos α`
-    /// ([`Entry::contains`], the same operations in the same order).
-    #[inline(always)]
-    pub fn inside(&self, x: f64, y: f64, z: f64) -> u64 {
-        let dot: [f64; LANES] =
-            std::array::from_fn(|l| self.ax[l] * x + self.ay[l] * y + self.az[l] * z);
-        let mut mask = 0u64;
-        for (l, (d, c)) in dot.iter().zip(&self.cos_alpha).enumerate() {
-            mask |= u64::from(d > c) << l;
-        }
-        mask
-    }
-}
-
-/// How a [`Block`] is tested: [`Portable`] code that the compiler vectorises as it
-/// can, or one AVX-512 compare of eight lanes ([`pulp::x86::V4`]); the same operations
-/// in the same order, so the same bits.
-pub(crate) trait Lanes: Copy {
-    /// [`Block::inside`].
-    fn inside(self, block: &Block, x: f64, y: f64, z: f64) -> u64;
-
-    /// Adds `w` to each lane of `sums` whose bit of `bits` is set, and 1 to the same
-    /// lane of `counts`: `sums[l] + w` rounded as one addition, the other lanes left as
-    /// they are (as adding −0.0 and 0 would leave them).
-    #[inline(always)]
-    fn add_hits(self, sums: &mut [f64; LANES], counts: &mut [u32; LANES], bits: u8, w: f64) {
-        for l in 0..LANES {
-            let hit = (bits >> l) & 1 != 0;
-            sums[l] += if hit { w } else { -0.0 };
-            counts[l] += u32::from(hit);
-        }
-    }
-
-    /// `sums[l] += g · v[l]` (the product rounded, then the sum) for the first `len`
-    /// lanes (`len ≤ LANES`), the others left as they are.
-    #[inline(always)]
-    fn add_scaled(self, sums: &mut [f64; LANES], v: &[f64; LANES], g: f64, len: usize) {
-        debug_assert!(len <= LANES);
-        for (s, &v) in sums.iter_mut().zip(v).take(len) {
-            *s += g * v;
-        }
-    }
-
-    /// `counts[l] += n` for the first `len` lanes (`len ≤ LANES`).
-    #[inline(always)]
-    fn add_count(self, counts: &mut [u32; LANES], n: u32, len: usize) {
-        debug_assert!(len <= LANES);
-        for c in counts.iter_mut().take(len) {
-            *c += n;
-        }
-    }
-}
-
-/// [`Block::inside`] as written.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Portable;
-
-impl Lanes for Portable {
-    #[inline(always)]
-    fn inside(self, block: &Block, x: f64, y: f64, z: f64) -> u64 {
-        block.inside(x, y, z)
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-impl Lanes for pulp::x86::V4 {
-    /// `(ax·x + ay·y) + az·z > cos α` in eight lanes at once: products and sums
-    /// rounded one by one, as [`Entry::contains`] (no fused multiply–add).
-    #[inline(always)]
-    fn inside(self, block: &Block, x: f64, y: f64, z: f64) -> u64 {
-        let (ax, ay, az, c): (pulp::f64x8, pulp::f64x8, pulp::f64x8, pulp::f64x8) = (
-            pulp::cast(block.ax),
-            pulp::cast(block.ay),
-            pulp::cast(block.az),
-            pulp::cast(block.cos_alpha),
-        );
-        let dot = self.add_f64x8(
-            self.add_f64x8(
-                self.mul_f64x8(ax, self.splat_f64x8(x)),
-                self.mul_f64x8(ay, self.splat_f64x8(y)),
-            ),
-            self.mul_f64x8(az, self.splat_f64x8(z)),
-        );
-        u64::from(self.cmp_gt_f64x8(dot, c).0)
-    }
-
-    /// One masked addition per array.
-    #[inline(always)]
-    fn add_hits(self, sums: &mut [f64; LANES], counts: &mut [u32; LANES], bits: u8, w: f64) {
-        let hit = pulp::b8(bits);
-        let s: pulp::f64x8 = pulp::cast(*sums);
-        *sums = pulp::cast(self.select_f64x8(hit, self.add_f64x8(s, self.splat_f64x8(w)), s));
-        let c: pulp::u32x8 = pulp::cast(*counts);
-        let one = self.splat_u32x8(1);
-        *counts = pulp::cast(self.select_u32x8(hit, self.wrapping_add_u32x8(c, one), c));
-    }
-
-    /// One masked multiply–add (two roundings, as the portable form).
-    #[inline(always)]
-    fn add_scaled(self, sums: &mut [f64; LANES], v: &[f64; LANES], g: f64, len: usize) {
-        debug_assert!(len <= LANES);
-        let first = pulp::b8(((1u32 << len) - 1) as u8);
-        let s: pulp::f64x8 = pulp::cast(*sums);
-        let gv = self.mul_f64x8(self.splat_f64x8(g), pulp::cast(*v));
-        *sums = pulp::cast(self.select_f64x8(first, self.add_f64x8(s, gv), s));
-    }
-
-    /// One masked addition.
-    #[inline(always)]
-    fn add_count(self, counts: &mut [u32; LANES], n: u32, len: usize) {
-        debug_assert!(len <= LANES);
-        let first = pulp::b8(((1u32 << len) - 1) as u8);
-        let c: pulp::u32x8 = pulp::cast(*counts);
-        let added = self.wrapping_add_u32x8(c, self.splat_u32x8(n));
-        *counts = pulp::cast(self.select_u32x8(first, added, c));
-    }
-}
 
 /// The geometry of a [`ConeIndex`]'s grid, and the box of its cells that list cones.
 #[derive(Debug, Clone, Copy)]
@@ -425,12 +291,7 @@ impl ConeIndex {
                 &[]
             };
             for part in blocked.chunks(LANES) {
-                let mut b = Block {
-                    ax: [0.0; LANES],
-                    ay: [0.0; LANES],
-                    az: [0.0; LANES],
-                    cos_alpha: [f64::INFINITY; LANES],
-                };
+                let mut b = Block::empty();
                 let mut detectors = [0; LANES];
                 for (l, e) in part.iter().enumerate() {
                     (b.ax[l], b.ay[l], b.az[l], b.cos_alpha[l]) = (e.ax, e.ay, e.az, e.cos_alpha);
@@ -572,6 +433,7 @@ impl ConeIndex {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::Portable;
     use rand::{RngExt, SeedableRng};
 
     /// Every (direction, cone) pair that `Cone::contains` accepts is found through the
@@ -601,6 +463,8 @@ mod tests {
             let a = rng.random_range(0.002..0.05);
             cones.push(Cone::out_of_plane(t, p, a).unwrap());
         }
+        #[cfg(target_arch = "x86_64")]
+        let v4 = crate::simd::avx512_or_note("index_finds_every_containing_cone");
         for (margin, per_chord) in [(0.0, FINE), (0.0, COARSE), (0.01, COARSE), (0.01, FINE)] {
             let index = ConeIndex::with_margin(&cones, margin, per_chord);
             let (mut hits, mut blocked, mut multi) = (0, 0, 0);
@@ -652,7 +516,7 @@ mod tests {
                 }
                 // The AVX-512 test of the blocks gives the portable one's bits.
                 #[cfg(target_arch = "x86_64")]
-                if let Some(v4) = pulp::x86::V4::try_new() {
+                if let Some(v4) = v4 {
                     let wide =
                         pulp::Simd::vectorize(v4, || index.inside_mask(v4, cell, k.x, k.y, kz));
                     assert_eq!(wide, mask, "AVX-512 blocks, k = {kk:?}");
@@ -701,7 +565,7 @@ mod tests {
                  {in_runs} cones found in runs"
             );
             #[cfg(target_arch = "x86_64")]
-            if pulp::x86::V4::try_new().is_some() {
+            if v4.is_some() {
                 assert!(
                     wide_checked > 20_000,
                     "AVX-512 masks tested {wide_checked} times"
@@ -709,101 +573,6 @@ mod tests {
             }
             let _ = wide_checked;
         }
-    }
-
-    /// Eight sums for the lane tests: a quarter −0.0, a quarter +0.0, the rest in ±1000.
-    fn test_sums(rng: &mut rand_chacha::ChaCha8Rng) -> [f64; LANES] {
-        std::array::from_fn(|_| match rng.random_range(0..4) {
-            0 => -0.0,
-            1 => 0.0,
-            _ => rng.random_range(-1e3..1e3),
-        })
-    }
-
-    /// `Lanes::add_hits` adds `w` to the lanes whose bit is set, once each, and leaves
-    /// the others bit for bit as they were (−0.0 and +0.0 sums included), portable
-    /// and AVX-512 alike: the reference is the plain `sums[l] + w` lane by lane.
-    #[test]
-    fn add_hits_adds_to_the_set_lanes_only() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let mut wide_checked = 0;
-        for _ in 0..2000 {
-            let sums = test_sums(&mut rng);
-            let counts: [u32; LANES] = std::array::from_fn(|_| rng.random_range(0..1000));
-            let (bits, w) = (rng.random_range(0..=255u8), rng.random_range(1e-9..1e2));
-            let want_sums: [u64; LANES] = std::array::from_fn(|l| {
-                if bits >> l & 1 == 1 {
-                    sums[l] + w
-                } else {
-                    sums[l]
-                }
-                .to_bits()
-            });
-            let want_counts: [u32; LANES] =
-                std::array::from_fn(|l| counts[l] + u32::from(bits >> l & 1));
-            let (mut s, mut c) = (sums, counts);
-            Portable.add_hits(&mut s, &mut c, bits, w);
-            assert_eq!(s.map(f64::to_bits), want_sums, "bits {bits:08b}");
-            assert_eq!(c, want_counts);
-            #[cfg(target_arch = "x86_64")]
-            if let Some(v4) = pulp::x86::V4::try_new() {
-                let (mut s, mut c) = (sums, counts);
-                pulp::Simd::vectorize(v4, || v4.add_hits(&mut s, &mut c, bits, w));
-                assert_eq!(s.map(f64::to_bits), want_sums, "AVX-512, bits {bits:08b}");
-                assert_eq!(c, want_counts);
-                wide_checked += 1;
-            }
-        }
-        #[cfg(target_arch = "x86_64")]
-        if pulp::x86::V4::try_new().is_some() {
-            assert_eq!(wide_checked, 2000);
-        }
-        let _ = wide_checked;
-    }
-
-    /// `Lanes::add_scaled` adds `g · v[l]` and `Lanes::add_count` adds `n` to the first
-    /// `len` lanes only, portable and AVX-512 alike, bit for bit the lane-by-lane
-    /// `sums[l] + g · v[l]`.
-    #[test]
-    fn runs_add_to_their_first_lanes_only() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
-        let mut wide_checked = 0;
-        for _ in 0..2000 {
-            let sums = test_sums(&mut rng);
-            let v: [f64; LANES] = std::array::from_fn(|_| rng.random_range(0.0..10.0));
-            let counts: [u32; LANES] = std::array::from_fn(|_| rng.random_range(0..1000));
-            let (g, n, len) = (
-                rng.random_range(1e-9..1e2),
-                rng.random_range(0..500u32),
-                rng.random_range(0..=LANES),
-            );
-            let want_sums: [u64; LANES] = std::array::from_fn(|l| {
-                if l < len { sums[l] + g * v[l] } else { sums[l] }.to_bits()
-            });
-            let want_counts: [u32; LANES] =
-                std::array::from_fn(|l| counts[l] + if l < len { n } else { 0 });
-            let (mut s, mut c) = (sums, counts);
-            Portable.add_scaled(&mut s, &v, g, len);
-            Portable.add_count(&mut c, n, len);
-            assert_eq!(s.map(f64::to_bits), want_sums, "len {len}");
-            assert_eq!(c, want_counts, "len {len}");
-            #[cfg(target_arch = "x86_64")]
-            if let Some(v4) = pulp::x86::V4::try_new() {
-                let (mut s, mut c) = (sums, counts);
-                pulp::Simd::vectorize(v4, || {
-                    v4.add_scaled(&mut s, &v, g, len);
-                    v4.add_count(&mut c, n, len);
-                });
-                assert_eq!(s.map(f64::to_bits), want_sums, "AVX-512, len {len}");
-                assert_eq!(c, want_counts, "AVX-512, len {len}");
-                wide_checked += 1;
-            }
-        }
-        #[cfg(target_arch = "x86_64")]
-        if pulp::x86::V4::try_new().is_some() {
-            assert_eq!(wide_checked, 2000);
-        }
-        let _ = wide_checked;
     }
 
     /// A narrow cone beside many wide ones would give lists of millions of entries at

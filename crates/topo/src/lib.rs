@@ -57,6 +57,7 @@ pub mod model;
 pub mod mueller;
 pub mod normals;
 pub mod pixels;
+mod simd;
 
 pub use isotropic::{DEFAULT_NODES_PER_APERTURE, IsotropicOptions, IsotropicResult};
 pub use model::{
@@ -65,6 +66,7 @@ pub use model::{
 pub use mueller::{TopoMuellerPoint, TopoMuellerResult};
 pub use normals::{Normals, normal_from_slopes};
 pub use pixels::{PixelTilts, TileTilts};
+pub use simd::Kernels;
 
 /// Errors of the topographic model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -138,4 +140,10 @@ pub enum TopoError {
     /// The isotropic model's node spacing is not finite, not positive or too coarse.
     #[error("node spacing {0} rad is not valid: expected a finite number in (0, 0.01] rad")]
     NodeSpacing(f64),
+    /// The environment variable `FLAKESCATTER_SIMD` holds a value other than `auto` or
+    /// `portable` ([`Kernels::from_env`]); the value, lossily decoded.
+    #[error(
+        "environment variable FLAKESCATTER_SIMD={0:?} is not valid: expected `auto` (or unset) for the processor's best instruction set, or `portable` for the portable code"
+    )]
+    SimdSwitch(String),
 }

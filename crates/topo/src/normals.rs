@@ -26,6 +26,8 @@
 use flakescatter_optics::{UnitVec3, Vec3};
 use flakescatter_stats::HeightMap;
 
+use crate::simd::{Kernels, Lanes, dispatch};
+
 /// Local normals of one map: one entry per pixel (row-major), `None` where the pixel
 /// was skipped. Stored compactly as slopes; use [`Normals::get`] or [`Normals::to_vec`].
 #[derive(Debug, Clone, PartialEq)]
@@ -149,7 +151,7 @@ pub(crate) struct Scratch {
 /// a pixel-by-pixel loop over its window (window rows, then pair offsets; the test
 /// module's `direct_slopes` is that loop, and the run equals it bit for bit), but for
 /// every column of the run at once, in loops over columns that the compiler
-/// vectorises (under [`pulp::Arch::dispatch`], additions and multiplications only, no
+/// vectorises (under [`dispatch!`], additions and multiplications only, no
 /// fused multiply–add). A pixel whose window holds an invalid point gets whatever its
 /// heights give; callers read only usable pixels.
 #[derive(Debug, Default)]
@@ -168,17 +170,32 @@ impl DirectRow {
     /// the tile's columns whose window lies inside the map ([`inside_cols`]), and the
     /// row held before, of whatever map, is forgotten, so that the buffers can be
     /// reused from tile to tile and map to map.
-    pub(crate) fn tile<'a>(&'a mut self, map: &'a HeightMap, h: usize, rect: Rect) -> TileRows<'a> {
+    /// The sums run with `kernels`.
+    pub(crate) fn tile<'a>(
+        &'a mut self,
+        map: &'a HeightMap,
+        h: usize,
+        rect: Rect,
+        kernels: Kernels,
+    ) -> TileRows<'a> {
         self.a.clear();
         TileRows {
             run: self,
             map,
             h,
             cols: inside_cols(map, h, rect),
+            kernels,
         }
     }
 
-    fn fill(&mut self, map: &HeightMap, h: usize, row: usize, cols: std::ops::Range<usize>) {
+    fn fill(
+        &mut self,
+        map: &HeightMap,
+        h: usize,
+        row: usize,
+        cols: std::ops::Range<usize>,
+        kernels: Kernels,
+    ) {
         self.row = row;
         self.c0 = cols.start;
         let w = cols.len();
@@ -187,13 +204,7 @@ impl DirectRow {
         self.b.clear();
         self.b.resize(w, 0.0);
         self.d.resize(w, 0.0);
-        pulp::Arch::new().dispatch(RowSums {
-            map,
-            h,
-            row,
-            c0: cols.start,
-            run: self,
-        });
+        dispatch!(kernels, |_lanes| row_sums(map, h, row, cols.start, self));
     }
 }
 
@@ -203,6 +214,7 @@ pub(crate) struct TileRows<'a> {
     map: &'a HeightMap,
     h: usize,
     cols: std::ops::Range<usize>,
+    kernels: Kernels,
 }
 
 impl TileRows<'_> {
@@ -211,75 +223,58 @@ impl TileRows<'_> {
     #[inline]
     pub(crate) fn slopes(&mut self, row: usize, col: usize) -> (f64, f64) {
         if self.run.a.is_empty() || self.run.row != row {
-            self.run.fill(self.map, self.h, row, self.cols.clone());
+            self.run
+                .fill(self.map, self.h, row, self.cols.clone(), self.kernels);
         }
         let i = col - self.run.c0;
         (self.run.a[i], self.run.b[i])
     }
 }
 
-/// The sums of one [`DirectRow`] fill, handed to [`pulp::Arch::dispatch`].
-struct RowSums<'a> {
-    map: &'a HeightMap,
-    h: usize,
-    row: usize,
-    c0: usize,
-    run: &'a mut DirectRow,
-}
-
-impl pulp::WithSimd for RowSums<'_> {
-    type Output = ();
-
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        let Self {
-            map,
-            h,
-            row,
-            c0,
-            run,
-        } = self;
-        let nx = map.nx();
-        let z = map.heights();
-        let k = 2 * h + 1;
-        let w = run.a.len();
-        let DirectRow { a, b, d, .. } = run;
-        // a: window rows outer, pair offsets inner.
-        for r in row - h..=row + h {
-            let base = r * nx + c0;
-            for i in 1..=h {
-                let fi = i as f64;
-                let (up, down) = (&z[base + i..base + i + w], &z[base - i..base - i + w]);
-                for ((acc, &u), &v) in a.iter_mut().zip(up).zip(down) {
-                    *acc += fi * (u - v);
-                }
-            }
-        }
-        // b: per pair of rows, the column differences summed from the window's first
-        // column on (from −0.0, as `Iterator::sum` of f64 does), then weighted.
+/// The sums of one [`DirectRow`] fill (row `row`, columns from `c0`), run under
+/// [`dispatch!`].
+#[inline(always)]
+fn row_sums(map: &HeightMap, h: usize, row: usize, c0: usize, run: &mut DirectRow) {
+    let nx = map.nx();
+    let z = map.heights();
+    let k = 2 * h + 1;
+    let w = run.a.len();
+    let DirectRow { a, b, d, .. } = run;
+    // a: window rows outer, pair offsets inner.
+    for r in row - h..=row + h {
+        let base = r * nx + c0;
         for i in 1..=h {
             let fi = i as f64;
-            d.fill(-0.0);
-            let (ub, db) = ((row + i) * nx + c0 - h, (row - i) * nx + c0 - h);
-            for j in 0..k {
-                let (up, down) = (&z[ub + j..ub + j + w], &z[db + j..db + j + w]);
-                for ((acc, &u), &v) in d.iter_mut().zip(up).zip(down) {
-                    *acc += u - v;
-                }
-            }
-            for (acc, &dd) in b.iter_mut().zip(d.iter()) {
-                *acc += fi * dd;
+            let (up, down) = (&z[base + i..base + i + w], &z[base - i..base - i + w]);
+            for ((acc, &u), &v) in a.iter_mut().zip(up).zip(down) {
+                *acc += fi * (u - v);
             }
         }
-        let hf = h as f64;
-        let s = (hf * (hf + 1.0) * (2.0 * hf + 1.0)) / 3.0;
-        let (den_x, den_y) = (k as f64 * map.dx() * s, k as f64 * map.dy() * s);
-        for v in a.iter_mut() {
-            *v /= den_x;
+    }
+    // b: per pair of rows, the column differences summed from the window's first
+    // column on (from −0.0, as `Iterator::sum` of f64 does), then weighted.
+    for i in 1..=h {
+        let fi = i as f64;
+        d.fill(-0.0);
+        let (ub, db) = ((row + i) * nx + c0 - h, (row - i) * nx + c0 - h);
+        for j in 0..k {
+            let (up, down) = (&z[ub + j..ub + j + w], &z[db + j..db + j + w]);
+            for ((acc, &u), &v) in d.iter_mut().zip(up).zip(down) {
+                *acc += u - v;
+            }
         }
-        for v in b.iter_mut() {
-            *v /= den_y;
+        for (acc, &dd) in b.iter_mut().zip(d.iter()) {
+            *acc += fi * dd;
         }
+    }
+    let hf = h as f64;
+    let s = (hf * (hf + 1.0) * (2.0 * hf + 1.0)) / 3.0;
+    let (den_x, den_y) = (k as f64 * map.dx() * s, k as f64 * map.dy() * s);
+    for v in a.iter_mut() {
+        *v /= den_x;
+    }
+    for v in b.iter_mut() {
+        *v /= den_y;
     }
 }
 
@@ -305,7 +300,7 @@ fn inside_cols(map: &HeightMap, h: usize, rect: Rect) -> std::ops::Range<usize> 
 /// `b`) and the counts over the window's rows. Heights are relative to a reference of
 /// the region, so rounding is of the order of the heights' spread over the tile times
 /// 1e-16, with nothing accumulated from one pixel to the next. Both passes run under
-/// `pulp`'s instruction-set dispatch ([`TileSums`]), so the compiler vectorises them for
+/// the kernel layer's dispatch ([`dispatch!`]), so the compiler vectorises them for
 /// the processor's instruction set (additions and multiplications only, no fused
 /// multiply–add: the same bits in every build); `emit` is called outside it.
 pub(crate) fn tile_slopes<const NAN_BAD: bool>(
@@ -313,6 +308,7 @@ pub(crate) fn tile_slopes<const NAN_BAD: bool>(
     h: usize,
     rect: Rect,
     scratch: &mut Scratch,
+    kernels: Kernels,
     mut emit: impl FnMut(usize, usize, f64, f64),
 ) -> usize {
     let (nx, ny) = (map.nx(), map.ny());
@@ -332,37 +328,15 @@ pub(crate) fn tile_slopes<const NAN_BAD: bool>(
         c0: oc0,
         c1: oc1,
     };
-    match pulp::Arch::new() {
-        #[cfg(target_arch = "x86_64")]
-        pulp::Arch::V4(v4) => pulp::Simd::vectorize(
-            v4,
-            TileSums {
-                map,
-                h,
-                out,
-                scratch: &mut *scratch,
-                prefetch: *v4,
-            },
-        ),
-        #[cfg(target_arch = "x86_64")]
-        pulp::Arch::V3(v3) => pulp::Simd::vectorize(
-            v3,
-            TileSums {
-                map,
-                h,
-                out,
-                scratch: &mut *scratch,
-                prefetch: v3,
-            },
-        ),
-        arch => arch.dispatch(TileSums {
-            map,
-            h,
-            out,
-            scratch: &mut *scratch,
-            prefetch: NoPrefetch,
-        }),
-    }
+    // On AVX2 and AVX-512 machines the sums also prefetch the rows
+    // ([`Lanes::prefetch`]).
+    dispatch!(kernels, |lanes| tile_sums(
+        map,
+        h,
+        out,
+        &mut *scratch,
+        lanes
+    ));
     let k = 2 * h + 1;
     let hf = h as f64;
     let s = (hf * (hf + 1.0) * (2.0 * hf + 1.0)) / 3.0;
@@ -446,70 +420,10 @@ pub(crate) fn tile_usable(
     emitted
 }
 
-/// The window sums of one tile ([`tile_slopes`]), handed to [`pulp::Arch::dispatch`]
-/// (or, on AVX2 and AVX-512 machines, to `pulp`'s V3 or V4 directly, which then also
-/// prefetch the rows: `prefetch`) so that [`tile_sums`] is compiled for the processor's
-/// instruction set.
-struct TileSums<'a, P> {
-    map: &'a HeightMap,
-    h: usize,
-    /// The output pixels (whole windows inside the map).
-    out: Rect,
-    scratch: &'a mut Scratch,
-    prefetch: P,
-}
-
-impl<P: Prefetch> pulp::WithSimd for TileSums<'_, P> {
-    type Output = ();
-
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        tile_sums(self.map, self.h, self.out, self.scratch, self.prefetch);
-    }
-}
-
-/// Asks the processor to start loading memory that will be read soon (a hint: it
-/// changes no value, only when the bytes arrive).
-trait Prefetch: Copy {
-    /// Starts loading the cache lines of `heights` and `valid`.
-    fn rows(self, heights: &[f64], valid: &[bool]);
-}
-
-/// No hint.
-#[derive(Clone, Copy)]
-struct NoPrefetch;
-
-impl Prefetch for NoPrefetch {
-    #[inline(always)]
-    fn rows(self, _: &[f64], _: &[bool]) {}
-}
-
-#[cfg(target_arch = "x86_64")]
-impl Prefetch for pulp::x86::V3 {
-    /// `prefetcht0` of every 64-byte line (the pointer is only a hint: it is never
-    /// dereferenced, and a prefetch cannot fault).
-    #[inline(always)]
-    fn rows(self, heights: &[f64], valid: &[bool]) {
-        const T0: i32 = core::arch::x86_64::_MM_HINT_T0;
-        for k in (0..heights.len()).step_by(8) {
-            self.sse._mm_prefetch::<T0>(heights[k..].as_ptr().cast());
-        }
-        for k in (0..valid.len()).step_by(64) {
-            self.sse._mm_prefetch::<T0>(valid[k..].as_ptr().cast());
-        }
-    }
-}
-
 /// Fills `scratch.col_m`, `col_js` and `col_bad` (row-major over `out`) with each
 /// output pixel's `Σ i z`, `Σ j z` and invalid count over its window ([`tile_slopes`]).
 #[inline(always)]
-fn tile_sums<P: Prefetch>(
-    map: &HeightMap,
-    h: usize,
-    out: Rect,
-    scratch: &mut Scratch,
-    prefetch: P,
-) {
+fn tile_sums<L: Lanes>(map: &HeightMap, h: usize, out: Rect, scratch: &mut Scratch, lanes: L) {
     let nx = map.nx();
     let k = 2 * h + 1;
     // Region read: the output rectangle plus the window halo.
@@ -555,12 +469,12 @@ fn tile_sums<P: Prefetch>(
     const AHEAD: usize = 8;
     let row_of = |r: usize| r * nx + rc0..r * nx + rc0 + rw;
     for r in rr0..rr1.min(rr0 + AHEAD) {
-        prefetch.rows(&heights[row_of(r)], &valid[row_of(r)]);
+        lanes.prefetch(&heights[row_of(r)], &valid[row_of(r)]);
     }
     for (lr, r) in (rr0..rr1).enumerate() {
         if r + AHEAD < rr1 {
             let ahead = row_of(r + AHEAD);
-            prefetch.rows(&heights[ahead.clone()], &valid[ahead]);
+            lanes.prefetch(&heights[ahead.clone()], &valid[ahead]);
         }
         let base = r * nx + rc0;
         let (hrow, vrow) = (&heights[base..base + rw], &valid[base..base + rw]);
@@ -726,9 +640,16 @@ mod tests {
                     },
                 ] {
                     let mut want = Vec::new();
-                    let n = tile_slopes::<false>(m, h, rect, &mut scratch, |r, c, _, _| {
-                        want.push((r, c));
-                    });
+                    let n = tile_slopes::<false>(
+                        m,
+                        h,
+                        rect,
+                        &mut scratch,
+                        Kernels::Auto,
+                        |r, c, _, _| {
+                            want.push((r, c));
+                        },
+                    );
                     let mut got = Vec::new();
                     let k = tile_usable(m, h, rect, &mut scratch, |r, c| got.push((r, c)));
                     assert_eq!(got, want, "h {h}, {rect:?}");
@@ -753,7 +674,7 @@ mod tests {
                 c0: 0,
                 c1: 13,
             };
-            let row = run.tile(&m, h, rect).slopes(5, 6);
+            let row = run.tile(&m, h, rect, Kernels::Auto).slopes(5, 6);
             for (a, b) in [direct_slopes(&m, h, 5, 6), row] {
                 assert!((a - 0.37).abs() < 1e-12, "h = {h}: a = {a}");
                 assert!((b + 1.25).abs() < 1e-12, "h = {h}: b = {b}");
@@ -780,7 +701,7 @@ mod tests {
                 c0: 2,
                 c1: 18,
             };
-            let (a, b) = run.tile(m, h, rect).slopes(4, 7);
+            let (a, b) = run.tile(m, h, rect, Kernels::Auto).slopes(4, 7);
             assert!(
                 (a - p).abs() < 1e-12 && (b - q).abs() < 1e-12,
                 "h {h}: ({a}, {b})"
@@ -801,7 +722,9 @@ mod tests {
         m = HeightMap::new(nx, ny, 0.3, 0.4, z).unwrap();
         let bad = |h: usize, row: usize, col: usize| row.abs_diff(9) <= h && col.abs_diff(17) <= h;
         let mut run = DirectRow::default();
-        for h in 1..=3 {
+        // Portable and with the processor's best instruction set: the same sums.
+        let both = [Kernels::Auto, Kernels::Portable];
+        for (h, kernels) in (1..=3).flat_map(|h| both.map(|k| (h, k))) {
             for &(c0, c1) in &[(h, nx - h), (h, h + 1), (h + 3, nx - h - 5), (20, 21)] {
                 let rect = Rect {
                     r0: 0,
@@ -809,7 +732,7 @@ mod tests {
                     c0,
                     c1,
                 };
-                let mut tile = run.tile(&m, h, rect);
+                let mut tile = run.tile(&m, h, rect, kernels);
                 for row in (h..ny - h).rev().chain(h..ny - h) {
                     for col in c0..c1 {
                         let got = tile.slopes(row, col);

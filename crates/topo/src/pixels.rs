@@ -145,7 +145,7 @@ impl TopoModel {
                 || (Scratch::default(), DirectRow::default()),
                 |(scratch, direct), &(mi, rect)| {
                     let map = maps[mi];
-                    let mut direct = direct.tile(map, h, rect);
+                    let mut direct = direct.tile(map, h, rect, self.kernels());
                     let pixel_area = map.dx() * map.dy();
                     let mut t = TileTilts::default();
                     let mut bins = Vec::new();
