@@ -15,6 +15,15 @@
 //! and [`pixels`] gives the area-weighted distribution of the pixel normals that the
 //! distribution model must be fed to reproduce it ([`TopoModel::pixel_tilts`]).
 //!
+//! # Instruction sets
+//! The hot loops run on AVX-512 or AVX2 where the processor has them, chosen at run
+//! time, and give the same bits as the portable code. The environment variable
+//! `FLAKESCATTER_SIMD` (read once per process) sets what [`TopoModel::new`] uses:
+//! unset, empty or `auto` the run-time choice, `portable` the portable code alone (to
+//! check that a result does not depend on the processor); any other value is refused
+//! with [`TopoError::SimdSwitch`]. [`TopoModel::with_kernels`] chooses per model
+//! ([`Kernels`]).
+//!
 //! # Conventions
 //! * Frame of physics.md §1: `z` is the coating normal pointing into the air, `x` lies in
 //!   the plane of incidence, the source is on the `−x` side; in-plane detectors use the
