@@ -22,7 +22,9 @@
 //! How `h_j(θ)` is computed, per incidence and node `θ` (the escaping arc of the ring
 //! in closed form, the cones' boundaries found on it by Newton's method, the azimuth
 //! integrals by Gauss–Legendre quadrature), is written out beside the code, in
-//! `isotropic/ring.rs`; the table and its interpolation in `isotropic/table.rs`; the
+//! `isotropic/ring.rs` (the ring and a cone, the equations), `isotropic/response.rs`
+//! (sampling and quadrature) and `isotropic/search.rs` (the rims' roots); the table and
+//! its interpolation in `isotropic/table.rs`; the
 //! scheduling of tiles and table nodes and the reduction in `isotropic/schedule.rs`.
 //!
 //! # Tabulation and its error
@@ -105,11 +107,13 @@ use flakescatter_stats::HeightMap;
 use crate::TopoError;
 use crate::model::{TopoModel, TopoPoint, TopoWarning, aperture_index, tile_warnings};
 
+mod response;
 mod ring;
 mod schedule;
+mod search;
 mod table;
 
-use ring::IsoSetup;
+use response::IsoSetup;
 use schedule::IsoSums;
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing

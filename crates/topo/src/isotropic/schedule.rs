@@ -10,9 +10,10 @@ use flakescatter_optics::polarization::Weighting;
 use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
-use super::ring::{IsoSetup, NodeResponse, RingScratch, Run};
+use super::response::{IsoSetup, RingScratch};
 use super::table::{
-    CellInfo, DepositRule, Row, TileDeposit, TileScratch, cell_info, deposit_tile, odd_defect,
+    CellInfo, DepositRule, NodeResponse, Row, Run, TileDeposit, TileScratch, cell_info,
+    deposit_tile, odd_defect,
 };
 use crate::TopoModel;
 use crate::model::TileStats;

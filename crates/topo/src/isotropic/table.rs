@@ -5,9 +5,52 @@
 
 use flakescatter_stats::HeightMap;
 
-use super::ring::{NodeResponse, Run, runs_of};
 use crate::normals::{DirectRow, Rect, Scratch, tile_usable};
 use crate::simd::{Kernels, LANES};
+
+/// The response of one node at one incidence: `(detector, h_j)` sorted by detector with
+/// `h_j > 0`, and the lost fractions of the ring.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct NodeResponse {
+    pub(crate) entries: Vec<(u32, f64)>,
+    /// `entries` in runs of consecutive detectors, for the contraction.
+    pub(crate) runs: Vec<Run>,
+    pub(crate) tir: f64,
+    pub(crate) down: f64,
+}
+
+/// Up to [`LANES`] consecutive detectors `start, start + 1, …` and their values
+/// (zero past `len`): what the contraction adds to eight consecutive sums at once.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Run {
+    pub(crate) start: u32,
+    pub(crate) len: u32,
+    pub(crate) v: [f64; LANES],
+}
+
+/// `entries` (sorted by detector) cut into runs of consecutive detectors, at most
+/// [`LANES`] long.
+pub(crate) fn runs_of(entries: &[(u32, f64)]) -> Vec<Run> {
+    let mut runs: Vec<Run> = Vec::new();
+    for &(det, v) in entries {
+        match runs.last_mut() {
+            Some(r) if r.start + r.len == det && (r.len as usize) < LANES => {
+                r.v[r.len as usize] = v;
+                r.len += 1;
+            }
+            _ => {
+                let mut vs = [0.0; LANES];
+                vs[0] = v;
+                runs.push(Run {
+                    start: det,
+                    len: 1,
+                    v: vs,
+                });
+            }
+        }
+    }
+    runs
+}
 
 /// One table row: the response of one node at one incidence (empty until computed).
 pub(crate) type Row = NodeResponse;
@@ -349,7 +392,7 @@ mod tests {
     /// Runs hold consecutive detectors only, at most `LANES` of them, every entry once
     /// and in order, with zeros past their length.
     #[test]
-    pub(crate) fn runs_cut_rows_at_gaps_and_at_eight() {
+    fn runs_cut_rows_at_gaps_and_at_eight() {
         let dets = [3, 4, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 40];
         let entries: Vec<(u32, f64)> = dets.iter().map(|&d| (d, f64::from(d) + 0.5)).collect();
         let runs = runs_of(&entries);
