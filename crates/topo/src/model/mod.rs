@@ -243,7 +243,7 @@ impl TopoModel {
 
     /// The same model running `kernels`: [`Kernels::Portable`] forces the portable
     /// code, whatever `FLAKESCATTER_SIMD` says (the results are the same bits either
-    /// way; [`crate::simd`]).
+    /// way; the crate docs, "Instruction sets").
     #[must_use]
     pub fn with_kernels(mut self, kernels: Kernels) -> Self {
         self.kernels = kernels;

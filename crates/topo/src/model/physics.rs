@@ -34,10 +34,11 @@
 //!    cones each count), found through a grid index over `(k_out.x, k_out.y)`.
 //! 5. With the clear coat on, `R(θi)` ([`Transmission::clearcoat_reflectance`]) is added
 //!    to every cone that contains the specular direction (physics.md §6).
-//! 6. With binder absorption ([`crate::TopoModel::with_absorption`], physics.md §8.1) each ray's
-//!    contribution (scalar or Mueller) is multiplied by
-//!    [`PathAbsorption::factor`]`(cos θt, k2.z)`; the flakes' depth is the absorption's
-//!    depth model, not read from the map. Without it nothing is multiplied.
+//! 6. With binder absorption ([`crate::TopoModel::with_absorption`], physics.md §8.1)
+//!    each ray's contribution (scalar or Mueller) is multiplied by
+//!    [`PathAbsorption::factor`](flakescatter_optics::absorption::PathAbsorption::factor)
+//!    `(cos θt, k2.z)`; the flakes' depth is the absorption's depth model, not read
+//!    from the map. Without it nothing is multiplied.
 //!
 //! On a map of flat flakes whose normals follow a distribution, the pixel normals are
 //! projected-area weighted (density `D(m) m.z` per usable pixel), so the expected
