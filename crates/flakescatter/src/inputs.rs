@@ -297,8 +297,10 @@ pub fn load_map(
             {
                 (Some(ipath), None, Some(cutoff)) => {
                     // The channel choice is the height map's; the partner file's first.
+                    // An intensity is expected of it, whatever the map is read as.
                     let partner = ReadOptions {
                         channel: None,
+                        as_stored: false,
                         ..options.read
                     };
                     Some(

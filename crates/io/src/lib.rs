@@ -44,6 +44,7 @@ pub mod metropro;
 pub mod opd;
 pub mod plu;
 pub mod provenance;
+pub mod quantity;
 pub mod reader;
 pub mod sdf;
 pub mod select;

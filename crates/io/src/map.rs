@@ -376,6 +376,42 @@ pub enum MapError {
     /// (the message lists every channel: index, name, unit, size).
     #[error("{0}")]
     Channel(#[from] ChannelError),
+    /// The file declares another quantity than the one asked for ([`crate::quantity`]):
+    /// an intensity image where heights are expected, or the reverse.
+    #[error(
+        "the file holds {} ({}), not {}: {}",
+        plural(declared.quantity), declared.by, plural(*wanted),
+        match wanted {
+            ValueKind::Height => "give it where an intensity image is expected (--intensity, \
+                `maps.intensity`), or read it as it is with `convert` or `info`",
+            ValueKind::Intensity => "an intensity image is expected here; give the height \
+                map as the map itself",
+        }
+    )]
+    Quantity {
+        /// What the file declares, and where.
+        declared: crate::quantity::Declared,
+        /// What was asked for.
+        wanted: ValueKind,
+    },
+    /// A height-only option was given for a file read as the intensities it declares.
+    #[error(
+        "option {option} applies to heights, and this file holds intensities ({by}); leave it out"
+    )]
+    HeightOption {
+        /// The option, with its command-line flag.
+        option: &'static str,
+        /// Where the file says it holds intensities.
+        by: String,
+    },
+}
+
+/// `heights` or `intensities`.
+fn plural(kind: ValueKind) -> &'static str {
+    match kind {
+        ValueKind::Height => "heights",
+        ValueKind::Intensity => "intensities",
+    }
 }
 
 /// Error from [`read_map`] and [`read_intensity`]: the file and what went wrong.
@@ -476,6 +512,8 @@ pub fn read_bytes(
 ) -> Result<(HeightMap, MapFormat), MapError> {
     check_pitch(options)?;
     let format = choose(bytes, extension)?;
+    let declared = crate::quantity::declared_bytes(format, bytes).map_err(MapError::X3p)?;
+    let kind = quantity(declared, options, kind)?;
     check_flags(format, options, kind)?;
     let spec = spec(format);
     if let Some(requested) = options.channel {
@@ -483,6 +521,25 @@ pub fn read_bytes(
     }
     let map = (spec.read)(bytes, options, kind)?;
     Ok((finish(map, format, options, kind)?, format))
+}
+
+/// The quantity to read a file as, from what it declares ([`crate::quantity::resolve`]);
+/// a height-only option is refused for a file read as the intensities it declares.
+fn quantity(
+    declared: Option<crate::quantity::Declared>,
+    options: &ReadOptions,
+    wanted: ValueKind,
+) -> Result<ValueKind, MapError> {
+    let by = declared.as_ref().map(|d| d.by.clone()).unwrap_or_default();
+    let kind = crate::quantity::resolve(declared, wanted, options.as_stored)
+        .map_err(|(declared, wanted)| MapError::Quantity { declared, wanted })?;
+    if options.as_stored && kind == ValueKind::Intensity && options.z_unit.is_some() {
+        return Err(MapError::HeightOption {
+            option: "z_unit (`--z-unit` on the command line)",
+            by,
+        });
+    }
+    Ok(kind)
 }
 
 /// The pitch override, checked first, so that a bad option is reported as such in every
@@ -537,6 +594,7 @@ fn finish(
         map.set_metadata("pitch_source", "file");
     }
     map.set_metadata("format", format.name());
+    map.set_quantity(kind);
     if kind == ValueKind::Intensity {
         map.set_metadata("values", "intensity as stored in the file (unit-less)");
     }
@@ -638,6 +696,9 @@ impl<'a> Source<'a> {
             Self::X3pFile(reader) => {
                 let format = MapFormat::X3p;
                 check_pitch(options)?;
+                rewind(reader)?;
+                let declared = crate::quantity::x3p(&mut *reader).map_err(MapError::X3p)?;
+                let kind = quantity(declared, options, kind)?;
                 check_flags(format, options, kind)?;
                 if let Some(requested) = options.channel {
                     ChannelSelector::Index(requested)
@@ -727,7 +788,18 @@ pub fn list_channels_bytes(
     options: &ReadOptions,
 ) -> Result<(Vec<Channel>, MapFormat), MapError> {
     let format = choose(bytes, extension)?;
-    Ok(((spec(format).channels)(bytes, options)?, format))
+    let mut channels = (spec(format).channels)(bytes, options)?;
+    if let Ok(Some(d)) = crate::quantity::declared_bytes(format, bytes)
+        && d.quantity == ValueKind::Intensity
+        && matches!(format, MapFormat::X3p | MapFormat::Sdf)
+    {
+        // The ISO formats' `Z` is in metres only for heights.
+        for c in &mut channels {
+            c.name = "intensity".into();
+            c.unit = None;
+        }
+    }
+    Ok((channels, format))
 }
 
 /// Lists the channels of a map file (see [`list_channels_bytes`]).
@@ -767,8 +839,9 @@ pub fn write_intensity(
 /// Writes `map` to `path` as X3P (float64 heights in metres, `valid.bin` when some point
 /// is invalid), SDF (text `aISO-1.0`, exact decimals, `BAD` for invalid points; see
 /// [`sdf::write_sdf_text`], and [`sdf::write_sdf_binary`] for the binary form) or plain
-/// text (µm, with pitch header lines). The instrument formats cannot be written (an
-/// error says so).
+/// text (µm, with pitch header lines). A map whose [`HeightMap::quantity`] is an
+/// intensity is written as [`write_intensity`] writes it (the quantity is carried,
+/// [`crate::quantity`]). The instrument formats cannot be written (an error says so).
 ///
 /// # Errors
 /// [`WriteMapError`] naming the file.
@@ -777,7 +850,7 @@ pub fn write_map(
     path: impl AsRef<Path>,
     format: MapFormat,
 ) -> Result<(), WriteMapError> {
-    write_with(map, path.as_ref(), format, ValueKind::Height)
+    write_with(map, path.as_ref(), format, map.quantity())
 }
 
 fn write_with(

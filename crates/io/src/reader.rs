@@ -66,26 +66,27 @@ pub struct ReadOptions {
     /// Which channel to read (0-based, in the order of [`crate::list_channels`]);
     /// `None` = the file's first (for every format read so far, its only) channel.
     pub channel: Option<usize>,
+    /// Read a map as the quantity its file declares (an intensity image written as
+    /// such: [`crate::quantity`]) instead of as the quantity asked for (which a file
+    /// that declares nothing is still read as); what `convert` and `info` use.
+    /// Otherwise a file that declares another quantity than the one asked for is
+    /// refused.
+    pub as_stored: bool,
 }
 
-/// What the values of a map are, which decides the unit conversion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ValueKind {
-    /// Heights: converted to µm; a length unit is required.
-    Height,
-    /// Intensities (e.g. a confocal maximum-intensity image): returned as the file
-    /// stores them, unit-less; any unit label (`a.u.`, none) is accepted.
-    Intensity,
-}
+/// What the values of a map are, which decides the unit conversion: the map's own
+/// [`Quantity`](flakescatter_stats::heightmap::Quantity) — `Height` (converted to µm; a
+/// length unit is required) or `Intensity` (returned as the file stores them,
+/// unit-less; any unit label, `a.u.` or none, is accepted). Every read sets the map's
+/// quantity to the kind it was read as.
+pub use flakescatter_stats::heightmap::Quantity as ValueKind;
 
-impl ValueKind {
-    /// Power of ten applied to values the file gives in metres: 6 for heights (m → µm),
-    /// 0 for intensities (as stored).
-    pub(crate) fn metre_shift(self) -> i32 {
-        match self {
-            ValueKind::Height => 6,
-            ValueKind::Intensity => 0,
-        }
+/// Power of ten applied to values the file gives in metres: 6 for heights (m → µm),
+/// 0 for intensities (as stored).
+pub(crate) fn metre_shift(kind: ValueKind) -> i32 {
+    match kind {
+        ValueKind::Height => 6,
+        ValueKind::Intensity => 0,
     }
 }
 

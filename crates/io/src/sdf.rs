@@ -182,7 +182,7 @@ fn magic(bytes: &[u8]) -> String {
 /// [`SdfError`] naming the header field, line or data size at fault.
 pub fn read(bytes: &[u8], _options: &ReadOptions, kind: ValueKind) -> Result<HeightMap, SdfError> {
     let magic = magic(bytes);
-    let z_shift = kind.metre_shift();
+    let z_shift = crate::reader::metre_shift(kind);
     match magic.as_str() {
         "aISO-1.0" | "aISO-2.0" => read_text(bytes, &magic, z_shift),
         "bISO-1.0" | "bISO-2.0" => read_binary(bytes, &magic, z_shift),
@@ -495,7 +495,8 @@ fn field(map: &HeightMap, key: &str, default: &str, width: usize) -> String {
 /// Writes `map` as a text SDF (`aISO-1.0`, ISO 25178-71): pitches and heights as the
 /// shortest decimals that read back to the same `f64` (µm, with `Xscale`, `Yscale`
 /// written as `<µm>e-6` metres and `Zscale = 1e-6` for heights, 1 for intensities), so
-/// that [`read`] returns exactly the map written; invalid points are written `BAD`.
+/// that [`read`] returns exactly the map written; invalid points are written `BAD`. An
+/// intensity image gets the trailer line [`crate::quantity::SDF_INTENSITY_LINE`].
 #[must_use]
 pub fn write_sdf_text(map: &HeightMap, kind: ValueKind) -> String {
     use std::fmt::Write as _;
@@ -546,6 +547,11 @@ pub fn write_sdf_text(map: &HeightMap, kind: ValueKind) -> String {
         s.push('\n');
     }
     s.push_str("*\n");
+    if kind == ValueKind::Intensity {
+        // The trailer says what the values are (crate::quantity).
+        s.push_str(crate::quantity::SDF_INTENSITY_LINE);
+        s.push('\n');
+    }
     s
 }
 
@@ -596,6 +602,11 @@ pub fn write_sdf_binary(map: &HeightMap, kind: ValueKind) -> Result<Vec<u8>, Sdf
         for col in 0..nx {
             b.extend_from_slice(&map.get(col, row).unwrap_or(f64::NAN).to_le_bytes());
         }
+    }
+    if kind == ValueKind::Intensity {
+        // A trailer after the data says what the values are (crate::quantity).
+        b.extend_from_slice(crate::quantity::SDF_INTENSITY_LINE.as_bytes());
+        b.push(b'\n');
     }
     Ok(b)
 }

@@ -255,7 +255,12 @@ fn read_selected_from(
                     available: channels,
                 }));
             }
-            let (m, _) = source.read(&with(i), ValueKind::Intensity)?;
+            // An intensity is expected of this channel, whatever the map is read as.
+            let as_intensity = ReadOptions {
+                as_stored: false,
+                ..with(i)
+            };
+            let (m, _) = source.read(&as_intensity, ValueKind::Intensity)?;
             Some((m, i))
         }
     };

@@ -236,7 +236,7 @@ pub fn detect(bytes: &[u8]) -> Confidence {
 }
 
 /// The text and the encoding it was decoded from.
-fn decode(bytes: &[u8]) -> Result<(Cow<'_, str>, &'static str), TextError> {
+pub(crate) fn decode(bytes: &[u8]) -> Result<(Cow<'_, str>, &'static str), TextError> {
     if let Some(little) = utf16_bom(bytes) {
         let units: Vec<u16> = bytes[2..]
             .chunks(2)

@@ -407,7 +407,7 @@ fn parse_header(
             metres_scaled(root, "Record1/Axes/CY/Increment", None, 6, true)?,
         ),
     };
-    let z_shift = kind.metre_shift();
+    let z_shift = crate::reader::metre_shift(kind);
     let z_unit = 10f64.powi(z_shift);
     let z_scale = metres_scaled(
         root,
@@ -1112,6 +1112,11 @@ fn open<R: Read + Seek>(reader: R) -> Result<(zip::ZipArchive<R>, String, Vec<u8
     Ok((archive, prefix, xml_bytes))
 }
 
+/// The bytes of the archive's `main.xml` (for [`crate::quantity`]).
+pub(crate) fn main_xml<R: Read + Seek>(reader: R) -> Result<Vec<u8>, X3pError> {
+    open(reader).map(|(_, _, xml)| xml)
+}
+
 fn parse_xml(xml_bytes: &[u8]) -> Result<Document<'_>, X3pError> {
     let xml =
         std::str::from_utf8(xml_bytes).map_err(|e| X3pError::Xml(format!("not UTF-8: {e}")))?;
@@ -1464,7 +1469,9 @@ pub fn write_x3p_bytes(map: &HeightMap) -> Result<Vec<u8>, ArchiveError> {
 }
 
 /// Writes an intensity image (unit-less values) as X3P with Z `Increment` 1, so the file
-/// stores the values themselves; [`crate::read_intensity`] reads them back exactly.
+/// stores the values themselves, and a `Record2/Comment` that starts with
+/// [`crate::quantity::X3P_INTENSITY_MARK`], so that the file says it holds intensities
+/// ([`crate::quantity`]); [`crate::read_intensity`] reads them back exactly.
 ///
 /// # Errors
 /// [`ArchiveError`] if the archive cannot be assembled.
@@ -1509,6 +1516,7 @@ fn deflate_pays(data: &[u8]) -> std::io::Result<bool> {
 }
 
 fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8>, ArchiveError> {
+    let intensity = z_increment == "1";
     let zerr = |e: zip::result::ZipError| ArchiveError(e.to_string());
     let ioerr = |e: std::io::Error| ArchiveError(e.to_string());
 
@@ -1530,22 +1538,32 @@ fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8
     // (crate::provenance), else the placeholder.
     let carried = crate::provenance::Provenance::of(map);
     let comment = crate::provenance::Provenance::x3p_comment(map);
+    let comment = crate::quantity::x3p_comment(
+        map.metadata()
+            .get("x3p.comment")
+            .cloned()
+            .or(comment)
+            .unwrap_or_else(|| {
+                concat!("written by flakescatter ", env!("CARGO_PKG_VERSION")).to_string()
+            }),
+        intensity,
+    );
     let meta = |key: &str, default: &str| {
         let from_source = match key {
             "x3p.date" => carried.date.as_deref(),
             "x3p.instrument.manufacturer" => carried.manufacturer.as_deref(),
             "x3p.instrument.model" => carried.model.as_deref(),
             "x3p.instrument.serial" => carried.serial.as_deref(),
-            "x3p.comment" => comment.as_deref(),
+            "x3p.comment" => Some(comment.as_str()),
             _ => None,
         };
-        xml_escape(
-            map.metadata()
-                .get(key)
-                .map(String::as_str)
-                .or(from_source)
-                .unwrap_or(default),
-        )
+        // The comment is decided above (it says which quantity the file holds).
+        let own = if key == "x3p.comment" {
+            None
+        } else {
+            map.metadata().get(key).map(String::as_str)
+        };
+        xml_escape(own.or(from_source).unwrap_or(default))
     };
     let valid_link = match &bits {
         Some(b) => format!(
@@ -1622,10 +1640,7 @@ fn write_x3p_with_increment(map: &HeightMap, z_increment: &str) -> Result<Vec<u8
         model = meta("x3p.instrument.model", "N/A"),
         serial = meta("x3p.instrument.serial", "N/A"),
         version = meta("x3p.instrument.version", "N/A"),
-        comment = meta(
-            "x3p.comment",
-            concat!("written by flakescatter ", env!("CARGO_PKG_VERSION"))
-        ),
+        comment = meta("x3p.comment", ""),
         nx = map.nx(),
         ny = map.ny(),
         data_md5 = md5_hex(&data),

@@ -183,6 +183,7 @@ fn options(b: u8) -> (ReadOptions, ValueKind) {
         decimal: [DecimalMark::Auto, DecimalMark::Point, DecimalMark::Comma]
             [usize::from(b >> 4) % 3],
         channel: (b & 64 != 0).then_some(0),
+        as_stored: b % 7 == 3,
     };
     let kind = if b & 128 != 0 {
         ValueKind::Intensity

@@ -9,7 +9,9 @@
 //!   **and** its height is finite; an invalid point's stored height is meaningless (the
 //!   paper's `z = 0` convention is not used, so real zero heights survive).
 //! * An intensity image (confocal reflected intensity) is held in the same type; its values
-//!   are then unit-less.
+//!   are then unit-less, and its [`Quantity`] is [`Quantity::Intensity`] (the readers and
+//!   writers of `flakescatter-io` carry it, so that intensities are never written or
+//!   reported as heights).
 
 use std::collections::BTreeMap;
 
@@ -128,6 +130,27 @@ pub struct IntensityMask {
     pub keep: Vec<bool>,
 }
 
+/// What the values of a map are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Quantity {
+    /// Heights, µm (the default of every constructor).
+    #[default]
+    Height,
+    /// Intensities (e.g. a confocal maximum-intensity image): unit-less, as stored.
+    Intensity,
+}
+
+impl Quantity {
+    /// `height` or `intensity`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantity::Height => "height",
+            Quantity::Intensity => "intensity",
+        }
+    }
+}
+
 /// A regular grid of heights (µm) with pixel pitch `dx × dy` (µm) and a validity mask.
 ///
 /// See the module documentation for the storage order and axis conventions.
@@ -139,6 +162,7 @@ pub struct HeightMap {
     dy: f64,
     z: Vec<f64>,
     valid: Vec<bool>,
+    quantity: Quantity,
     metadata: BTreeMap<String, String>,
 }
 
@@ -259,6 +283,7 @@ impl HeightMap {
             dy,
             z,
             valid,
+            quantity: Quantity::Height,
             metadata: BTreeMap::new(),
         }
     }
@@ -325,6 +350,17 @@ impl HeightMap {
     /// Sets (or replaces) one metadata entry.
     pub fn set_metadata(&mut self, key: impl Into<String>, value: impl Into<String>) {
         self.metadata.insert(key.into(), value.into());
+    }
+
+    /// What the values are: heights (µm, the default) or intensities (unit-less).
+    #[must_use]
+    pub fn quantity(&self) -> Quantity {
+        self.quantity
+    }
+
+    /// Says what the values are (the values themselves are not changed).
+    pub fn set_quantity(&mut self, quantity: Quantity) {
+        self.quantity = quantity;
     }
 
     /// Sets the pixel pitch (µm), e.g. to override a file's calibration.

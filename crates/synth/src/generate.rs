@@ -318,6 +318,7 @@ pub fn generate_from_discs(
 
     let mut height = HeightMap::new(nx, ny, dx, dy, z)?;
     let mut inten = HeightMap::new(nx, ny, dx, dy, intensity)?;
+    inten.set_quantity(flakescatter_stats::heightmap::Quantity::Intensity);
     for map in [&mut height, &mut inten] {
         map.set_metadata(
             "generator",

@@ -4,7 +4,9 @@
 //!
 //! Heights, pitch and invalid points are kept exactly (X3P ↔ SDF round trip exact);
 //! of the metadata, what both formats hold (the SDF `ManufacID` and dates from `sdf.*`
-//! keys) is kept; the rest of the input's metadata is not written.
+//! keys) is kept; the rest of the input's metadata is not written. An intensity image
+//! (a file that says it holds intensities: `flakescatter_io::quantity`) is read and
+//! written as one, its values unchanged and the output marked as intensities.
 
 use std::path::PathBuf;
 
@@ -32,7 +34,10 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let options = args.calibration.read_options()?;
+    let options = flakescatter::io::ReadOptions {
+        as_stored: true,
+        ..args.calibration.read_options()?
+    };
     let mut plan = Plan::new();
     plan.input("IN", &args.input);
     plan.output("OUT", Some(&args.output), Kind::ConvertedMap);
@@ -56,9 +61,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let loaded = loaded.remove(0).loaded;
     let map = &loaded.map;
     let detail = format!(
-        "{} x {}, {} from {}",
+        "{} x {} {}s, {} from {}",
         map.nx(),
         map.ny(),
+        map.quantity().name(),
         format.name(),
         loaded.format
     );

@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 
 use flakescatter::inputs::{LoadOptions, LoadedMap, MapSource};
 use flakescatter::io::{ReadOptions, ZUnit};
+use flakescatter::stats::heightmap::Quantity;
 use serde_json::{Map, Value, json};
 
 use crate::flags::MapArgs;
@@ -25,8 +26,9 @@ pub struct Args {
     #[arg(value_name = "MAP")]
     pub map: PathBuf,
     /// Print a JSON summary on stdout: `nx`, `ny`, `dx_m`, `dy_m`, `valid_points`,
-    /// `invalid_points`, `min_m`, `max_m`, `mean_m`, `rms_m` (about the mean, valid points
-    /// only), `format`, `metadata`, `channels` (name, unit, nx, ny, dx_m, dy_m of each
+    /// `invalid_points`, `quantity` (`height` or `intensity`), `min_m`, `max_m`, `mean_m`,
+    /// `rms_m` (heights: about the mean, valid points only; null for intensities),
+    /// `intensity_values` (intensities: min, max, mean, rms, unit-less), `format`, `metadata`, `channels` (name, unit, nx, ny, dx_m, dy_m of each
     /// channel of the file), `channel` (the index read) and `intensity_channel` (the
     /// index of the intensity channel used, or null), `file`, `version`.
     #[arg(long)]
@@ -69,8 +71,11 @@ fn summary_json(args: &Args, options: &ReadOptions, loaded: &LoadedMap) -> Value
         loaded.stack.as_ref(),
     );
     let s = map.summary();
+    let heights = map.quantity() == Quantity::Height;
     let stat = |f: fn(&flakescatter::stats::heightmap::HeightSummary) -> f64| {
-        s.as_ref().map_or(Value::Null, |s| json!(m(f(s))))
+        s.as_ref()
+            .filter(|_| heights)
+            .map_or(Value::Null, |s| json!(m(f(s))))
     };
     let metadata: Map<String, Value> = map
         .metadata()
@@ -117,6 +122,10 @@ fn summary_json(args: &Args, options: &ReadOptions, loaded: &LoadedMap) -> Value
         "dy_m": m(map.dy()),
         "valid_points": map.valid_count(),
         "invalid_points": map.len() - map.valid_count(),
+        "quantity": map.quantity().name(),
+        "intensity_values": s.as_ref().filter(|_| !heights).map(|s| json!({
+            "min": s.min, "max": s.max, "mean": s.mean, "rms": s.rms,
+        })),
         "min_m": stat(|s| s.min),
         "max_m": stat(|s| s.max),
         "mean_m": stat(|s| s.mean),
@@ -137,7 +146,11 @@ fn summary_json(args: &Args, options: &ReadOptions, loaded: &LoadedMap) -> Value
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let options = args.calibration.read_options()?;
+    // A map is described as what its file says it holds (heights or intensities).
+    let options = ReadOptions {
+        as_stored: true,
+        ..args.calibration.read_options()?
+    };
     check_cutoff(args.cutoff)?;
     let (stack_options, peak) = args.stack.options(&options)?;
     if args.cutoff.is_some() && args.intensity.is_none() && args.intensity_channel.is_none() {
@@ -170,6 +183,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut s = String::new();
     let _ = writeln!(s, "file            {}", args.map.display());
     let _ = writeln!(s, "format          {format}");
+    let _ = writeln!(
+        s,
+        "quantity        {}",
+        match map.quantity() {
+            Quantity::Height => "heights (µm)",
+            Quantity::Intensity => "intensities (unit-less, as stored; the file says so)",
+        }
+    );
     let _ = writeln!(
         s,
         "size            {} x {} points (nx x ny)",
@@ -208,17 +229,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "intensity mask  {mask} with cutoff {cutoff}: {valid} of {valid_before_cutoff} valid points kept"
         );
     }
-    match map.summary() {
-        Some(h) => {
+    match (map.summary(), map.quantity()) {
+        (Some(h), Quantity::Height) => {
             let _ = writeln!(s, "height min      {} µm", h.min);
             let _ = writeln!(s, "height max      {} µm", h.max);
             let _ = writeln!(s, "height mean     {} µm", h.mean);
             let _ = writeln!(s, "height rms      {} µm (about the mean)", h.rms);
         }
-        None => s.push_str("heights         no valid point\n"),
+        (Some(h), Quantity::Intensity) => {
+            let _ = writeln!(s, "intensity min   {} (unit-less, as stored)", h.min);
+            let _ = writeln!(s, "intensity max   {}", h.max);
+            let _ = writeln!(s, "intensity mean  {}", h.mean);
+            let _ = writeln!(s, "intensity rms   {} (about the mean)", h.rms);
+        }
+        (None, Quantity::Height) => s.push_str("heights         no valid point\n"),
+        (None, Quantity::Intensity) => s.push_str("intensities     no valid point\n"),
     }
     if !loaded.channels.is_empty() {
-        s.push_str("channels        (* heights read, i intensity used)\n");
+        s.push_str("channels        (* values read, i intensity used)\n");
         for (i, c) in loaded.channels.iter().enumerate() {
             let _ = writeln!(
                 s,

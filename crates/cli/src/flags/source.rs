@@ -242,6 +242,9 @@ impl MapArgs {
             // Channels are chosen per file (a name may have another index in each):
             // see `channel`, resolved when each file is read.
             channel: None,
+            // `convert` and `info` read maps as their files declare them (their own
+            // option); every other command reads heights.
+            as_stored: false,
         })
     }
 
