@@ -24,8 +24,9 @@ pub(crate) struct Declared {
     pub size: Option<((usize, usize), &'static str)>,
     /// Channels × time points other than one: the stack is not a plain z-stack.
     pub extra_dimensions: Option<String>,
-    /// `true` when page 0 is the top slice, with the reason; `None` when not stated.
-    pub top_first: Option<(bool, String)>,
+    /// `true` when page 0 is the top slice, with the reason; `None` when not stated;
+    /// an error when the metadata contradict themselves on it.
+    pub top_first: Field<bool>,
     /// Full-scale sample value when the metadata says the data use fewer bits than
     /// their container (12-bit LSM data in 16-bit pages).
     pub full_scale: Option<(f64, String)>,
@@ -71,10 +72,32 @@ pub(crate) fn is_ome(description: &str) -> bool {
     (head.starts_with("<?xml") || head.starts_with("<OME")) && description.contains("<OME")
 }
 
-/// Parses an ImageJ `ImageDescription` (`key=value` lines) together with the pixel size
-/// in the description's unit, `1 / XResolution` and `1 / YResolution` of the first page
-/// (ImageJ writes the resolution as pixels per unit and `ResolutionUnit` none).
-pub(crate) fn imagej(description: &str, x_pixel: Option<f64>, y_pixel: Option<f64>) -> Declared {
+/// The pixel size, in the resolution's unit, of a TIFF resolution tag `name` written as
+/// the rational `n/d` pixels per unit (`None`: no tag). A zero numerator (no pixels per
+/// unit) or denominator is not a usable resolution.
+fn pixel_size(name: &str, r: Option<(u32, u32)>, unit: &str) -> Result<Option<f64>, String> {
+    match r {
+        None => Ok(None),
+        Some((0, d)) => Err(format!(
+            "{name} is 0/{d}, zero pixels per {unit}: not a usable resolution (the pixel size would be infinite)"
+        )),
+        Some((n, 0)) => Err(format!(
+            "{name} is {n}/0, a zero denominator: not a usable resolution"
+        )),
+        // Size of a pixel in the unit: 1 / (n/d) = d/n, one rounding.
+        Some((n, d)) => Ok(Some(f64::from(d) / f64::from(n))),
+    }
+}
+
+/// Parses an ImageJ `ImageDescription` (`key=value` lines) together with the first
+/// page's `XResolution` and `YResolution` tags, rationals `n/d` in pixels per unit
+/// (ImageJ writes them with `ResolutionUnit` none): the pixel size is `d/n` in the
+/// description's unit; a missing `YResolution` means square pixels.
+pub(crate) fn imagej(
+    description: &str,
+    x_res: Option<(u32, u32)>,
+    y_res: Option<(u32, u32)>,
+) -> Declared {
     let mut kv = BTreeMap::new();
     for line in description.lines() {
         if let Some((k, v)) = line.split_once('=') {
@@ -108,19 +131,22 @@ pub(crate) fn imagej(description: &str, x_pixel: Option<f64>, y_pixel: Option<f6
     let z_unit = kv.get("zunit").map(String::as_str).or(x_unit);
     if let Some(u) = x_unit {
         d.pixel_um = Some(match (unit_to_um(u), y_unit.and_then(unit_to_um)) {
-            (Some(fx), Some(fy)) => match x_pixel {
-                Some(px) if px.is_finite() && px > 0.0 => {
-                    let py = y_pixel.filter(|p| p.is_finite() && *p > 0.0).unwrap_or(px);
-                    Ok((
-                        (fx * px, fy * py),
+            (Some(fx), Some(fy)) => {
+                let yu = y_unit.unwrap_or(u);
+                match (
+                    pixel_size("XResolution", x_res, u),
+                    pixel_size("YResolution", y_res, yu),
+                ) {
+                    (Ok(Some(px)), Ok(py)) => Ok((
+                        (fx * px, fy * py.unwrap_or(px)),
                         format!("ImageJ XResolution/YResolution (pixels per {u})"),
-                    ))
+                    )),
+                    (Err(e), _) | (_, Err(e)) => Err(format!("ImageJ unit={u}: {e}")),
+                    (Ok(None), _) => Err(format!(
+                        "ImageJ unit={u} but the page has no XResolution tag"
+                    )),
                 }
-                Some(px) => Err(format!("1 / XResolution = {px} {u} is not a positive size")),
-                None => Err(format!(
-                    "ImageJ unit={u} but the page has no XResolution tag"
-                )),
-            },
+            }
             _ => Err(format!("ImageJ unit={u:?} is not a length unit")),
         });
     }
@@ -226,33 +252,29 @@ pub(crate) fn ome(xml: &str) -> Result<Declared, String> {
         (None, None) => None,
     };
     d.z_step_um = physical("Z");
-    // Page order from the planes' PositionZ, when every z plane (C = T = 0) has one and
-    // they are strictly monotonic.
+    // Step and page order from the planes' PositionZ, when every z plane (C = T = 0)
+    // has one (super::positions).
     if let Some(nz) = sz.filter(|&n| n >= 2) {
-        let mut pos = vec![None; nz];
-        for plane in pixels.children().filter(|n| n.tag_name().name() == "Plane") {
-            let the = |k: &str| attr(plane, k).and_then(count).unwrap_or(0);
-            if the("TheC") != 0 || the("TheT") != 0 {
-                continue;
+        let declared = match &d.z_step_um {
+            Some(Ok((dz, _))) => Some(*dz),
+            _ => None,
+        };
+        let decided = super::positions::decide(pixels, nz, declared);
+        if decided.z_step_um.is_some() {
+            // A PhysicalSizeZ that is itself unusable stays the error.
+            if !matches!(d.z_step_um, Some(Err(_))) {
+                d.z_step_um = decided.z_step_um;
             }
-            let z = the("TheZ");
-            if z < nz {
-                pos[z] = attr(plane, "PositionZ").and_then(|v| v.trim().parse::<f64>().ok());
-            }
+            d.fields.insert(
+                "ome.PositionZ".into(),
+                match &d.z_step_um {
+                    Some(Ok((_, src))) if src.contains("PositionZ") => "used for the z step".into(),
+                    Some(Ok(_)) => "not used for the z step".into(),
+                    _ => "inconsistent (refused unless the z step is given)".into(),
+                },
+            );
         }
-        if let Some(p) = pos.iter().copied().collect::<Option<Vec<f64>>>() {
-            let up = p.windows(2).all(|w| w[1] > w[0]);
-            let down = p.windows(2).all(|w| w[1] < w[0]);
-            if up || down {
-                d.top_first = Some((
-                    down,
-                    format!(
-                        "OME-XML Plane PositionZ {} with TheZ (taken as increasing upward)",
-                        if down { "decreases" } else { "increases" }
-                    ),
-                ));
-            }
-        }
+        d.top_first = decided.top_first;
     }
     Ok(d)
 }
@@ -349,7 +371,7 @@ mod tests {
         // The description ImageJ 1.x writes for a 40-slice calibrated stack.
         let text = "ImageJ=1.54f\nimages=40\nslices=40\nunit=micron\nspacing=0.3\nloop=false\n";
         // 1 / 0.18 µm = 5.555... pixels per micron.
-        let d = imagej(text, Some(0.18), None);
+        let d = imagej(text, Some((50, 9)), None);
         let ((dx, dy), _) = d.pixel_um.unwrap().unwrap();
         assert!((dx - 0.18).abs() < 1e-15 && (dy - 0.18).abs() < 1e-15);
         assert_eq!(d.z_step_um.unwrap().unwrap().0, 0.3);
@@ -357,24 +379,47 @@ mod tests {
         assert!(d.extra_dimensions.is_none());
         // nm with a separate z unit.
         let text = "ImageJ=1.54f\nimages=5\nunit=nm\nzunit=micron\nspacing=0.25\n";
-        let d = imagej(text, Some(100.0), Some(50.0));
+        let d = imagej(text, Some((1, 100)), Some((1, 50)));
         let ((dx, dy), _) = d.pixel_um.unwrap().unwrap();
         assert!((dx - 0.1).abs() < 1e-15 && (dy - 0.05).abs() < 1e-15);
         assert_eq!(d.z_step_um.unwrap().unwrap().0, 0.25);
         // Uncalibrated: ImageJ writes no unit (or unit=pixel).
-        let d = imagej("ImageJ=1.54f\nimages=5\n", Some(1.0 / 72.0), None);
+        let d = imagej("ImageJ=1.54f\nimages=5\n", Some((72, 1)), None);
         assert!(d.pixel_um.is_none() && d.z_step_um.is_none());
         // Bad values are reported, not guessed.
         let d = imagej(
             "ImageJ=\nimages=5\nunit=micron\nspacing=-1\n",
-            Some(0.5),
+            Some((2, 1)),
             None,
         );
         assert!(d.z_step_um.unwrap().unwrap_err().contains("-1"));
-        let d = imagej("ImageJ=\nunit=furlong\nspacing=1\n", Some(0.5), None);
+        let d = imagej("ImageJ=\nunit=furlong\nspacing=1\n", Some((2, 1)), None);
         assert!(d.pixel_um.unwrap().unwrap_err().contains("furlong"));
         let d = imagej("ImageJ=\nchannels=2\nslices=5\n", None, None);
         assert!(d.extra_dimensions.unwrap().contains("channels=2"));
+        // A resolution tag that is present but zero is named as such (issue 52, item
+        // 23), not taken for a missing tag; a zero YResolution is not replaced by X's.
+        let text = "ImageJ=1.54f\nimages=5\nunit=micron\n";
+        let e = imagej(text, Some((0, 1)), None)
+            .pixel_um
+            .unwrap()
+            .unwrap_err();
+        assert!(
+            e.contains("XResolution is 0/1") && e.contains("not a usable"),
+            "{e}"
+        );
+        let e = imagej(text, Some((5, 0)), None)
+            .pixel_um
+            .unwrap()
+            .unwrap_err();
+        assert!(e.contains("XResolution is 5/0"), "{e}");
+        let e = imagej(text, Some((50, 9)), Some((0, 1)))
+            .pixel_um
+            .unwrap()
+            .unwrap_err();
+        assert!(e.contains("YResolution is 0/1"), "{e}");
+        let e = imagej(text, None, None).pixel_um.unwrap().unwrap_err();
+        assert!(e.contains("no XResolution tag"), "{e}");
     }
 
     #[test]
@@ -395,7 +440,7 @@ mod tests {
         assert_eq!(d.z_step_um.unwrap().unwrap().0, 0.3);
         assert_eq!(d.slices, Some((3, "OME-XML SizeZ")));
         assert_eq!(d.size.unwrap().0, (4, 3));
-        assert!(d.top_first.unwrap().0);
+        assert!(d.top_first.unwrap().unwrap().0);
         assert!(ome("<OME></OME>").unwrap_err().contains("no <Image>"));
         assert!(
             ome("<OME><Image/><Image/></OME>")

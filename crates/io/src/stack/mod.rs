@@ -30,6 +30,7 @@
 //!   resolution (72 dpi), not a calibration: both must be given as options.
 
 mod meta;
+mod positions;
 pub mod write;
 
 use std::collections::BTreeMap;
@@ -671,7 +672,7 @@ impl<R: Read + Seek> StackReader<R> {
                 value: o,
                 source: Source::Option,
             },
-            (None, Some((top, why))) => Sourced {
+            (None, Some(Ok((top, why)))) => Sourced {
                 value: if top {
                     PageOrder::TopFirst
                 } else {
@@ -679,6 +680,7 @@ impl<R: Read + Seek> StackReader<R> {
                 },
                 source: Source::File(why),
             },
+            (None, Some(Err(message))) => return Err(StackError::Metadata { format, message }),
             (None, None) => Sourced {
                 value: PageOrder::BottomFirst,
                 source: Source::Default,
@@ -979,12 +981,7 @@ fn read_metadata<R: Read + Seek>(
         return Ok((StackFormat::OmeTiff, d));
     }
     if meta::is_imagej(&text) {
-        // Size of a pixel in the unit: 1 / (n/d) = d/n, one rounding.
-        let size = |r: Option<(u32, u32)>| {
-            r.filter(|r| r.0 != 0)
-                .map(|(n, d)| f64::from(d) / f64::from(n))
-        };
-        let d = meta::imagej(&text, size(xres), size(yres));
+        let d = meta::imagej(&text, xres, yres);
         return Ok((StackFormat::ImageJ, d));
     }
     fields.insert(
