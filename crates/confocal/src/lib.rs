@@ -41,11 +41,13 @@
 
 mod error;
 pub mod localise;
+pub mod noise;
 pub mod peak;
 
 pub use error::ConfocalError;
 pub use localise::{
-    Localiser, MAX_HALF_WINDOW, MAX_SLICE_PIXELS, PeakMaps, PeakOptions, PeakReport, SliceOrder,
-    StackGeometry,
+    Localiser, MAX_HALF_WINDOW, MAX_SLICE_PIXELS, MinSignal, PeakMaps, PeakOptions, PeakReport,
+    SliceOrder, StackGeometry,
 };
+pub use noise::{NoiseEstimate, SignalThreshold};
 pub use peak::{Invalid, Peak, PeakMethod, locate_peak};

@@ -11,7 +11,9 @@
 //! `half_window` samples (to fill the left half when a new maximum arrives): `3 H + 2`
 //! numbers of 4 bytes, 44 bytes per pixel for the default `H = 3` (5.5 times an `f64`
 //! height map), independent of `nz`. A 2048² × 200 stack (1.6 GB of 16-bit samples) is
-//! localised in 185 MB.
+//! localised in 185 MB. The estimated background threshold ([`MinSignal::Estimated`],
+//! [`crate::noise`]) adds the samples of a fixed subset of pixels: at most 2²² samples
+//! (16 MB) up to 65536 slices (64 pixels' samples beyond).
 //!
 //! Each pixel is independent, so slices are processed in parallel over fixed pixel
 //! chunks: results are bit-identical for any number of threads.
@@ -20,6 +22,7 @@ use flakescatter_stats::heightmap::HeightMap;
 use rayon::prelude::*;
 
 use crate::ConfocalError;
+use crate::noise::{SignalThreshold, estimate, sampling};
 use crate::peak::{Invalid, PeakMethod, fit_window};
 
 /// The largest slice the localiser accepts, in pixels (`nx · ny`): 2²⁶ (8192 × 8192).
@@ -58,6 +61,18 @@ pub struct StackGeometry {
     pub order: SliceOrder,
 }
 
+/// The background threshold: pixels whose brightest sample is below it are invalid.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum MinSignal {
+    /// This level, in the units of the samples (full scale 1 for integer TIFF stacks
+    /// read by `io`); `Level(0.0)` or below keeps every pixel with a finite sample.
+    Level(f64),
+    /// Estimated from the stack's own noise: `b + k σ` ([`crate::noise`]), so that one
+    /// background pixel in a thousand passes. The default.
+    #[default]
+    Estimated,
+}
+
 /// How peaks are localised.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PeakOptions {
@@ -67,9 +82,9 @@ pub struct PeakOptions {
     /// `(0, 1]` (default 0.5: the slices above half maximum). It is also the centroid's
     /// threshold.
     pub fraction: f64,
-    /// Pixels whose brightest sample is below this are invalid (default 0: none). In the
-    /// units of the samples (full scale 1 for integer TIFF stacks read by `io`).
-    pub min_signal: f64,
+    /// Pixels whose brightest sample is below this are invalid (default: estimated from
+    /// the stack's noise, [`MinSignal::Estimated`]).
+    pub min_signal: MinSignal,
     /// Samples kept on each side of the running maximum, in `1..=32` (default 3). It
     /// must cover the slices within the peak: at least `FWHM / (2 dz)` plus one.
     pub half_window: usize,
@@ -84,7 +99,7 @@ impl Default for PeakOptions {
         Self {
             method: PeakMethod::Gaussian,
             fraction: 0.5,
-            min_signal: 0.0,
+            min_signal: MinSignal::Estimated,
             half_window: 3,
             saturation: None,
         }
@@ -125,6 +140,8 @@ pub struct PeakMaps {
     pub width: HeightMap,
     /// What happened to the pixels.
     pub report: PeakReport,
+    /// The background threshold used, and how it was estimated.
+    pub threshold: SignalThreshold,
 }
 
 /// The streaming localiser: [`Localiser::push_slice`] each slice in recording order, then
@@ -141,6 +158,11 @@ pub struct Localiser {
     window: Vec<f32>,
     /// The last `h` samples per pixel, slice `k` at position `k % h`.
     ring: Vec<f32>,
+    /// Every `stride`-th pixel's samples, slice-major, for the noise estimate (empty
+    /// when the threshold is given).
+    sampled: Vec<f32>,
+    /// `(stride, count)` of the sampled pixels.
+    sampling: (usize, usize),
 }
 
 /// Pixels per parallel work item (fixed, so the result does not depend on threads; it
@@ -186,8 +208,10 @@ impl Localiser {
         if !(o.fraction > 0.0 && o.fraction <= 1.0) {
             return Err(bad("fraction", o.fraction, "in (0, 1]"));
         }
-        if o.min_signal.is_nan() {
-            return Err(bad("min_signal", o.min_signal, "a number"));
+        if let MinSignal::Level(v) = o.min_signal
+            && v.is_nan()
+        {
+            return Err(bad("min_signal", v, "a number"));
         }
         if !(1..=MAX_HALF_WINDOW).contains(&o.half_window) {
             return Err(bad("half_window", o.half_window as f64, "in 1..=32"));
@@ -198,6 +222,11 @@ impl Localiser {
             return Err(bad("saturation", s, "a number"));
         }
         let h = o.half_window;
+        let sampling = sampling(n, g.nz);
+        let sampled = match o.min_signal {
+            MinSignal::Estimated => Vec::with_capacity(sampling.1 * g.nz),
+            MinSignal::Level(_) => Vec::new(),
+        };
         Ok(Self {
             geometry,
             options,
@@ -206,6 +235,8 @@ impl Localiser {
             arg: vec![0; n],
             window: vec![f32::NAN; n * (2 * h + 1)],
             ring: vec![f32::NAN; n * h],
+            sampled,
+            sampling,
         })
     }
 
@@ -276,6 +307,10 @@ impl Localiser {
                     r[k % h] = v;
                 }
             });
+        if self.options.min_signal == MinSignal::Estimated {
+            let stride = self.sampling.0;
+            self.sampled.extend(slice.iter().step_by(stride));
+        }
         self.pushed += 1;
         Ok(())
     }
@@ -293,6 +328,26 @@ impl Localiser {
             });
         }
         let o = self.options;
+        let threshold = match o.min_signal {
+            MinSignal::Level(level) => SignalThreshold {
+                level,
+                estimate: None,
+                too_short: false,
+            },
+            MinSignal::Estimated => match estimate(&self.sampled, self.sampling.1, g.nz, self.h) {
+                Some(e) => SignalThreshold {
+                    level: e.threshold(),
+                    estimate: Some(e),
+                    too_short: false,
+                },
+                None => SignalThreshold {
+                    level: 0.0,
+                    estimate: None,
+                    too_short: true,
+                },
+            },
+        };
+        let min_signal = threshold.level;
         let h = self.h;
         let wl = 2 * h + 1;
         let n = self.arg.len();
@@ -309,7 +364,7 @@ impl Localiser {
                 let w = &w[..wl];
                 let k = self.arg[i] as usize;
                 let max = w[h];
-                let outcome = if max.is_nan() || !(max >= o.min_signal) {
+                let outcome = if max.is_nan() || !(max >= min_signal) {
                     Err(Invalid::BelowSignal)
                 } else if k == 0 {
                     Err(Invalid::FirstSlice)
@@ -357,12 +412,14 @@ impl Localiser {
         }
         let height = HeightMap::new(g.nx, g.ny, g.dx_um, g.dy_um, z)?;
         let width = HeightMap::new(g.nx, g.ny, g.dx_um, g.dy_um, width)?;
-        let intensity = HeightMap::new(g.nx, g.ny, g.dx_um, g.dy_um, intensity)?;
+        let mut intensity = HeightMap::new(g.nx, g.ny, g.dx_um, g.dy_um, intensity)?;
+        intensity.set_quantity(flakescatter_stats::heightmap::Quantity::Intensity);
         Ok(PeakMaps {
             height,
             intensity,
             width,
             report,
+            threshold,
         })
     }
 }

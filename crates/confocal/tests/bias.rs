@@ -130,7 +130,7 @@ fn streaming_equals_the_whole_profile() {
         for order in [SliceOrder::BottomFirst, SliceOrder::TopFirst] {
             let options = PeakOptions {
                 method,
-                min_signal: 0.1,
+                min_signal: flakescatter_confocal::MinSignal::Level(0.1),
                 half_window: 3,
                 ..PeakOptions::default()
             };
@@ -219,7 +219,7 @@ fn bad_geometry_options_and_slices() {
         ),
         (
             PeakOptions {
-                min_signal: f64::NAN,
+                min_signal: flakescatter_confocal::MinSignal::Level(f64::NAN),
                 ..ok
             },
             "min_signal",

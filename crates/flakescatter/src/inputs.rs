@@ -115,6 +115,8 @@ pub struct StackSummary {
     pub report: PeakReport,
     /// The localiser options used.
     pub peak: PeakOptions,
+    /// The background threshold used and how it was chosen.
+    pub threshold: flakescatter_confocal::SignalThreshold,
 }
 
 /// A map as read, masked by its intensity cutoff.
@@ -270,6 +272,7 @@ pub fn load_map(
                     info: maps.info,
                     report: maps.report,
                     peak: maps.peak,
+                    threshold: maps.threshold,
                 }),
                 channels: Vec::new(),
                 channel: None,

@@ -16,7 +16,8 @@ use std::io::{Read, Seek, Write};
 use std::path::{Path, PathBuf};
 
 use flakescatter_confocal::{
-    ConfocalError, Localiser, PeakMaps, PeakOptions, PeakReport, SliceOrder, StackGeometry,
+    ConfocalError, Localiser, PeakMaps, PeakOptions, PeakReport, SignalThreshold, SliceOrder,
+    StackGeometry,
 };
 use flakescatter_io::stack::{
     ImageJStackWriter, PageOrder, ReadStackError, SampleType, StackError, StackInfo, StackLayout,
@@ -41,6 +42,9 @@ pub struct StackMaps {
     pub report: PeakReport,
     /// The localiser options used (with the saturation level filled in).
     pub peak: PeakOptions,
+    /// The background threshold used (the given `min_signal`, or the one estimated
+    /// from the stack's noise) and how it was chosen.
+    pub threshold: SignalThreshold,
 }
 
 /// Why a stack could not be turned into maps or written.
@@ -130,6 +134,7 @@ pub fn localise_reader<R: Read + Seek>(
         mut intensity,
         mut width,
         report,
+        threshold,
     } = localiser.finish()?;
     for (map, unit) in [
         (&mut height, "um (above the lowest slice)"),
@@ -155,7 +160,8 @@ pub fn localise_reader<R: Read + Seek>(
         );
         map.set_metadata("stack.peak", peak.method.name());
         map.set_metadata("stack.fraction", peak.fraction.to_string());
-        map.set_metadata("stack.min_signal", peak.min_signal.to_string());
+        map.set_metadata("stack.min_signal", threshold.level.to_string());
+        map.set_metadata("stack.min_signal_source", threshold.to_string());
         for (k, v) in &info.metadata {
             map.set_metadata(k.clone(), v.clone());
         }
@@ -167,6 +173,7 @@ pub fn localise_reader<R: Read + Seek>(
         info,
         report,
         peak,
+        threshold,
     })
 }
 

@@ -49,7 +49,7 @@ const Z_FIRST: f64 = -1.8;
 fn options(method: PeakMethod) -> PeakOptions {
     PeakOptions {
         method,
-        min_signal: 0.3,
+        min_signal: flakescatter::confocal::MinSignal::Level(0.3),
         ..PeakOptions::default()
     }
 }

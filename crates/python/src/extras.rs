@@ -7,7 +7,7 @@
 use flakescatter::colour::{
     Cie94, Illuminant, Lab, Observer, TristimulusWeights, delta_e_94, delta_e_2000, delta_e_ab,
 };
-use flakescatter::confocal::{PeakMethod, PeakOptions};
+use flakescatter::confocal::{MinSignal, PeakMethod, PeakOptions};
 use flakescatter::io::stack::{PageOrder, ReadStackError, StackOptions};
 use flakescatter::stack::{StackPipelineError, localise_stack as facade_localise_stack};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
@@ -200,20 +200,22 @@ pub fn delta_e<'py>(
 /// stacks) and its FWHM the width map (µm). `method` is `"gaussian"` (default),
 /// `"parabolic"`, `"centroid"` or `"argmax"`; `fraction` (0, 1] the share of the maximum
 /// above which slices count as the peak; `min_signal` the brightest sample below which a
-/// pixel is invalid; `half_window` the samples kept on each side of the maximum;
+/// pixel is invalid (default `None`: estimated from the stack's own noise, dark level +
+/// k × noise sd so that one background pixel in a thousand passes; the dict's
+/// `min_signal` and `min_signal_source` say what was used); `half_window` the samples kept on each side of the maximum;
 /// `saturation` the level counted as saturated. `pixel_um`, `z_step_um` and
 /// `first_page` (`"bottom"`/`"top"`) override the file's calibration. Returns a dict:
 /// `height`, `intensity`, `width` (`Map`s), `report` (pixel counts) and `info` (stack
 /// size, voxel sizes and their sources). Interruptible with Ctrl-C.
 #[pyfunction]
-#[pyo3(signature = (path, *, method = "gaussian", fraction = 0.5, min_signal = 0.0, half_window = 3, saturation = None, pixel_um = None, z_step_um = None, first_page = None))]
+#[pyo3(signature = (path, *, method = "gaussian", fraction = 0.5, min_signal = None, half_window = 3, saturation = None, pixel_um = None, z_step_um = None, first_page = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn localise_stack<'py>(
     py: Python<'py>,
     path: &Bound<'py, PyAny>,
     method: &str,
     fraction: f64,
-    min_signal: f64,
+    min_signal: Option<f64>,
     half_window: usize,
     saturation: Option<f64>,
     pixel_um: Option<(f64, f64)>,
@@ -246,7 +248,7 @@ pub fn localise_stack<'py>(
     let peak = PeakOptions {
         method,
         fraction,
-        min_signal,
+        min_signal: min_signal.map_or(MinSignal::Estimated, MinSignal::Level),
         half_window,
         saturation,
     };
@@ -297,6 +299,8 @@ pub fn localise_stack<'py>(
         report.set_item(k, v)?;
     }
     d.set_item("report", report)?;
+    d.set_item("min_signal", maps.threshold.level)?;
+    d.set_item("min_signal_source", maps.threshold.to_string())?;
     let i = &maps.info;
     let info = PyDict::new(py);
     info.set_item("format", i.format.name())?;

@@ -98,6 +98,7 @@ fn summary_json(args: &Args, options: &ReadOptions, loaded: &LoadedMap) -> Value
             "first_page": st.info.first_page.value.name(),
             "first_page_source": st.info.first_page.source.to_string(),
             "peak": st.peak.method.name(),
+            "background": crate::cmd::stack::threshold_json(&st.threshold),
             "valid_pixels": st.report.valid,
             "below_signal": st.report.below_signal,
             "peak_on_first_slice": st.report.first_slice,

@@ -6,7 +6,9 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::bail;
-use flakescatter::confocal::{MAX_HALF_WINDOW, PeakMethod, PeakOptions};
+use flakescatter::confocal::{
+    MAX_HALF_WINDOW, MinSignal, PeakMethod, PeakOptions, SignalThreshold,
+};
 use flakescatter::io::stack::{ReadStackError, Source, StackError, StackInfo, StackOptions};
 use flakescatter::io::{MapFormat, write_intensity, write_map};
 use flakescatter::stack::{StackMaps, StackPipelineError, localise_stack};
@@ -14,7 +16,7 @@ use flakescatter::stats::heightmap::HeightMap;
 use serde_json::{Value, json};
 
 use crate::cmd::synth::FirstPage;
-use crate::output::{Kind, Plan, print_json, warn};
+use crate::output::{Kind, Plan, note, print_json, warn};
 use crate::parse::{pair, whole};
 
 /// The axial-peak estimator (docs/physics.md §9).
@@ -71,14 +73,12 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "gaussian")]
     pub peak: PeakKind,
     /// Pixels whose brightest sample is below this are invalid (sample units: full
-    /// scale 1 for 8/16-bit stacks, the stored value for float stacks).
-    #[arg(
-        long,
-        value_name = "X",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub min_signal: f64,
+    /// scale 1 for 8/16-bit stacks, the stored value for float stacks). Default:
+    /// estimated from the stack's own noise, dark level + k × noise sd so that one
+    /// background pixel in a thousand passes (docs/physics.md §9); the value used is
+    /// printed and in the JSON.
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub min_signal: Option<f64>,
     /// The slices within the peak are those at or above this fraction of the maximum,
     /// in (0, 1] (also the centroid's threshold).
     #[arg(
@@ -144,8 +144,10 @@ fn peak_options(args: &Args) -> anyhow::Result<PeakOptions> {
             args.fraction
         );
     }
-    if !args.min_signal.is_finite() {
-        bail!("--min-signal {}: expected a finite number", args.min_signal);
+    if let Some(m) = args.min_signal
+        && !m.is_finite()
+    {
+        bail!("--min-signal {m}: expected a finite number");
     }
     if !(1..=MAX_HALF_WINDOW).contains(&args.half_window) {
         bail!(
@@ -156,7 +158,9 @@ fn peak_options(args: &Args) -> anyhow::Result<PeakOptions> {
     Ok(PeakOptions {
         method: args.peak.method(),
         fraction: args.fraction,
-        min_signal: args.min_signal,
+        min_signal: args
+            .min_signal
+            .map_or(MinSignal::Estimated, MinSignal::Level),
         half_window: args.half_window,
         saturation: None,
     })
@@ -250,12 +254,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "stack {}: no pixel has a usable peak ({} below --min-signal {}, {} brightest on the first slice, {} on the last, {} not fittable); nothing written",
             args.stack.display(),
             r.below_signal,
-            args.min_signal,
+            maps.threshold.level,
             r.first_slice,
             r.last_slice,
             r.not_fittable
         );
     }
+    note(&format!(
+        "background threshold (--min-signal) {}: {}",
+        maps.threshold.level, maps.threshold
+    ));
     let warnings = warnings(&maps, args.half_window);
     for w in &warnings {
         warn(w);
@@ -326,6 +334,27 @@ fn stack_json(info: &StackInfo) -> Value {
     })
 }
 
+/// The background threshold used: the level, `given` or `estimated`, and the estimate.
+pub fn threshold_json(t: &SignalThreshold) -> Value {
+    json!({
+        "min_signal": t.level,
+        "source": match (t.estimate.is_some(), t.too_short) {
+            (true, _) => "estimated",
+            (false, true) => "not estimated (stack too short)",
+            (false, false) => "given",
+        },
+        "how": t.to_string(),
+        "estimate": t.estimate.map(|e| json!({
+            "dark_level": e.baseline,
+            "noise_sd": e.noise_sd,
+            "k": e.k,
+            "background_pass_probability": e.false_valid,
+            "pixels_sampled": e.pixels,
+            "slices": e.slices,
+        })),
+    })
+}
+
 /// The `--json` summary.
 fn summary(args: &Args, maps: &StackMaps) -> Value {
     let r = &maps.report;
@@ -339,13 +368,14 @@ fn summary(args: &Args, maps: &StackMaps) -> Value {
             "stack": args.stack.display().to_string(),
             "peak": maps.peak.method.name(),
             "fraction": maps.peak.fraction,
-            "min_signal": maps.peak.min_signal,
+            "min_signal": args.min_signal,
             "half_window": maps.peak.half_window,
             "pixel_um": args.pixel_um,
             "z_step_um": args.z_step_um,
             "first_page": args.first_page.map(|f| f.order().name()),
         },
         "stack": stack_json(&maps.info),
+        "background": threshold_json(&maps.threshold),
         "counts": {
             "pixels": maps.height.len(),
             "valid": r.valid,
@@ -367,6 +397,7 @@ fn summary(args: &Args, maps: &StackMaps) -> Value {
             "intensity": "brightest sample of each pixel, full scale 1 for 8/16-bit stacks",
             "pixel_um": "µm, (dx, dy)",
             "z_step_um": "µm, distance between slices",
+            "background": "min_signal: the threshold used (sample units, full scale 1 for 8/16-bit stacks), given by --min-signal or estimated as dark_level + k × noise_sd (median sample; 1.4826 × MAD of successive-slice differences / √2; k so that a background pixel passes with background_pass_probability)",
             "counts": "pixels: valid, or invalid because their brightest sample is below min_signal, on the first or last slice, or the fit is impossible; window_limited: valid pixels whose peak reached the edge of the kept slices; saturated: pixels at full scale",
         },
     })

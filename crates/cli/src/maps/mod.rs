@@ -24,7 +24,7 @@ mod load;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::confocal::{PeakMethod, PeakOptions};
+use flakescatter::confocal::{MinSignal, PeakMethod, PeakOptions};
 use flakescatter::inputs::{LoadOptions, MapSource, SourceKind};
 use flakescatter::io::ReadOptions;
 use flakescatter::io::stack::{PageOrder, StackOptions};
@@ -52,14 +52,10 @@ pub struct StackInputArgs {
     /// centroid (docs/physics.md §9).
     #[arg(long, value_name = "METHOD", default_value = "gaussian")]
     pub peak: String,
-    /// Stack pixels whose brightest sample is below this (full scale 1) are invalid.
-    #[arg(
-        long = "min-signal",
-        value_name = "X",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub min_signal: f64,
+    /// Stack pixels whose brightest sample is below this (full scale 1) are invalid
+    /// (default: estimated from each stack's own noise, as `flakescatter stack`).
+    #[arg(long = "min-signal", value_name = "X", allow_negative_numbers = true)]
+    pub min_signal: Option<f64>,
     /// z step of z-stacks given as maps, µm, overriding their metadata (needed when the
     /// file has none).
     #[arg(
@@ -115,11 +111,10 @@ impl StackInputArgs {
                 self.peak
             )
         })?;
-        if !(self.min_signal.is_finite() && (0.0..=1.0).contains(&self.min_signal)) {
-            bail!(
-                "--min-signal {}: expected a finite level in [0, 1] (full scale 1)",
-                self.min_signal
-            );
+        if let Some(m) = self.min_signal
+            && !(m.is_finite() && (0.0..=1.0).contains(&m))
+        {
+            bail!("--min-signal {m}: expected a finite level in [0, 1] (full scale 1)");
         }
         if let Some(z) = self.stack_z_step_um
             && !(z.is_finite() && z > 0.0)
@@ -140,7 +135,9 @@ impl StackInputArgs {
             },
             PeakOptions {
                 method,
-                min_signal: self.min_signal,
+                min_signal: self
+                    .min_signal
+                    .map_or(MinSignal::Estimated, MinSignal::Level),
                 ..PeakOptions::default()
             },
         ))

@@ -188,9 +188,10 @@ pub struct StackSection {
     /// Peak localisation: `argmax`, `parabolic`, `gaussian` (default) or `centroid`.
     #[serde(default = "default_peak")]
     pub peak: String,
-    /// Pixels whose brightest sample is below this (full scale 1) are invalid.
+    /// Pixels whose brightest sample is below this (full scale 1) are invalid; absent:
+    /// estimated from each stack's own noise (`flakescatter_confocal::noise`).
     #[serde(default)]
-    pub min_signal: f64,
+    pub min_signal: Option<f64>,
     /// z step override, µm.
     #[serde(default)]
     pub z_step_um: Option<f64>,
@@ -208,7 +209,7 @@ impl Default for StackSection {
     fn default() -> Self {
         Self {
             peak: default_peak(),
-            min_signal: 0.0,
+            min_signal: None,
             z_step_um: None,
             first_page: None,
         }
@@ -563,11 +564,10 @@ impl Manifest {
                 ),
             );
         }
-        if !(s.min_signal.is_finite() && (0.0..=1.0).contains(&s.min_signal)) {
-            return bad(
-                "stack.min_signal",
-                format!("{}: expected [0, 1]", s.min_signal),
-            );
+        if let Some(v) = s.min_signal
+            && !(v.is_finite() && (0.0..=1.0).contains(&v))
+        {
+            return bad("stack.min_signal", format!("{v}: expected [0, 1]"));
         }
         if let Some(z) = s.z_step_um
             && !(z.is_finite() && z > 0.0)

@@ -429,7 +429,12 @@ pub fn load_options(m: &Manifest) -> Result<LoadOptions, String> {
     let peak = flakescatter_confocal::PeakOptions {
         method: flakescatter_confocal::PeakMethod::from_name(&m.stack.peak)
             .ok_or_else(|| format!("key `stack.peak`: `{}` is not a method", m.stack.peak))?,
-        min_signal: m.stack.min_signal,
+        min_signal: m
+            .stack
+            .min_signal
+            .map_or(flakescatter_confocal::MinSignal::Estimated, |v| {
+                flakescatter_confocal::MinSignal::Level(v)
+            }),
         ..flakescatter_confocal::PeakOptions::default()
     };
     Ok(LoadOptions {
