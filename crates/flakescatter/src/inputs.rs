@@ -176,6 +176,15 @@ pub enum LoadError {
         /// The cutoff.
         cutoff: f64,
     },
+    /// The intensity map given is the height map file itself (the same path, or the same
+    /// file through a symbolic or hard link or `..`): a map cannot mask itself.
+    #[error("{}: the intensity map {} is the height map file itself{}; give the intensity image of the same area (a second file, or an intensity channel of this file)", map.display(), intensity.display(), if map == intensity { String::new() } else { " (the same file by another name)".to_string() })]
+    OwnIntensity {
+        /// The height map.
+        map: PathBuf,
+        /// The intensity map given.
+        intensity: PathBuf,
+    },
     /// An intensity map is given without a cutoff to apply.
     #[error("{}: the intensity map {} is given but no cutoff to apply it with", map.display(), intensity.display())]
     NoCutoff {
@@ -285,6 +294,14 @@ pub fn load_map(
                     map: path.clone(),
                     intensity: i.clone(),
                     channel: c.clone(),
+                });
+            }
+            if let Some(i) = &source.intensity
+                && (i == path || flakescatter_io::files::same_file(path, i))
+            {
+                return Err(LoadError::OwnIntensity {
+                    map: path.clone(),
+                    intensity: i.clone(),
                 });
             }
             if let (Some(c), None) = (&source.intensity_channel, options.cutoff) {

@@ -78,6 +78,7 @@
 pub mod analyze;
 pub mod chart;
 pub mod compare;
+pub mod distinct;
 pub mod figures;
 pub mod fit;
 pub mod inputs;

@@ -67,6 +67,28 @@ fn hex(bytes: &[u8]) -> String {
     })
 }
 
+/// Whether `a` and `b` name the same existing file: the same canonical path (so `./a`,
+/// `sub/../a` and a symbolic link to `a` all match `a`), or, on Unix, the same device
+/// and inode (a hard link). `false` when either cannot be resolved (a missing file is
+/// the same as nothing).
+#[must_use]
+pub fn same_file(a: impl AsRef<Path>, b: impl AsRef<Path>) -> bool {
+    let (a, b) = (a.as_ref(), b.as_ref());
+    if let (Ok(x), Ok(y)) = (std::fs::canonicalize(a), std::fs::canonicalize(b))
+        && x == y
+    {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return x.dev() == y.dev() && x.ino() == y.ino();
+        }
+    }
+    false
+}
+
 /// The text of `path` (UTF-8; a leading byte-order mark is dropped).
 ///
 /// # Errors

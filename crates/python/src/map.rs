@@ -256,6 +256,18 @@ pub fn read_map(
             "give intensity (a second file) or intensity_channel (a channel of the same file), not both",
         ));
     }
+    if let Some(i) = &intensity
+        && (*i == path || flakescatter::io::files::same_file(&path, i))
+    {
+        return Err(input(
+            py,
+            format!(
+                "intensity={}: the intensity map is the height map file {} itself; give the intensity image of the same area",
+                i.display(),
+                path.display()
+            ),
+        ));
+    }
     let has_intensity = intensity.is_some() || intensity_channel.is_some();
     match (has_intensity, cutoff) {
         (true, None) => {

@@ -64,10 +64,27 @@ def test_intensity_cutoff_as_cli(cli):
     full = fs.read_map(HEIGHT)
     assert info["valid_points_before_cutoff"] == full.valid_count
     # The mask is the height mask and the intensity threshold, computed here by hand.
-    intensity = fs.read_map(INTENSITY)  # an X3P intensity stores values in its Z axis
-    kept = full.valid & (x3p_heights_um(INTENSITY) / 1e6 >= CUTOFF)
+    # An X3P intensity image stores its values in its Z axis (Z increment 1).
+    intensity = x3p_heights_um(INTENSITY) / 1e6
+    kept = full.valid & (intensity >= CUTOFF)
     assert intensity.shape == full.shape
     np.testing.assert_array_equal(m.valid, kept)
+
+
+def test_an_intensity_image_is_not_read_as_heights(tmp_path, cli):
+    # The file says it holds intensities (its X3P comment): read_map, which returns
+    # heights, refuses it as the CLI does (issue 52, item 5).
+    with pytest.raises(fs.FileFormatError) as e:
+        fs.read_map(INTENSITY)
+    assert "holds intensities" in str(e.value)
+    assert "holds intensities" in cli.fails("stats", "--map", INTENSITY)
+    # A map given as its own intensity image (item 6), by its path or through a link.
+    link = tmp_path / "link.x3p"
+    link.symlink_to(HEIGHT)
+    for other in (HEIGHT, link):
+        with pytest.raises(fs.InputError) as e:
+            fs.read_map(HEIGHT, intensity=other, cutoff=CUTOFF)
+        assert "height map file" in str(e.value)
 
 
 def test_write_map_round_trips_and_is_read_by_others(tmp_path, cli):

@@ -44,22 +44,34 @@ pub fn expand(
         };
         let shown = path.display().to_string();
         if path.is_dir() {
-            let mut found: Vec<PathBuf> = std::fs::read_dir(&path)
-                .with_context(|| format!("{flag} {shown}: cannot list the directory"))?
-                .filter_map(Result::ok)
-                .map(|e| e.path())
-                .filter(|p| p.is_file() && has_map_extension(p))
-                .filter(|p| {
-                    !p.file_name()
-                        .is_some_and(|n| n.to_string_lossy().starts_with('.'))
-                })
-                .filter(|p| match pairing {
-                    Pairing::Suffix { height, .. } if !height.is_empty() => {
-                        stem_of(p).ends_with(height.as_str())
-                    }
-                    _ => true,
-                })
-                .collect();
+            let mut found: Vec<PathBuf> = Vec::new();
+            let entries = std::fs::read_dir(&path)
+                .with_context(|| format!("{flag} {shown}: cannot list the directory"))?;
+            for entry in entries {
+                let p = entry
+                    .with_context(|| format!("{flag} {shown}: cannot list the directory"))?
+                    .path();
+                let hidden = p
+                    .file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with('.'));
+                let wanted = has_map_extension(&p)
+                    && !hidden
+                    && match pairing {
+                        Pairing::Suffix { height, .. } if !height.is_empty() => {
+                            stem_of(&p).ends_with(height.as_str())
+                        }
+                        _ => true,
+                    };
+                if !wanted {
+                    continue;
+                }
+                if let Some(why) = dangling(&p) {
+                    bail!("{flag} {shown}: {why}; remove the link or restore its target");
+                }
+                if p.is_file() {
+                    found.push(p);
+                }
+            }
             found.sort();
             if found.is_empty() {
                 match pairing {
@@ -76,12 +88,27 @@ pub fn expand(
             out.extend(found);
         } else if path.exists() {
             out.push(path);
+        } else if let Some(why) = dangling(&path) {
+            bail!("{flag}: {why}");
         } else if is_pattern(&shown) {
-            let mut found: Vec<PathBuf> = glob::glob(&shown)
+            let mut found: Vec<PathBuf> = Vec::new();
+            for m in glob::glob(&shown)
                 .with_context(|| format!("{flag} {shown}: not a valid pattern"))?
-                .filter_map(Result::ok)
-                .filter(|p| p.is_file())
-                .collect();
+            {
+                let p = m.map_err(|e| {
+                    anyhow::anyhow!(
+                        "{flag} {shown}: cannot read {}: {}",
+                        e.path().display(),
+                        e.error()
+                    )
+                })?;
+                if let Some(why) = dangling(&p) {
+                    bail!("{flag} {shown}: {why}; remove the link or restore its target");
+                }
+                if p.is_file() {
+                    found.push(p);
+                }
+            }
             found.sort();
             if found.is_empty() {
                 bail!("{flag} {shown}: the pattern matches no file");
@@ -115,6 +142,45 @@ pub fn expand(
         }
     }
     Ok(out)
+}
+
+/// For a symbolic link whose target does not exist (at any depth of links), what it is:
+/// `<link> is a symbolic link to <target>, which does not exist`; `None` otherwise.
+pub fn dangling(path: &Path) -> Option<String> {
+    let meta = std::fs::symlink_metadata(path).ok()?;
+    if !meta.file_type().is_symlink() || std::fs::metadata(path).is_ok() {
+        return None;
+    }
+    let target = std::fs::read_link(path)
+        .map(|t| t.display().to_string())
+        .unwrap_or_else(|_| "?".into());
+    Some(format!(
+        "{} is a symbolic link to {target}, which does not exist",
+        path.display()
+    ))
+}
+
+/// Why an intensity file named by the pairing cannot be used: it does not exist (or is a
+/// dangling link), or it is the height map file itself.
+fn check_partner(map: &Path, partner: &Path, how: &str) -> anyhow::Result<()> {
+    if let Some(why) = dangling(partner) {
+        bail!("{}: its intensity map ({how}): {why}", map.display());
+    }
+    if !partner.is_file() {
+        bail!(
+            "{}: its intensity map {} ({how}) does not exist",
+            map.display(),
+            partner.display()
+        );
+    }
+    if partner == map || flakescatter::io::files::same_file(map, partner) {
+        bail!(
+            "{}: its intensity map {} ({how}) is the height map file itself: a map cannot be its own intensity image",
+            map.display(),
+            partner.display()
+        );
+    }
+    Ok(())
 }
 
 /// The intensity partner of `map` under the suffix rule (module docs).
@@ -165,10 +231,8 @@ pub fn pair(files: &[PathBuf], pairing: &Pairing) -> anyhow::Result<Vec<MapSourc
                     files.len()
                 );
             }
-            for i in list {
-                if !i.is_file() {
-                    bail!("--intensity {}: no such file", i.display());
-                }
+            for (f, i) in files.iter().zip(list) {
+                check_partner(f, i, "--intensity")?;
             }
             Ok(files
                 .iter()
@@ -176,22 +240,28 @@ pub fn pair(files: &[PathBuf], pairing: &Pairing) -> anyhow::Result<Vec<MapSourc
                 .map(|(f, i)| MapSource::new(f, Some(i.clone())))
                 .collect())
         }
-        Pairing::Suffix { height, intensity } => files
-            .iter()
-            .map(|f| {
-                if SourceKind::of(f) == SourceKind::Stack {
-                    return Ok(MapSource::new(f, None));
-                }
-                let p = partner(f, height, intensity)?;
-                if !p.is_file() {
-                    bail!(
-                        "{}: its intensity map {} (--intensity-suffix {intensity}) does not exist",
-                        f.display(),
-                        p.display()
-                    );
-                }
-                Ok(MapSource::new(f, Some(p)))
-            })
-            .collect(),
+        Pairing::Suffix { height, intensity } => {
+            if height.is_empty() {
+                bail!(
+                    "the height suffix is empty (--height-suffix \"\", or `maps.height_suffix = \"\"` in a manifest): --intensity-suffix {intensity} replaces the height suffix in each map's name, so it must name a part of the name, e.g. `.height`"
+                );
+            }
+            if height == intensity {
+                bail!(
+                    "the intensity suffix `{intensity}` is the height suffix itself (--intensity-suffix, --height-suffix): every map would be paired with itself"
+                );
+            }
+            files
+                .iter()
+                .map(|f| {
+                    if SourceKind::of(f) == SourceKind::Stack {
+                        return Ok(MapSource::new(f, None));
+                    }
+                    let p = partner(f, height, intensity)?;
+                    check_partner(f, &p, &format!("--intensity-suffix {intensity}"))?;
+                    Ok(MapSource::new(f, Some(p)))
+                })
+                .collect()
+        }
     }
 }

@@ -31,7 +31,7 @@ use flakescatter::io::stack::{PageOrder, StackOptions};
 
 use crate::flags::MapArgs;
 use crate::output::Plan;
-pub use collect::{expand, pair};
+pub use collect::{dangling, expand, pair};
 pub use load::load_all;
 
 /// Extensions of files taken from a directory as maps or stacks: the ISO formats, text
@@ -180,6 +180,11 @@ pub struct MapInputArgs {
     /// 1 for z-stacks).
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
     pub cutoff: Option<f64>,
+    /// Pool maps that are the same data (a byte-identical copy, or the same file
+    /// through a link), which are refused by default: a copy counted twice fakes
+    /// independent evidence.
+    #[arg(long = "allow-duplicate-maps")]
+    pub allow_duplicate_maps: bool,
     /// Localisation of z-stacks given as maps.
     #[command(flatten)]
     pub stack: StackInputArgs,
@@ -233,12 +238,20 @@ impl MapInputArgs {
             bail!("--intensity-channel {c} needs --cutoff X");
         }
         let pairing = self.pairing();
+        let repeats = match (repeats, self.allow_duplicate_maps) {
+            (Repeats::Warn, true) => bail!(
+                "--allow-duplicate-maps: this command keeps a map given twice with a warning already; the flag applies to segment and stats"
+            ),
+            (_, true) => Repeats::Warn,
+            (r, false) => r,
+        };
         let files = expand(flag, maps, None, &pairing, repeats)?;
         let sources: Vec<MapSource> = pair(&files, &pairing)?
             .into_iter()
             .map(|s| s.with_channels(channel.clone(), intensity_channel.clone()))
             .collect();
         self.stack.refuse_without_stacks(&sources)?;
+        check_duplicates(flag, &sources, repeats, "give --allow-duplicate-maps")?;
         for s in &sources {
             match (&s.intensity, &s.intensity_channel, self.cutoff, s.kind) {
                 (Some(i), _, None, _) => bail!(
@@ -284,6 +297,7 @@ impl MapInputArgs {
             "cutoff": self.cutoff,
             "channel": self.calibration.channel,
             "intensity_channel": self.intensity_channel,
+            "allow_duplicate_maps": self.allow_duplicate_maps,
             "pixel_um": self.calibration.pixel_um,
             "z_unit": self.calibration.z_unit,
             "stacks": sources.iter().any(|s| s.kind == SourceKind::Stack).then(|| serde_json::json!({
@@ -303,6 +317,24 @@ pub enum Repeats {
     Refuse,
     /// Keep it with a warning (the topographic model accumulates what it is given).
     Warn,
+}
+
+/// Refuses (or, with [`Repeats::Warn`], warns about) maps whose files are the same data:
+/// a byte-identical copy or the same file by another name ([`flakescatter::distinct`]).
+/// `allow_with` says how to allow them.
+pub fn check_duplicates(
+    flag: &str,
+    sources: &[MapSource],
+    repeats: Repeats,
+    allow_with: &str,
+) -> anyhow::Result<()> {
+    let allowed = repeats == Repeats::Warn;
+    let notes = flakescatter::distinct::check_distinct_maps(sources, allowed, allow_with)
+        .map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
+    for n in notes {
+        crate::output::warn(&format!("{flag}: {n}"));
+    }
+    Ok(())
 }
 
 /// Checks an intensity cutoff: a finite number.

@@ -124,6 +124,10 @@ pub struct Maps {
     /// `intensity` and `intensity_suffix`.
     #[serde(default)]
     pub intensity_channel: Option<ChannelKey>,
+    /// Pool maps that are the same data (a copy, or the same file through a link),
+    /// which are refused by default (`crate::distinct`).
+    #[serde(default)]
+    pub allow_duplicates: bool,
 }
 
 /// A channel in a manifest: an integer index or a string (all digits: an index; else a

@@ -743,7 +743,12 @@ pub fn analyze_sample(
         maps: input.maps.len(),
         ..Work::default()
     };
-    let mut warnings: Vec<String> = Vec::new();
+    let mut warnings: Vec<String> = crate::distinct::check_distinct_maps(
+        &input.maps,
+        m.maps.allow_duplicates,
+        "set `maps.allow_duplicates = true`",
+    )
+    .map_err(|e| AnalyzeError::Input(format!("{file}: key `maps.files`: {e}")))?;
 
     // Inputs: hashes, maps, keys.
     let mut maps = Vec::with_capacity(input.maps.len());

@@ -30,7 +30,7 @@ use flakescatter::inputs::short_names;
 use flakescatter::io::files::read_text;
 use serde_json::json;
 
-use crate::maps::{Pairing, Repeats, expand, pair};
+use crate::maps::{Pairing, Repeats, check_duplicates, dangling, expand, pair};
 use crate::output::{Dest, Plan, note, print_json, warn};
 
 mod batch;
@@ -63,12 +63,23 @@ fn manifest_files(items: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in items {
         if p.is_dir() {
-            let mut v: Vec<PathBuf> = std::fs::read_dir(p)
+            let mut v: Vec<PathBuf> = Vec::new();
+            for e in std::fs::read_dir(p)
                 .with_context(|| format!("SAMPLE {}: cannot list the directory", p.display()))?
-                .filter_map(Result::ok)
-                .map(|e| e.path())
-                .filter(|f| f.is_file() && f.extension().is_some_and(|e| e == "toml"))
-                .collect();
+            {
+                let f = e
+                    .with_context(|| format!("SAMPLE {}: cannot list the directory", p.display()))?
+                    .path();
+                if f.extension().is_none_or(|e| e != "toml") {
+                    continue;
+                }
+                if let Some(why) = dangling(&f) {
+                    bail!("SAMPLE {}: {why}", p.display());
+                }
+                if f.is_file() {
+                    v.push(f);
+                }
+            }
             v.sort();
             if v.is_empty() {
                 bail!(
@@ -79,6 +90,8 @@ fn manifest_files(items: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
             out.extend(v);
         } else if p.is_file() {
             out.push(p.clone());
+        } else if let Some(why) = dangling(p) {
+            bail!("SAMPLE: {why}");
         } else {
             bail!("SAMPLE {}: no such file or directory", p.display());
         }
@@ -116,13 +129,22 @@ fn resolve(file: &Path) -> anyhow::Result<SampleInput> {
         (None, true) => Pairing::None,
     };
     let flag = format!("{shown}: key `maps.files`");
-    let files = expand(&flag, &m.files, Some(base), &pairing, Repeats::Refuse)?;
+    let repeats = if m.allow_duplicates {
+        Repeats::Warn
+    } else {
+        Repeats::Refuse
+    };
+    let files = expand(&flag, &m.files, Some(base), &pairing, repeats)?;
     let (channel, intensity_channel) = m.channels().map_err(|e| anyhow::anyhow!("{shown}: {e}"))?;
     let maps: Vec<_> = pair(&files, &pairing)
         .with_context(|| format!("{shown}: key `maps`"))?
         .into_iter()
         .map(|s| s.with_channels(channel.clone(), intensity_channel.clone()))
         .collect();
+    if !m.allow_duplicates {
+        // Up front, before any sample's work (the report's warnings say when allowed).
+        check_duplicates(&flag, &maps, repeats, "set `maps.allow_duplicates = true`")?;
+    }
     if m.cutoff.is_some()
         && let Some(s) = maps.iter().find(|s| {
             s.intensity.is_none()
