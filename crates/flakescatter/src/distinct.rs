@@ -63,7 +63,7 @@ pub fn find_duplicate_maps(sources: &[MapSource]) -> Result<Vec<DuplicateMaps>, 
     let mut out = Vec::new();
     let lengths: Vec<Option<u64>> = sources
         .iter()
-        .map(|s| std::fs::metadata(&s.height).ok().map(|m| m.len()))
+        .map(|s| flakescatter_io::files::file_len(&s.height))
         .collect();
     let mut per_length: HashMap<u64, usize> = HashMap::new();
     for l in lengths.iter().flatten() {
@@ -129,50 +129,5 @@ pub fn check_distinct_maps(
             .iter()
             .map(|d| format!("{d}: pooled twice, as allowed"))
             .collect()),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn copies_links_and_distinct_files() {
-        let d = std::env::temp_dir().join(format!("fs-distinct-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        let w = |n: &str, b: &[u8]| {
-            let p = d.join(n);
-            std::fs::write(&p, b).unwrap();
-            p
-        };
-        let a = w("a.txt", b"1 2\n3 4\n");
-        let copy = w("copy.txt", b"1 2\n3 4\n");
-        // Same length, other bytes: not a duplicate.
-        let other = w("other.txt", b"1 2\n3 5\n");
-        let hard = d.join("hard.txt");
-        std::fs::hard_link(&a, &hard).unwrap();
-        let dotted = d.join("sub/../a.txt");
-        std::fs::create_dir_all(d.join("sub")).unwrap();
-        let src = |p: &PathBuf| MapSource::new(p, None);
-        let found =
-            find_duplicate_maps(&[src(&a), src(&other), src(&copy), src(&hard), src(&dotted)])
-                .unwrap();
-        let pairs: Vec<(usize, usize, bool)> = found
-            .iter()
-            .map(|f| (f.first, f.second, f.why == Sameness::SameFile))
-            .collect();
-        // The copy repeats `a` by content; the hard link and `sub/..` are `a` itself.
-        assert_eq!(pairs, [(0, 2, false), (0, 3, true), (0, 4, true)]);
-        // SHA-256 of the bytes, computed independently (FIPS 180-2 engine in `io`).
-        let expect = flakescatter_io::files::sha256_bytes(b"1 2\n3 4\n");
-        assert_eq!(found[0].why, Sameness::SameContent(expect));
-        assert!(found[0].to_string().contains("copy.txt"));
-        assert!(
-            find_duplicate_maps(&[src(&a), src(&other)])
-                .unwrap()
-                .is_empty()
-        );
-        std::fs::remove_dir_all(&d).unwrap();
     }
 }

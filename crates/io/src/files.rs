@@ -89,6 +89,50 @@ pub fn same_file(a: impl AsRef<Path>, b: impl AsRef<Path>) -> bool {
     false
 }
 
+/// A symbolic link whose target does not exist (at any depth of links).
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("{} is a symbolic link to {}, which does not exist", link.display(), target.display())]
+pub struct DanglingLink {
+    /// The link.
+    pub link: PathBuf,
+    /// What it points to, as written in the link (`?` if it cannot be read).
+    pub target: PathBuf,
+}
+
+/// `Some` when `path` is a symbolic link whose target (followed through every link)
+/// does not exist; `None` for anything else, including a path that does not exist at
+/// all or a link that resolves.
+#[must_use]
+pub fn dangling_link(path: impl AsRef<Path>) -> Option<DanglingLink> {
+    let path = path.as_ref();
+    let meta = std::fs::symlink_metadata(path).ok()?;
+    if !meta.file_type().is_symlink() || std::fs::metadata(path).is_ok() {
+        return None;
+    }
+    Some(DanglingLink {
+        link: path.to_path_buf(),
+        target: std::fs::read_link(path).unwrap_or_else(|_| PathBuf::from("?")),
+    })
+}
+
+/// The entries of the directory `dir`, as `dir` joined with each name, in the order the
+/// system lists them (links not followed; `.` and `..` left out).
+///
+/// # Errors
+/// The operating-system error of listing the directory or reading an entry.
+pub fn list_dir(dir: impl AsRef<Path>) -> std::io::Result<Vec<PathBuf>> {
+    std::fs::read_dir(dir.as_ref())?
+        .map(|e| e.map(|e| e.path()))
+        .collect()
+}
+
+/// The length in bytes of the file `path` (links followed), or `None` when it cannot be
+/// read.
+#[must_use]
+pub fn file_len(path: impl AsRef<Path>) -> Option<u64> {
+    std::fs::metadata(path.as_ref()).ok().map(|m| m.len())
+}
+
 /// The text of `path` (UTF-8; a leading byte-order mark is dropped).
 ///
 /// # Errors
@@ -148,6 +192,43 @@ mod tests {
                 .to_string()
                 .contains("missing.toml")
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn same_file_and_dangling_links() {
+        let dir =
+            std::env::temp_dir().join(format!("flakescatter-io-links-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let a = dir.join("a.txt");
+        std::fs::write(&a, b"1").unwrap();
+        std::fs::write(dir.join("b.txt"), b"1").unwrap();
+        std::fs::hard_link(&a, dir.join("hard.txt")).unwrap();
+        std::os::unix::fs::symlink(&a, dir.join("soft.txt")).unwrap();
+        std::os::unix::fs::symlink(dir.join("gone.txt"), dir.join("dangling.txt")).unwrap();
+        // A link to the dangling link: dangling at depth 2.
+        std::os::unix::fs::symlink(dir.join("dangling.txt"), dir.join("chain.txt")).unwrap();
+        for same in ["hard.txt", "soft.txt", "sub/../a.txt", "a.txt"] {
+            assert!(same_file(&a, dir.join(same)), "{same}");
+        }
+        // Equal bytes are another file; a missing file is the same as nothing.
+        assert!(!same_file(&a, dir.join("b.txt")));
+        assert!(!same_file(dir.join("gone.txt"), dir.join("gone.txt")));
+        let d = dangling_link(dir.join("dangling.txt")).unwrap();
+        assert_eq!(d.target, dir.join("gone.txt"));
+        assert!(d.to_string().contains("which does not exist"), "{d}");
+        assert!(dangling_link(dir.join("chain.txt")).is_some());
+        for not in ["soft.txt", "a.txt", "gone.txt", "sub"] {
+            assert!(dangling_link(dir.join(not)).is_none(), "{not}");
+        }
+        let mut listed = list_dir(&dir).unwrap();
+        listed.sort();
+        assert_eq!(listed.len(), 7, "{listed:?}");
+        assert!(listed.contains(&dir.join("dangling.txt")));
+        assert_eq!(file_len(&a), Some(1));
+        assert_eq!(file_len(dir.join("dangling.txt")), None);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

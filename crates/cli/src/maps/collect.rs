@@ -45,12 +45,9 @@ pub fn expand(
         let shown = path.display().to_string();
         if path.is_dir() {
             let mut found: Vec<PathBuf> = Vec::new();
-            let entries = std::fs::read_dir(&path)
+            let entries = flakescatter::io::files::list_dir(&path)
                 .with_context(|| format!("{flag} {shown}: cannot list the directory"))?;
-            for entry in entries {
-                let p = entry
-                    .with_context(|| format!("{flag} {shown}: cannot list the directory"))?
-                    .path();
+            for p in entries {
                 let hidden = p
                     .file_name()
                     .is_some_and(|n| n.to_string_lossy().starts_with('.'));
@@ -122,10 +119,7 @@ pub fn expand(
         }
     }
     for (k, p) in out.iter().enumerate() {
-        let same = |q: &PathBuf| {
-            q == p
-                || matches!((std::fs::canonicalize(q), std::fs::canonicalize(p)), (Ok(a), Ok(b)) if a == b)
-        };
+        let same = |q: &PathBuf| q == p || flakescatter::io::files::same_file(q, p);
         if let Some(q) = out[..k].iter().find(|q| same(q)) {
             match repeats {
                 Repeats::Refuse => bail!(
@@ -147,17 +141,7 @@ pub fn expand(
 /// For a symbolic link whose target does not exist (at any depth of links), what it is:
 /// `<link> is a symbolic link to <target>, which does not exist`; `None` otherwise.
 pub fn dangling(path: &Path) -> Option<String> {
-    let meta = std::fs::symlink_metadata(path).ok()?;
-    if !meta.file_type().is_symlink() || std::fs::metadata(path).is_ok() {
-        return None;
-    }
-    let target = std::fs::read_link(path)
-        .map(|t| t.display().to_string())
-        .unwrap_or_else(|_| "?".into());
-    Some(format!(
-        "{} is a symbolic link to {target}, which does not exist",
-        path.display()
-    ))
+    flakescatter::io::files::dangling_link(path).map(|d| d.to_string())
 }
 
 /// Why an intensity file named by the pairing cannot be used: it does not exist (or is a

@@ -64,12 +64,9 @@ fn manifest_files(items: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     for p in items {
         if p.is_dir() {
             let mut v: Vec<PathBuf> = Vec::new();
-            for e in std::fs::read_dir(p)
+            for f in flakescatter::io::files::list_dir(p)
                 .with_context(|| format!("SAMPLE {}: cannot list the directory", p.display()))?
             {
-                let f = e
-                    .with_context(|| format!("SAMPLE {}: cannot list the directory", p.display()))?
-                    .path();
                 if f.extension().is_none_or(|e| e != "toml") {
                     continue;
                 }
