@@ -89,6 +89,21 @@ fn a_map_is_never_its_own_intensity_image() {
         let o = run(&["topo", s(&map), "--intensity", s(other), "--cutoff", "0.49"]);
         refused(&o, &["height map file itself"]);
     }
+    // A byte-identical copy of the map as its intensity image.
+    let copy = d.join("copy.x3p");
+    std::fs::copy(&map, &copy).unwrap();
+    let o = run(&["info", s(&map), "--intensity", s(&copy), "--cutoff", "0.49"]);
+    refused(&o, &[s(&copy), "byte-identical copy"]);
+    let o = run(&[
+        "stats",
+        "--map",
+        s(&map),
+        "--intensity",
+        s(&copy),
+        "--cutoff",
+        "0.49",
+    ]);
+    refused(&o, &[s(&copy), "byte-identical copy"]);
     // The suffix rule pairing each map with itself, or with a link to itself.
     let o = run(&[
         "segment",
@@ -236,6 +251,19 @@ fn a_dangling_link_among_the_maps_is_named() {
         &run(&["stats", "--map", s(&link)]),
         &[s(&link), "does not exist"],
     );
+    // Commands that read one file name the link and its target too.
+    let out = d.join("out.x3p");
+    for args in [
+        vec!["info", s(&link)],
+        vec!["convert", s(&link), s(&out)],
+        vec!["stack", s(&link), "--height-out", s(&out)],
+    ] {
+        refused(
+            &run(&args),
+            &[s(&link), "symbolic link to", "moved-away.height.x3p"],
+        );
+    }
+    assert!(!out.exists());
     // A dangling intensity partner is named as such.
     std::fs::remove_file(&link).unwrap();
     let b = maps.join("b.height.x3p");

@@ -12,9 +12,9 @@
 
 use std::collections::HashMap;
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use flakescatter_io::files::{ReadFileError, same_file, sha256_file};
+use flakescatter_io::files::{ReadFileError, file_len, same_file, sha256_file};
 
 use crate::inputs::MapSource;
 
@@ -54,6 +54,25 @@ impl fmt::Display for DuplicateMaps {
     }
 }
 
+/// Whether the files `a` and `b` are the same data: the same file by two names, or
+/// byte-identical (equal length, then equal SHA-256); `None` when they differ or either
+/// cannot be read (its reader then says why). Used to refuse a map given as its own
+/// intensity image (issue 52, item 6) by any name or as a copy.
+#[must_use]
+pub fn same_data(a: &Path, b: &Path) -> Option<Sameness> {
+    if a == b || same_file(a, b) {
+        return Some(Sameness::SameFile);
+    }
+    match (file_len(a), file_len(b)) {
+        (Some(x), Some(y)) if x == y => {}
+        _ => return None,
+    }
+    match (sha256_file(a), sha256_file(b)) {
+        (Ok(x), Ok(y)) if x == y => Some(Sameness::SameContent(x)),
+        _ => None,
+    }
+}
+
 /// Every later source whose height map is the same data as an earlier one, each paired
 /// with the first source it repeats, in the order given.
 ///
@@ -61,10 +80,7 @@ impl fmt::Display for DuplicateMaps {
 /// [`ReadFileError`] naming a file that cannot be read for its hash.
 pub fn find_duplicate_maps(sources: &[MapSource]) -> Result<Vec<DuplicateMaps>, ReadFileError> {
     let mut out = Vec::new();
-    let lengths: Vec<Option<u64>> = sources
-        .iter()
-        .map(|s| flakescatter_io::files::file_len(&s.height))
-        .collect();
+    let lengths: Vec<Option<u64>> = sources.iter().map(|s| file_len(&s.height)).collect();
     let mut per_length: HashMap<u64, usize> = HashMap::new();
     for l in lengths.iter().flatten() {
         *per_length.entry(*l).or_default() += 1;

@@ -176,14 +176,17 @@ pub enum LoadError {
         /// The cutoff.
         cutoff: f64,
     },
-    /// The intensity map given is the height map file itself (the same path, or the same
-    /// file through a symbolic or hard link or `..`): a map cannot mask itself.
-    #[error("{}: the intensity map {} is the height map file itself{}; give the intensity image of the same area (a second file, or an intensity channel of this file)", map.display(), intensity.display(), if map == intensity { String::new() } else { " (the same file by another name)".to_string() })]
+    /// The intensity map given is the height map itself (the same path, the same file
+    /// through a symbolic or hard link or `..`, or a byte-identical copy): a map cannot
+    /// mask itself.
+    #[error("{}: the intensity map {} is {}; give the intensity image of the same area (a second file, or an intensity channel of this file)", map.display(), intensity.display(), match why { crate::distinct::Sameness::SameFile if map == intensity => "the height map file itself".to_string(), crate::distinct::Sameness::SameFile => "the height map file itself (the same file by another name)".to_string(), crate::distinct::Sameness::SameContent(h) => format!("a byte-identical copy of the height map (SHA-256 {h})") })]
     OwnIntensity {
         /// The height map.
         map: PathBuf,
         /// The intensity map given.
         intensity: PathBuf,
+        /// How it is the same.
+        why: crate::distinct::Sameness,
     },
     /// An intensity map is given without a cutoff to apply.
     #[error("{}: the intensity map {} is given but no cutoff to apply it with", map.display(), intensity.display())]
@@ -297,11 +300,12 @@ pub fn load_map(
                 });
             }
             if let Some(i) = &source.intensity
-                && (i == path || flakescatter_io::files::same_file(path, i))
+                && let Some(why) = crate::distinct::same_data(path, i)
             {
                 return Err(LoadError::OwnIntensity {
                     map: path.clone(),
                     intensity: i.clone(),
+                    why,
                 });
             }
             if let (Some(c), None) = (&source.intensity_channel, options.cutoff) {

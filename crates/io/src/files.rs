@@ -40,7 +40,9 @@ pub fn sha256_file(path: impl AsRef<Path>) -> Result<String, ReadFileError> {
         path: path.to_path_buf(),
         source,
     };
-    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut file = std::fs::File::open(path)
+        .map_err(|e| explain_open_error(path, e))
+        .map_err(io)?;
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 16];
     loop {
@@ -67,6 +69,17 @@ fn hex(bytes: &[u8]) -> String {
     })
 }
 
+/// Whether `a` and `b` resolve to the same canonical path (`./a`, `sub/../a` and a
+/// symbolic link to `a` all do; a hard link does not: see [`same_file`]). `false` when
+/// either cannot be resolved.
+#[must_use]
+pub fn same_path(a: impl AsRef<Path>, b: impl AsRef<Path>) -> bool {
+    matches!(
+        (std::fs::canonicalize(a.as_ref()), std::fs::canonicalize(b.as_ref())),
+        (Ok(x), Ok(y)) if x == y
+    )
+}
+
 /// Whether `a` and `b` name the same existing file: the same canonical path (so `./a`,
 /// `sub/../a` and a symbolic link to `a` all match `a`), or, on Unix, the same device
 /// and inode (a hard link). `false` when either cannot be resolved (a missing file is
@@ -74,9 +87,7 @@ fn hex(bytes: &[u8]) -> String {
 #[must_use]
 pub fn same_file(a: impl AsRef<Path>, b: impl AsRef<Path>) -> bool {
     let (a, b) = (a.as_ref(), b.as_ref());
-    if let (Ok(x), Ok(y)) = (std::fs::canonicalize(a), std::fs::canonicalize(b))
-        && x == y
-    {
+    if same_path(a, b) {
         return true;
     }
     #[cfg(unix)]
@@ -115,6 +126,19 @@ pub fn dangling_link(path: impl AsRef<Path>) -> Option<DanglingLink> {
     })
 }
 
+/// `error`, from opening `path`, with the dangling link named when `path` is one: a
+/// "No such file or directory" that only says the link's name would hide that the file
+/// exists as a link whose target is gone.
+#[must_use]
+pub fn explain_open_error(path: &Path, error: std::io::Error) -> std::io::Error {
+    match dangling_link(path) {
+        Some(d) if error.kind() == std::io::ErrorKind::NotFound => {
+            std::io::Error::new(error.kind(), d.to_string())
+        }
+        _ => error,
+    }
+}
+
 /// The entries of the directory `dir`, as `dir` joined with each name, in the order the
 /// system lists them (links not followed; `.` and `..` left out).
 ///
@@ -141,7 +165,7 @@ pub fn read_text(path: impl AsRef<Path>) -> Result<String, ReadFileError> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| ReadFileError::Io {
         path: path.to_path_buf(),
-        source,
+        source: explain_open_error(path, source),
     })?;
     let text = String::from_utf8(bytes).map_err(|e| ReadFileError::NotText {
         path: path.to_path_buf(),
@@ -215,6 +239,8 @@ mod tests {
         }
         // Equal bytes are another file; a missing file is the same as nothing.
         assert!(!same_file(&a, dir.join("b.txt")));
+        assert!(same_path(&a, dir.join("soft.txt")) && same_path(&a, dir.join("sub/../a.txt")));
+        assert!(!same_path(&a, dir.join("hard.txt")));
         assert!(!same_file(dir.join("gone.txt"), dir.join("gone.txt")));
         let d = dangling_link(dir.join("dangling.txt")).unwrap();
         assert_eq!(d.target, dir.join("gone.txt"));
@@ -228,6 +254,14 @@ mod tests {
         assert_eq!(listed.len(), 7, "{listed:?}");
         assert!(listed.contains(&dir.join("dangling.txt")));
         assert_eq!(file_len(&a), Some(1));
+        // Reading through a dangling link names it and its target.
+        let e = read_text(dir.join("dangling.txt")).unwrap_err().to_string();
+        assert!(
+            e.contains("dangling.txt is a symbolic link to") && e.contains("gone.txt"),
+            "{e}"
+        );
+        let e = read_text(dir.join("gone.txt")).unwrap_err().to_string();
+        assert!(!e.contains("symbolic link"), "{e}");
         assert_eq!(file_len(dir.join("dangling.txt")), None);
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -740,7 +740,7 @@ fn read_file(
     Source::open(path, &mut buf)
         .map_err(|source| ReadMapError::Io {
             path: path.to_path_buf(),
-            source,
+            source: crate::files::explain_open_error(path, source),
         })?
         .read(options, kind)
         .map_err(|error| ReadMapError::Format {
@@ -813,7 +813,7 @@ pub fn list_channels(
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
         path: path.to_path_buf(),
-        source,
+        source: crate::files::explain_open_error(path, source),
     })?;
     list_channels_bytes(&bytes, extension(path), options).map_err(|error| ReadMapError::Format {
         path: path.to_path_buf(),

@@ -289,7 +289,7 @@ pub fn read_selected(
     let mut buf = Vec::new();
     let mut source = Source::open(path, &mut buf).map_err(|source| ReadMapError::Io {
         path: path.to_path_buf(),
-        source,
+        source: crate::files::explain_open_error(path, source),
     })?;
     read_selected_from(&mut source, options, channel, intensity).map_err(|error| {
         ReadMapError::Format {

@@ -257,12 +257,12 @@ pub fn read_map(
         ));
     }
     if let Some(i) = &intensity
-        && (*i == path || flakescatter::io::files::same_file(&path, i))
+        && flakescatter::distinct::same_data(&path, i).is_some()
     {
         return Err(input(
             py,
             format!(
-                "intensity={}: the intensity map is the height map file {} itself; give the intensity image of the same area",
+                "intensity={}: the intensity map is the height map file {} itself, or a byte-identical copy of it; give the intensity image of the same area",
                 i.display(),
                 path.display()
             ),

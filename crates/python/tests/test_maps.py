@@ -81,7 +81,9 @@ def test_an_intensity_image_is_not_read_as_heights(tmp_path, cli):
     # A map given as its own intensity image (item 6), by its path or through a link.
     link = tmp_path / "link.x3p"
     link.symlink_to(HEIGHT)
-    for other in (HEIGHT, link):
+    copy = tmp_path / "copy.x3p"
+    copy.write_bytes(HEIGHT.read_bytes())
+    for other in (HEIGHT, link, copy):
         with pytest.raises(fs.InputError) as e:
             fs.read_map(HEIGHT, intensity=other, cutoff=CUTOFF)
         assert "height map file" in str(e.value)

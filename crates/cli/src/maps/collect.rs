@@ -119,7 +119,9 @@ pub fn expand(
         }
     }
     for (k, p) in out.iter().enumerate() {
-        let same = |q: &PathBuf| q == p || flakescatter::io::files::same_file(q, p);
+        // One path by two spellings; other names of one file (hard links) and copies
+        // are the duplicate check's (`super::check_duplicates`).
+        let same = |q: &PathBuf| q == p || flakescatter::io::files::same_path(q, p);
         if let Some(q) = out[..k].iter().find(|q| same(q)) {
             match repeats {
                 Repeats::Refuse => bail!(
@@ -157,9 +159,15 @@ fn check_partner(map: &Path, partner: &Path, how: &str) -> anyhow::Result<()> {
             partner.display()
         );
     }
-    if partner == map || flakescatter::io::files::same_file(map, partner) {
+    if let Some(why) = flakescatter::distinct::same_data(map, partner) {
+        let what = match why {
+            flakescatter::distinct::Sameness::SameFile => "the height map file itself".to_string(),
+            flakescatter::distinct::Sameness::SameContent(h) => {
+                format!("a byte-identical copy of the height map (SHA-256 {h})")
+            }
+        };
         bail!(
-            "{}: its intensity map {} ({how}) is the height map file itself: a map cannot be its own intensity image",
+            "{}: its intensity map {} ({how}) is {what}: a map cannot be its own intensity image",
             map.display(),
             partner.display()
         );

@@ -474,7 +474,7 @@ impl StackReader<BufReader<File>> {
         let path = path.as_ref();
         let file = File::open(path).map_err(|source| ReadStackError::Io {
             path: path.to_path_buf(),
-            source,
+            source: crate::files::explain_open_error(path, source),
         })?;
         Self::new(BufReader::new(file), options).map_err(|error| ReadStackError::Format {
             path: path.to_path_buf(),
