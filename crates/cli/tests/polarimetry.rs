@@ -456,7 +456,7 @@ fn bad_polarisation_flags_exit_2_naming_the_flag_and_write_nothing() {
     ]);
     assert_eq!(code, 2, "{err}");
     assert!(
-        err.contains("--analyzer 2,0,0,1") && err.contains("0.500000"),
+        err.contains("--analyzer 2,0,0,1") && err.contains("degree of polarisation 0.5 (within"),
         "{err}"
     );
     assert!(!out.exists());

@@ -22,8 +22,8 @@
 //! * [`jones`]: the Jones matrix of a ray's whole path (entry, flake, exit, with the
 //!   frame rotations between the planes of incidence) in SCATMECH's `(s, p)` bases, and
 //!   of the clear coat's specular reflection (physics.md §11);
-//! * [`mueller`]: Stokes vectors, Mueller matrices, analysers, and the
-//!   non-depolarisation and realisability checks.
+//! * [`mueller`]: Mueller matrices and the non-depolarisation and realisability
+//!   checks; [`stokes`]: Stokes vectors (normalised on construction) and analysers.
 //!
 //! # Conventions (physics.md §1)
 //! * Right-handed frame, `z` = macroscopic coating normal pointing into the air, `x` in
@@ -66,6 +66,7 @@ pub mod mueller;
 pub mod polarization;
 pub mod reflection;
 pub mod refraction;
+pub mod stokes;
 
 pub use nalgebra;
 
@@ -93,6 +94,29 @@ pub enum OpticsError {
         s: [f64; 4],
         /// What a valid one looks like, in words.
         expected: &'static str,
+    },
+    /// A Stokes vector whose degree of polarisation is above 1 beyond the rounding
+    /// tolerance [`mueller::STOKES_TOL`].
+    #[error(
+        "Stokes vector ({}, {}, {}, {}) is not the Stokes vector of a beam: its degree of polarisation sqrt(S1^2 + S2^2 + S3^2)/S0 is {}, above 1 (within {:e} of 1 counts as 1)",
+        .s[0], .s[1], .s[2], .s[3], stokes::dop_text(*.dop), mueller::STOKES_TOL
+    )]
+    OverPolarizedStokes {
+        /// The parameters given, `(S0, S1, S2, S3)`.
+        s: [f64; 4],
+        /// Their degree of polarisation (> 1 + the tolerance; may be infinite).
+        dop: f64,
+    },
+    /// An analyser state that is not fully polarised.
+    #[error(
+        "Stokes vector ({}, {}, {}, {}) cannot be an ideal polariser: it passes one fully polarised state, so S1^2 + S2^2 + S3^2 must equal S0^2, and this one has degree of polarisation {} (within {:e} of 1 counts as 1)",
+        .s[0], .s[1], .s[2], .s[3], stokes::dop_text(*.dop), mueller::STOKES_TOL
+    )]
+    NotFullyPolarized {
+        /// The state, normalised to `S0 = 1`.
+        s: [f64; 4],
+        /// Its degree of polarisation (< 1 − the tolerance).
+        dop: f64,
     },
     /// An angle outside the range where it has a meaning.
     #[error("{name} = {value} rad is out of range: expected {expected}")]

@@ -24,7 +24,7 @@ use std::ops::{Add, AddAssign, Mul};
 
 use nalgebra::{Complex, Matrix4};
 
-use crate::OpticsError;
+pub use crate::stokes::{Analyzer, STOKES_TOL, Stokes};
 
 /// A 4 × 4 Mueller matrix (module docs for the basis and the unit).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -101,7 +101,7 @@ impl Mueller {
     /// The Stokes vector leaving for the incident Stokes vector `s`: `M s`.
     #[must_use]
     pub fn apply(&self, s: &Stokes) -> [f64; 4] {
-        let v = self.0 * nalgebra::Vector4::from(s.0);
+        let v = self.0 * nalgebra::Vector4::from(s.parameters());
         [v[0], v[1], v[2], v[3]]
     }
 
@@ -204,117 +204,6 @@ impl Mul<f64> for Mueller {
     #[inline]
     fn mul(self, k: f64) -> Self {
         Self(self.0 * k)
-    }
-}
-
-/// Relative tolerance on `|S1, S2, S3| ≤ S0` and on full polarisation.
-const STOKES_TOL: f64 = 1e-9;
-
-/// A Stokes vector `(S0, S1, S2, S3)` of a physical beam: finite, `S0 > 0`,
-/// `S1² + S2² + S3² ≤ S0²` (module docs for the basis).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Stokes([f64; 4]);
-
-impl Default for Stokes {
-    /// Unpolarised light.
-    fn default() -> Self {
-        Self::UNPOLARIZED
-    }
-}
-
-impl Stokes {
-    /// Unpolarised light, `(1, 0, 0, 0)`.
-    pub const UNPOLARIZED: Self = Self([1.0, 0.0, 0.0, 0.0]);
-    /// s-polarised light, `(1, 1, 0, 0)`.
-    pub const S: Self = Self([1.0, 1.0, 0.0, 0.0]);
-    /// p-polarised light, `(1, −1, 0, 0)`.
-    pub const P: Self = Self([1.0, -1.0, 0.0, 0.0]);
-
-    /// A Stokes vector from its four parameters.
-    ///
-    /// # Errors
-    /// [`OpticsError::InvalidStokes`] unless all four are finite, `S0 > 0` and the
-    /// degree of polarisation `sqrt(S1² + S2² + S3²)/S0` is at most 1 (to 1e-9).
-    pub fn new(s: [f64; 4]) -> Result<Self, OpticsError> {
-        if !s.iter().all(|v| v.is_finite()) || !(s[0] > 0.0) {
-            return Err(OpticsError::InvalidStokes {
-                s,
-                expected: "finite numbers with S0 > 0",
-            });
-        }
-        let p = (s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt();
-        if p > s[0] * (1.0 + STOKES_TOL) {
-            return Err(OpticsError::InvalidStokes {
-                s,
-                expected: "S1^2 + S2^2 + S3^2 <= S0^2 (degree of polarisation at most 1)",
-            });
-        }
-        Ok(Self(s))
-    }
-
-    /// The four parameters.
-    #[must_use]
-    pub fn parameters(&self) -> [f64; 4] {
-        self.0
-    }
-
-    /// The same state with unit power, `S / S0`.
-    #[must_use]
-    pub fn normalized(&self) -> Self {
-        let k = 1.0 / self.0[0];
-        Self([1.0, self.0[1] * k, self.0[2] * k, self.0[3] * k])
-    }
-
-    /// Degree of polarisation `sqrt(S1² + S2² + S3²)/S0` (at most 1).
-    #[must_use]
-    pub fn dop(&self) -> f64 {
-        let s = &self.0;
-        ((s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt() / s[0]).min(1.0)
-    }
-}
-
-/// What stands in front of the detector.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub enum Analyzer {
-    /// Nothing: every polarisation is detected (reads `S0`).
-    #[default]
-    None,
-    /// An ideal polariser that passes the fully polarised state given by its Stokes
-    /// vector (in the basis of the detector's direction) and blocks the orthogonal one.
-    Polarizer(Stokes),
-}
-
-impl Analyzer {
-    /// An ideal polariser passing `state`, which must be fully polarised.
-    ///
-    /// # Errors
-    /// [`OpticsError::InvalidStokes`] when the degree of polarisation of `state` is not
-    /// 1 (to 1e-9): an ideal polariser passes one pure state.
-    pub fn polarizer(state: Stokes) -> Result<Self, OpticsError> {
-        if (state.dop() - 1.0).abs() > STOKES_TOL {
-            return Err(OpticsError::InvalidStokes {
-                s: state.0,
-                expected: "a fully polarised state for an analyser (S1^2 + S2^2 + S3^2 = S0^2)",
-            });
-        }
-        Ok(Self::Polarizer(state))
-    }
-
-    /// The row `a` with which a detector behind this analyser reads a Stokes vector
-    /// `S`, `a · S`: `(1, 0, 0, 0)` without an analyser, `½(1, ŝ)` for a polariser
-    /// passing the unit direction `ŝ = (S1, S2, S3)/|(S1, S2, S3)|` (the first row of
-    /// its Mueller matrix).
-    #[must_use]
-    pub fn row(&self) -> [f64; 4] {
-        match self {
-            Self::None => [1.0, 0.0, 0.0, 0.0],
-            Self::Polarizer(s) => {
-                let p = s.0;
-                let norm = (p[1] * p[1] + p[2] * p[2] + p[3] * p[3]).sqrt();
-                let k = 0.5 / norm;
-                [0.5, p[1] * k, p[2] * k, p[3] * k]
-            }
-        }
     }
 }
 

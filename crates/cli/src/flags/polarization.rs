@@ -92,12 +92,9 @@ impl PolarizationArgs {
             None => Analyzer::None,
             Some(text) => match parse_state("--analyzer", text, &["none"])? {
                 None => Analyzer::None,
-                Some(state) => Analyzer::polarizer(state).map_err(|_| {
-                    anyhow!(
-                        "--analyzer {text}: an ideal polariser passes one fully polarised state, so S1² + S2² + S3² must equal S0² (this one has degree of polarisation {})",
-                        crate::parse::fixed(state.dop(), 6)
-                    )
-                })?,
+                Some(state) => {
+                    Analyzer::polarizer(state).map_err(|e| anyhow!("--analyzer {text}: {e}"))?
+                }
             },
         };
         Ok(Some(Polarimetry { incident, analyzer }))
@@ -146,13 +143,11 @@ fn parse_state(flag: &str, text: &str, none_words: &[&str]) -> anyhow::Result<Op
     if !(s[0] > 0.0) {
         bail!("{flag} {text}: S0 (the power) must be > 0");
     }
-    Stokes::new(s).map(Some).map_err(|_| {
-        let dop = (s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt() / s[0];
-        anyhow!(
-            "{flag} {text}: not the Stokes vector of a beam: S1² + S2² + S3² must be at most S0² (degree of polarisation {} > 1)",
-            crate::parse::fixed(dop, 6)
-        )
-    })
+    // Scaled before any square (optics::stokes): subnormal and huge vectors are
+    // normalised, not refused.
+    Stokes::new(s)
+        .map(Some)
+        .map_err(|e| anyhow!("{flag} {text}: {e}"))
 }
 
 #[cfg(test)]
@@ -196,7 +191,17 @@ mod tests {
         };
         let e = err(Some("1,2,0,0"), None, Transmission::ExactUnpolarized);
         assert!(
-            e.starts_with("--incident 1,2,0,0") && e.contains("2.000000 > 1"),
+            e.starts_with("--incident 1,2,0,0") && e.contains("is 2, above 1"),
+            "{e}"
+        );
+        // Just beyond the rounding tolerance: the digits that differ from 1 are shown.
+        let e = err(
+            Some("1,1.00000001,0,0"),
+            None,
+            Transmission::ExactUnpolarized,
+        );
+        assert!(
+            e.contains("is 1.00000001") && e.contains("(1 + 1.0e-8), above 1"),
             "{e}"
         );
         let e = err(Some("0,0,0,0"), None, Transmission::ExactUnpolarized);
@@ -207,7 +212,8 @@ mod tests {
         assert!(e.contains("four numbers S0,S1,S2,S3"), "{e}");
         let e = err(None, Some("1,0.5,0,0"), Transmission::ExactUnpolarized);
         assert!(
-            e.starts_with("--analyzer 1,0.5,0,0") && e.contains("0.500000"),
+            e.starts_with("--analyzer 1,0.5,0,0")
+                && e.contains("degree of polarisation 0.5 (within"),
             "{e}"
         );
         let e = err(None, Some("unpolarized"), Transmission::ExactUnpolarized);
