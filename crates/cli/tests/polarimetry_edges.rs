@@ -108,3 +108,66 @@ fn over_polarised_states_show_the_digits_that_differ_from_one() {
     assert_eq!(code, 2);
     assert!(err.contains("--incident 0,0,0,0"), "{err}");
 }
+
+#[test]
+fn detectors_at_the_pole_follow_their_azimuth() {
+    // `--detectors` rows at θr = 0 and at θr = 1e-6° for several φr, point detectors,
+    // normal incidence. The Mueller elements at the pole must be those 1e-6° away (the
+    // limit at fixed φr; they differ by O(θr) ≈ 2e-8 of m00), and m11/m00 must follow
+    // cos 2φr, the outgoing basis turned by φr (at normal incidence on an isotropic layer
+    // the light at the pole keeps the incident s/p split: m11 = m00 at φr = 0).
+    let dir = std::env::temp_dir().join(format!("fs-pol-pole-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let det = dir.join("det.csv");
+    let phis = [0.0f64, 30.0, 90.0, 135.0, 270.0];
+    let mut text = String::from("theta_r_deg,phi_r_deg\n");
+    for p in phis {
+        text.push_str(&format!("0,{p}\n1e-6,{p}\n"));
+    }
+    std::fs::write(&det, text).unwrap();
+    let (code, out, err) = run(&[
+        "model",
+        "--theta-i",
+        "0",
+        "--detectors",
+        det.to_str().unwrap(),
+        "--aperture",
+        "0",
+        "--polarization",
+        "mueller",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut lines = out.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    let m = |row: &[f64], e: &str| row[header.iter().position(|h| *h == e).unwrap()];
+    assert_eq!(rows.len(), 2 * phis.len());
+    for (k, phi) in phis.iter().enumerate() {
+        let (pole, near) = (&rows[2 * k], &rows[2 * k + 1]);
+        let m00 = m(pole, "m00");
+        for i in 0..4 {
+            for j in 0..4 {
+                let e = format!("m{i}{j}");
+                assert!(
+                    (m(pole, &e) - m(near, &e)).abs() <= 1e-6 * m00,
+                    "φ {phi}°: {e} {} at the pole, {} at 1e-6°",
+                    m(pole, &e),
+                    m(near, &e)
+                );
+            }
+        }
+        let want = (2.0 * phi.to_radians()).cos();
+        assert!(
+            (m(pole, "m11") / m00 - want).abs() < 1e-9,
+            "φ {phi}°: m11/m00 {}",
+            m(pole, "m11") / m00
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

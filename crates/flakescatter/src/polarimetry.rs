@@ -6,7 +6,7 @@
 //! ([`flakescatter_optics::mueller`]): incident Stokes vectors in the `(s, p)` basis of
 //! the incident direction (`s = y`, `p = (cos θi, 0, sin θi)`), everything a detector
 //! collects in the basis of its axis `(θr, φr)` (`s = (−sin φr, cos φr, 0)`, `p = r × s`;
-//! `s = y` for a detector at `θr = 0`, whatever its `φr`). Mueller BRDFs in sr⁻¹,
+//! at `θr = 0` too, the limit `θr → 0` at the detector's `φr`). Mueller BRDFs in sr⁻¹,
 //! row-major `m00 … m33`; `m00` is the unpolarised BRDF of the scalar curves, exact in
 //! every direction. The detected BRDF for an incident Stokes vector `s` (normalised to
 //! `S0 = 1`) behind an analyser with row `a` ([`Analyzer::row`]) is `a · M · s`. The

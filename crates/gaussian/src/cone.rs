@@ -359,8 +359,9 @@ impl DistributionModel {
             )
         };
         // Mirror symmetry y → −y for an axis in the plane of incidence: ψ′ → −ψ′, the
-        // value there being `mirrored`.
-        let in_plane = axis.y == 0.0;
+        // value there being `mirrored` (for a Mueller matrix, only in a basis the mirror
+        // keeps: not at the pole with an azimuth off the axes).
+        let in_plane = axis.y == 0.0 && (!V::BASIS_DEPENDENT || cone.mirror_keeps_basis());
         let (value, error) = if amc > 0.0 {
             // p inside the cone: every ψ′ meets the edge once.
             let quarter: Vec<f64> = (1..8).map(|k| f64::from(k) * FRAC_PI_4).collect();
@@ -486,7 +487,7 @@ impl DistributionModel {
         points: Option<&F>,
     ) -> (V, f64, f64) {
         let axis = cone.axis().into_inner();
-        let in_plane = axis.y == 0.0;
+        let in_plane = axis.y == 0.0 && (!V::BASIS_DEPENDENT || cone.mirror_keeps_basis());
         let (u, v) = if in_plane {
             // u in the plane of incidence, v = axis × u = ±y.
             let u = Vec3::new(axis.z, 0.0, -axis.x);

@@ -4,7 +4,9 @@
 //! Conventions: those of [`flakescatter_optics::jones`] and
 //! [`flakescatter_optics::mueller`] (SCATMECH's): Stokes vectors in the `(s, p)` basis
 //! of the incident direction `(sin θi, 0, −cos θi)` (`s = y`) and of the exit direction
-//! `(θr, φr)` (`s = (−sin φr, cos φr, 0)`; `s = y` for an exit along `z`), `S1 = |E_s|²
+//! `(θr, φr)` (`s = (−sin φr, cos φr, 0)`; for an exit direction along `z` given alone,
+//! [`DistributionModel::brdf_mueller`], `s = y`; for a detector at the pole, its `φr`,
+//! below), `S1 = |E_s|²
 //! − |E_p|²`, `S_out = M S_in`. Angles in radians.
 //!
 //! For an exit direction `r` with internal half vector `m` (model docs, steps 1–2) the
@@ -30,8 +32,11 @@
 //! a cone collects is given in **the basis of its axis**, as a detector with a fixed
 //! analyser sees it: for each direction `r` in the cone, `s` is the axis's `s` projected
 //! perpendicular to `r` ([`flakescatter_optics::jones::exit_frame`]). At the axis this
-//! is SCATMECH's basis; it stays regular for a cone about the vertical (`s = y`), where
-//! the per-direction bases turn with the azimuth. The clear coat's specular reflection
+//! is SCATMECH's basis; it stays regular for a cone about the vertical, where the
+//! per-direction bases turn with the azimuth. A detector at the pole (`θr = 0`) takes
+//! the basis of its azimuth, `s = (−sin φr, cos φr, 0)`, the limit `θr → 0` at fixed
+//! `φr` ([`flakescatter_optics::detector::Cone::basis_s`]), so its matrix is continuous
+//! in `θr` for every `φr` (for the point BRDF too). The clear coat's specular reflection
 //! adds the Mueller matrix of `diag(rs, rp)`
 //! ([`flakescatter_optics::jones::clearcoat_jones`]), re-expressed in the cone's basis,
 //! to every cone that contains the specular direction.
@@ -55,7 +60,7 @@
 //! ```
 
 use flakescatter_optics::detector::Cone;
-use flakescatter_optics::jones::{clearcoat_jones, exit_frame, s_vector};
+use flakescatter_optics::jones::{clearcoat_jones, exit_frame};
 use flakescatter_optics::mueller::Mueller;
 use flakescatter_optics::polarization::Weighting;
 use flakescatter_optics::{UnitVec3, Vec3, refraction};
@@ -212,10 +217,14 @@ impl DistributionModel {
     ) -> CollectedMueller {
         let axis = cone.axis().into_inner();
         let alpha = cone.half_angle();
-        // The cone's basis (module docs): the axis's s, projected at each direction.
-        let u = s_vector(&axis);
+        // The cone's basis (module docs): the axis's s, projected at each direction. At
+        // the pole the axis's own basis is the limit at the detector's azimuth
+        // (`Cone::basis_s`), not the direction's `s = y`.
+        let u = *cone.basis_s();
+        let at_pole = (axis.x == 0.0 && axis.y == 0.0).then_some(&u);
+        let point = || self.mueller_about(inc, &axis, &Vec3::zeros(), at_pole);
         if alpha == 0.0 {
-            let f = self.brdf_mueller(inc, &axis);
+            let f = point();
             return CollectedMueller {
                 brdf: f,
                 reflectance: None,
@@ -227,7 +236,7 @@ impl DistributionModel {
         let solid = cone.solid_angle();
         let (mut rho, proj, error) = match method {
             ConeMethod::ConstantIntegrand => {
-                let f = self.brdf_mueller(inc, &axis);
+                let f = point();
                 (f * (axis.z * solid), axis.z.max(0.0) * solid, 0.0)
             }
             ConeMethod::Exact => self.cone_integral_of(

@@ -26,6 +26,11 @@ pub trait QuadValue: Copy {
     /// the `(s, p)` bases becomes `D M D`, `D = diag(1, 1, −1, −1)`.
     #[must_use]
     fn mirrored(self) -> Self;
+    /// Whether the value is expressed in a polarisation basis chosen per direction (a
+    /// Mueller matrix is, a number is not): the mirror symmetry `y → −y` then holds
+    /// only when the mirror maps that basis onto itself (up to sign), which the caller
+    /// must check before using [`QuadValue::mirrored`].
+    const BASIS_DEPENDENT: bool = false;
     /// Runs `f` with an empty vector of values to fill: for `f64` one kept per thread
     /// and reused from call to call (a curve fills one for each of thousands of
     /// cones), otherwise a new one.

@@ -105,12 +105,14 @@ pub fn orthonormal_frame(axis: &UnitVec3) -> (UnitVec3, UnitVec3) {
     (u, v)
 }
 
-/// A conical detector: axis `r` (`r.z > 0`) and half-angle `α ∈ [0, π/2)`.
+/// A conical detector: axis `r` (`r.z > 0`), half-angle `α ∈ [0, π/2)`, and the `s`
+/// vector of the polarisation basis of its axis ([`Cone::basis_s`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cone {
     axis: UnitVec3,
     half_angle: f64,
     cos_half_angle: f64,
+    basis_s: Vec3,
 }
 
 impl Cone {
@@ -139,6 +141,7 @@ impl Cone {
             axis,
             half_angle,
             cos_half_angle: half_angle.cos(),
+            basis_s: crate::jones::s_vector(&axis),
         })
     }
 
@@ -169,7 +172,35 @@ impl Cone {
                 expected: "[0, pi/2) with a finite phi_r",
             });
         }
-        Self::new(out_of_plane_direction(theta_r, phi_r), half_angle)
+        let mut cone = Self::new(out_of_plane_direction(theta_r, phi_r), half_angle)?;
+        let a = cone.axis;
+        if a.x == 0.0 && a.y == 0.0 {
+            // At the pole the axis has lost φr; its basis is the limit θr → 0 at this φr.
+            cone.basis_s = Vec3::new(-phi_r.sin(), phi_r.cos(), 0.0);
+        }
+        Ok(cone)
+    }
+
+    /// The `s` vector of the polarisation basis in which everything this detector
+    /// collects is given (SCATMECH's, [`crate::jones`]): `(z × r)/|z × r|` of the axis
+    /// `r`, which for an out-of-plane detector `(θr, φr)` is `(−sin φr, cos φr, 0)`.
+    /// **At the pole** (`θr = 0`, where `z × r` vanishes) it is the limit `θr → 0` at
+    /// fixed `φr`, the same `(−sin φr, cos φr, 0)`, so a detector's Mueller matrix is
+    /// continuous in `θr` at every azimuth; a cone built from its axis alone
+    /// ([`Cone::new`], [`Cone::in_plane`]) has no azimuth there and takes `s = y`, the
+    /// limit along `φr = 0` (and, as a Mueller matrix, along `φr = 180°`).
+    #[must_use]
+    pub fn basis_s(&self) -> &Vec3 {
+        &self.basis_s
+    }
+
+    /// Whether the mirror `y → −y` maps this detector's axis and polarisation basis onto
+    /// themselves (up to the sign of `s`): the axis in the plane of incidence and `s`
+    /// along `±y` or within the xz-plane. Integrals of Mueller matrices over the cone
+    /// may then use the mirror symmetry of the problem.
+    #[must_use]
+    pub fn mirror_keeps_basis(&self) -> bool {
+        self.axis.y == 0.0 && (self.basis_s.x == 0.0 || self.basis_s.y == 0.0)
     }
 
     /// Unit axis from the sample toward the detector.

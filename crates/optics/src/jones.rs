@@ -5,7 +5,9 @@
 //! * Jones vectors are field components `(E_s, E_p)` in a right-handed basis
 //!   `{s, p, k}` of the propagation direction `k`: `s = (z × k)/|z × k|` (horizontal,
 //!   perpendicular to the plane that contains `k` and the coating normal `z`) and
-//!   `p = k × s`. For a direction along `±z` exactly, `s = y`. For the incident
+//!   `p = k × s`. For a direction along `±z` exactly, `s = y` (a detector at the
+//!   pole instead takes the basis of its azimuth, [`crate::detector::Cone::basis_s`]).
+//!   For the incident
 //!   direction `k_in = (sin θi, 0, −cos θi)` this gives `s = y`,
 //!   `p = (cos θi, 0, sin θi)`; for an exit direction `(θr, φr)`,
 //!   `s = (−sin φr, cos φr, 0)`, `p = (−cos θr cos φr, −cos θr sin φr, sin θr)`.

@@ -230,9 +230,15 @@ impl flakescatter_numerics::quad::QuadValue for Mueller {
     fn distance(&self, other: &Self) -> f64 {
         (self.0 - other.0).amax()
     }
+    const BASIS_DEPENDENT: bool = true;
     /// Under the mirror `y → −y` the `s` vectors of the incident and the exit basis
     /// turn into minus the mirror images of the old ones and the `p` vectors into their
-    /// mirror images, so `J → diag(−1, 1) J diag(−1, 1)` and `M → D M D`.
+    /// mirror images, so `J → diag(−1, 1) J diag(−1, 1)` and `M → D M D`. The same holds
+    /// for an exit basis whose reference `s` lies in the xz-plane (a detector at the
+    /// pole with azimuth ±90°): there `s → +mirror(s)`, `p → −mirror(p)`, `diag(1, −1)`,
+    /// the same `D M D`. For any other reference the mirror does not apply
+    /// ([`flakescatter_numerics::quad::QuadValue::BASIS_DEPENDENT`],
+    /// [`crate::detector::Cone::mirror_keeps_basis`]).
     #[inline]
     fn mirrored(self) -> Self {
         let mut m = self.0;

@@ -5,7 +5,9 @@
 //! polarisation: Stokes vectors in the `(s, p)` basis of the incident direction
 //! (`s = y`), and for each detector in the basis of its axis — for a ray arriving along
 //! `k_out`, `s` is the axis's `s` projected perpendicular to `k_out`
-//! ([`flakescatter_optics::jones::exit_frame`]), as in the distribution model's cones.
+//! ([`flakescatter_optics::jones::exit_frame`]), as in the distribution model's cones;
+//! at the pole the axis's `s` is that of the detector's azimuth
+//! ([`flakescatter_optics::detector::Cone::basis_s`]).
 //!
 //! Every ray adds its path Mueller matrix ([`flakescatter_optics::jones::Transfer`]) with
 //! the scalar model's geometric weight, `M_path · γ / (m.z cos θt) / N_pixels`
@@ -22,7 +24,7 @@
 //! direction.
 
 use flakescatter_optics::detector::{self, Cone};
-use flakescatter_optics::jones::{clearcoat_jones, exit_frame, s_vector};
+use flakescatter_optics::jones::{clearcoat_jones, exit_frame};
 use flakescatter_optics::mueller::Mueller;
 use flakescatter_optics::polarization::Weighting;
 use flakescatter_stats::HeightMap;
@@ -102,7 +104,7 @@ impl Accumulator for MuellerSums<'_> {
 
     #[inline]
     fn add(&self, w: &Mueller, ray: &Ray, cone: &Cone, scale: f64, sums: &mut [f64]) {
-        let m = w.rotate_out(exit_frame(&ray.k_out, &s_vector(cone.axis()))) * scale;
+        let m = w.rotate_out(exit_frame(&ray.k_out, cone.basis_s())) * scale;
         let mut readout = 0.0;
         for (e, (sum, r)) in sums[..16].iter_mut().zip(self.readout).enumerate() {
             let v = m.get(e / 4, e % 4);
@@ -158,7 +160,7 @@ impl TopoModel {
                 let mut r = acc.sum[base + 16] * inv_n;
                 let seen_cc = self.options().clearcoat && all[d].contains(&specular);
                 if seen_cc {
-                    let frame = exit_frame(&specular, &s_vector(all[d].axis()));
+                    let frame = exit_frame(&specular, all[d].basis_s());
                     let cc = clearcoat.rotate_out(frame).mueller();
                     rho += cc;
                     r += read(&cc);

@@ -354,3 +354,62 @@ fn the_mueller_run_is_bit_identical_for_any_thread_count() {
     assert_eq!(bits(&one), bits(&three));
     assert!(one.points.iter().filter(|p| p.rays > 0).count() > 5);
 }
+
+#[test]
+fn a_detector_at_the_pole_takes_the_basis_of_its_azimuth() {
+    // Issue 52, item 13. A flat mirror at normal incidence (n = 1, perfect conductor)
+    // sends every ray straight up, to the pole. In the basis of a detector (0, φ) —
+    // the limit θr → 0 at fixed φ: s' = (−sin φ, cos φ, 0), p' = z × s' — the vector
+    // mirror E_out = 2 (z·E) z − E = −E gives J_ab = −e'_a · e_b with the incident
+    // basis s = y, p = k_in × y = x: the closed form of the tilted-mirror test at the
+    // pole. m11 is +m00 at φ = 0 and −m00 at φ = 90°. The same detector 1e-6° off the
+    // pole (its basis is the axis's s = (−sin φ, cos φ, 0) projected perpendicular to
+    // the rays, the same vector) collects the same rays: the same matrix.
+    let (nx, ny) = (30, 20);
+    let map = plane(nx, ny, 0.5, 0.0, 0.0);
+    let model = TopoModel::new(TopoOptions {
+        n: 1.0,
+        ..TopoOptions::default()
+    })
+    .unwrap();
+    let usable = ((nx - 4) * (ny - 4)) as f64;
+    for phi_deg in [0.0f64, 30.0, 90.0, 135.0, 270.0] {
+        let phi = phi_deg.to_radians();
+        let cones = [
+            Cone::out_of_plane(0.0, phi, 1f64.to_radians()).unwrap(),
+            Cone::out_of_plane(1e-6f64.to_radians(), phi, 1f64.to_radians()).unwrap(),
+        ];
+        let r = model
+            .run_mueller(&[&map], &[0.0], &cones, &M00, &|_, _| {})
+            .unwrap();
+        let so = Vec3::new(-phi.sin(), phi.cos(), 0.0);
+        let po = Vec3::z().cross(&so);
+        let (si, pi) = (Vec3::y(), Vec3::new(0.0, 0.0, -1.0).cross(&Vec3::y()));
+        let c = |v: f64| flakescatter_optics::jones::C64::new(v, 0.0);
+        let j = flakescatter_optics::jones::JonesMatrix([
+            [c(-so.dot(&si)), c(-so.dot(&pi))],
+            [c(-po.dot(&si)), c(-po.dot(&pi))],
+        ]);
+        let want = Mueller::from_jones(&j) * (usable / (nx * ny) as f64);
+        for p in &r.points {
+            assert_eq!(p.rays, usable as u64, "φ {phi_deg}°");
+            for i in 0..4 {
+                for k in 0..4 {
+                    assert!(
+                        (p.reflectance.get(i, k) - want.get(i, k)).abs() < 1e-12,
+                        "φ {phi_deg}°, θr {}: m{i}{k} {} vs {}",
+                        p.cone.axis().z.acos().to_degrees(),
+                        p.reflectance.get(i, k),
+                        want.get(i, k)
+                    );
+                }
+            }
+        }
+        let m11 = r.points[0].reflectance.get(1, 1) / r.points[0].reflectance.m00();
+        let expected = (2.0 * phi).cos();
+        assert!(
+            (m11 - expected).abs() < 1e-12,
+            "φ {phi_deg}°: m11/m00 {m11}"
+        );
+    }
+}
