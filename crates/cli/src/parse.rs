@@ -181,8 +181,12 @@ fn trim_zeros(s: &str) -> String {
     if t == "-0" { "0".into() } else { t.into() }
 }
 
-/// A number rounded for display to `decimals` places, without a `-0.000`.
+/// A number rounded for display to `decimals` places, without a `-0.000`; from 1e15
+/// on in exponent form with 4 significant digits (`1.160e102`, not 103 digits).
 pub fn fixed(x: f64, decimals: usize) -> String {
+    if x.is_finite() && x.abs() >= 1e15 {
+        return format!("{x:.3e}");
+    }
     let s = format!("{x:.decimals$}");
     if s.trim_start_matches('-')
         .chars()

@@ -5,6 +5,14 @@
 //! in CIELAB units. ΔE*94 is not symmetric: its weights use the chroma of the first
 //! argument, the **reference** (standard); the other two are symmetric. Hue angles
 //! inside the formulas are handled in degrees, as the published formulas are written.
+//!
+//! **Range.** For any two finite CIELAB colours the differences are finite numbers (or
+//! `+∞` where the difference itself exceeds the largest double), never NaN and never a
+//! spurious 0: the few steps that square or raise a chroma to the 7th power (which
+//! overflow above `|x| ≈ 1e154` and `C ≈ 1e44`) are taken in scaled form there, and only
+//! there, so results in the ordinary range are bit for bit those of the formulas as
+//! published. Colours from spectra ([`crate::TristimulusWeights::lab`]) reach
+//! `L* ≈ 1.4e104`, `|a*|, |b*|` of the same order.
 
 use crate::lab::Lab;
 
@@ -16,7 +24,22 @@ pub fn delta_e_ab(reference: &Lab, sample: &Lab) -> f64 {
         sample.a - reference.a,
         sample.b - reference.b,
     );
-    (dl * dl + da * da + db * db).sqrt()
+    norm3(dl, da, db)
+}
+
+/// `√(x² + y² + z²)`, scaled by the largest magnitude when the squares would overflow or
+/// underflow (module docs, "Range").
+fn norm3(x: f64, y: f64, z: f64) -> f64 {
+    let s = x * x + y * y + z * z;
+    if s.is_finite() && s >= f64::MIN_POSITIVE {
+        return s.sqrt();
+    }
+    let m = x.abs().max(y.abs()).max(z.abs());
+    if m == 0.0 || !m.is_finite() {
+        return m;
+    }
+    let (x, y, z) = (x / m, y / m, z / m);
+    m * (x * x + y * y + z * z).sqrt()
 }
 
 /// Parametric factors and constants of ΔE*94.
@@ -70,14 +93,29 @@ pub fn delta_e_94(reference: &Lab, sample: &Lab, params: Cie94) -> f64 {
     let dl = sample.l - reference.l;
     let dc = sample.chroma() - c_ref;
     let (da, db) = (sample.a - reference.a, sample.b - reference.b);
-    // ΔH*² can come out a rounding error below zero when the hue difference vanishes.
-    let dh2 = (da * da + db * db - dc * dc).max(0.0);
     let sc = 1.0 + params.k1 * c_ref;
     let sh = 1.0 + params.k2 * c_ref;
     let tl = dl / params.k_l;
     let tc = dc / (params.k_c * sc);
-    let th2 = dh2 / (params.k_h * sh).powi(2);
-    (tl * tl + tc * tc + th2).sqrt()
+    // ΔH*² can come out a rounding error below zero when the hue difference vanishes.
+    let dh2 = da * da + db * db - dc * dc;
+    if dh2.is_finite() {
+        let th2 = if dh2 < 0.0 { 0.0 } else { dh2 } / (params.k_h * sh).powi(2);
+        let s = tl * tl + tc * tc + th2;
+        if s.is_finite() {
+            return s.sqrt();
+        }
+    }
+    // The squares overflow (module docs, "Range"): ΔH* from the differences scaled by
+    // the largest of them, then the three terms as a scaled norm.
+    let m = da.abs().max(db.abs()).max(dc.abs());
+    let dh = if m == 0.0 || !m.is_finite() {
+        m
+    } else {
+        let (ua, ub, uc) = (da / m, db / m, dc / m);
+        m * (ua * ua + ub * ub - uc * uc).max(0.0).sqrt()
+    };
+    norm3(tl, tc, dh / (params.k_h * sh))
 }
 
 /// Parametric factors of CIEDE2000 (`kL = kC = kH = 1` are the reference conditions).
@@ -114,12 +152,10 @@ pub fn delta_e_2000(reference: &Lab, sample: &Lab) -> f64 {
 /// `atan2` does not decide the branch.
 #[must_use]
 pub fn delta_e_2000_with(reference: &Lab, sample: &Lab, k: Ciede2000) -> f64 {
-    const POW25_7: f64 = 6_103_515_625.0; // 25⁷
     let (l1, a1, b1) = (reference.l, reference.a, reference.b);
     let (l2, a2, b2) = (sample.l, sample.a, sample.b);
-    let c_mean = 0.5 * (a1.hypot(b1) + a2.hypot(b2));
-    let c7 = c_mean.powi(7);
-    let g = 0.5 * (1.0 - (c7 / (c7 + POW25_7)).sqrt());
+    let c_mean = 0.5 * a1.hypot(b1) + 0.5 * a2.hypot(b2);
+    let g = 0.5 * (1.0 - chroma_weight(c_mean));
     let a1p = (1.0 + g) * a1;
     let a2p = (1.0 + g) * a2;
     let c1p = a1p.hypot(b1);
@@ -129,7 +165,13 @@ pub fn delta_e_2000_with(reference: &Lab, sample: &Lab, k: Ciede2000) -> f64 {
 
     let dlp = l2 - l1;
     let dcp = c2p - c1p;
+    // Zero when either chroma is; √(C'1 C'2) in factors where the product overflows.
     let product = c1p * c2p;
+    let root = if product.is_finite() {
+        product.sqrt()
+    } else {
+        c1p.sqrt() * c2p.sqrt()
+    };
     let dhp = if product == 0.0 {
         0.0
     } else {
@@ -142,10 +184,10 @@ pub fn delta_e_2000_with(reference: &Lab, sample: &Lab, k: Ciede2000) -> f64 {
             d
         }
     };
-    let dhp_big = 2.0 * product.sqrt() * (0.5 * dhp).to_radians().sin();
+    let dhp_big = 2.0 * root * (0.5 * dhp).to_radians().sin();
 
-    let lp_mean = 0.5 * (l1 + l2);
-    let cp_mean = 0.5 * (c1p + c2p);
+    let lp_mean = 0.5 * l1 + 0.5 * l2;
+    let cp_mean = 0.5 * c1p + 0.5 * c2p;
     let hp_mean = if product == 0.0 {
         h1p + h2p
     } else if (h1p - h2p).abs() <= 180.0 + 1e-9 {
@@ -161,10 +203,14 @@ pub fn delta_e_2000_with(reference: &Lab, sample: &Lab, k: Ciede2000) -> f64 {
         + 0.32 * cos_deg(3.0 * hp_mean + 6.0)
         - 0.20 * cos_deg(4.0 * hp_mean - 63.0);
     let d_theta = 30.0 * (-((hp_mean - 275.0) / 25.0).powi(2)).exp();
-    let cp7 = cp_mean.powi(7);
-    let r_c = 2.0 * (cp7 / (cp7 + POW25_7)).sqrt();
+    let r_c = 2.0 * chroma_weight(cp_mean);
     let l50 = (lp_mean - 50.0).powi(2);
-    let s_l = 1.0 + 0.015 * l50 / (20.0 + l50).sqrt();
+    let s_l = if l50.is_finite() {
+        1.0 + 0.015 * l50 / (20.0 + l50).sqrt()
+    } else {
+        // (L̄ − 50)² / √(20 + (L̄ − 50)²) = |L̄ − 50| to the last digit there.
+        1.0 + 0.015 * (lp_mean - 50.0).abs()
+    };
     let s_c = 1.0 + 0.045 * cp_mean;
     let s_h = 1.0 + 0.015 * cp_mean * t;
     let r_t = -(2.0 * d_theta).to_radians().sin() * r_c;
@@ -172,9 +218,32 @@ pub fn delta_e_2000_with(reference: &Lab, sample: &Lab, k: Ciede2000) -> f64 {
     let tl = dlp / (k.k_l * s_l);
     let tc = dcp / (k.k_c * s_c);
     let th = dhp_big / (k.k_h * s_h);
-    (tl * tl + tc * tc + th * th + r_t * tc * th)
-        .max(0.0)
-        .sqrt()
+    // In units of m (1, or the largest term where the squares overflow). Rounding can
+    // leave the sum a hair below zero; NaN is never turned into 0.
+    let root = |m: f64| {
+        let (tl, tc, th) = (tl / m, tc / m, th / m);
+        let sum = tl * tl + tc * tc + th * th + r_t * tc * th;
+        m * if sum < 0.0 { 0.0 } else { sum.sqrt() }
+    };
+    let d = root(1.0);
+    let m = tl.abs().max(tc.abs()).max(th.abs());
+    if d.is_finite() || !m.is_finite() {
+        d
+    } else {
+        root(m)
+    }
+}
+
+/// `√(C⁷/(C⁷ + 25⁷))` of CIEDE2000's G and R_C, as `√(1/(1 + (25/C)⁷))` where `C⁷`
+/// overflows (module docs, "Range").
+fn chroma_weight(c: f64) -> f64 {
+    const POW25_7: f64 = 6_103_515_625.0; // 25⁷
+    let c7 = c.powi(7);
+    if c7.is_finite() {
+        (c7 / (c7 + POW25_7)).sqrt()
+    } else {
+        (1.0 / (1.0 + (25.0 / c).powi(7))).sqrt()
+    }
 }
 
 /// Hue angle in degrees in `[0, 360)`, 0 when `a = b = 0` (Sharma et al. eq. 4).

@@ -97,6 +97,18 @@ pub enum ColourError {
         /// The value given.
         value: f64,
     },
+    /// A spectrum whose tristimulus values exceed the largest double (about 1.8e308):
+    /// `Y` is about 100 times the mean reflectance factor, so factors above about 1e306
+    /// have no XYZ in double precision.
+    #[error(
+        "the CIE XYZ of this spectrum exceed the largest double (about 1.8e308): its largest reflectance factor is {value:e} at {wavelength_nm} nm, and Y is about 100 times the mean reflectance factor (Y = 100 for the perfect diffuser), so reflectance factors above about 1e306 cannot be integrated"
+    )]
+    TristimulusOverflow {
+        /// Where the largest reflectance factor is, nm.
+        wavelength_nm: f64,
+        /// The largest reflectance factor.
+        value: f64,
+    },
     /// A colour coordinate or parameter that is NaN or infinite, or out of its domain.
     #[error("{name} = {value} is not valid: expected {expected}")]
     InvalidValue {

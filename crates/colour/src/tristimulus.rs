@@ -163,9 +163,13 @@ impl TristimulusWeights {
     /// CIE XYZ (`Y = 100` for the perfect reflecting diffuser) of the reflectance factors
     /// `reflectance`, one per wavelength.
     ///
+    /// The sums are scaled by the largest reflectance factor when they would overflow
+    /// on the way, so every spectrum whose XYZ are doubles gets them.
+    ///
     /// # Errors
     /// [`ColourError::LengthMismatch`], [`ColourError::NonFiniteReflectance`],
-    /// [`ColourError::NegativeReflectance`] (naming the wavelength).
+    /// [`ColourError::NegativeReflectance`] (naming the wavelength);
+    /// [`ColourError::TristimulusOverflow`] when X, Y or Z exceeds the largest double.
     pub fn xyz(&self, reflectance: &[f64]) -> Result<Xyz, ColourError> {
         if reflectance.len() != self.wavelengths_nm.len() {
             return Err(ColourError::LengthMismatch {
@@ -187,11 +191,36 @@ impl TristimulusWeights {
                 });
             }
         }
-        Ok(self.apply(|i| reflectance[i]))
+        let xyz = self.apply(|i| reflectance[i]);
+        if finite(&xyz) {
+            return Ok(xyz);
+        }
+        // A sum overflowed: scale by the largest factor (> 0, or the sums were 0), sum
+        // again, and scale back; what still overflows has no XYZ in doubles.
+        let (at, top) = reflectance
+            .iter()
+            .enumerate()
+            .fold((0, 0.0f64), |m, (i, &r)| if r > m.1 { (i, r) } else { m });
+        let inv = 1.0 / top;
+        let s = self.apply(|i| reflectance[i] * inv);
+        let xyz = Xyz {
+            x: s.x * top,
+            y: s.y * top,
+            z: s.z * top,
+        };
+        if finite(&xyz) {
+            Ok(xyz)
+        } else {
+            Err(ColourError::TristimulusOverflow {
+                wavelength_nm: self.wavelengths_nm[at],
+                value: top,
+            })
+        }
     }
 
     /// CIELAB of the reflectance factors, white point from the same illuminant, observer
-    /// and weights.
+    /// and weights. Every XYZ that is a double has a finite CIELAB (`L*` at most about
+    /// `1.4e104`).
     ///
     /// # Errors
     /// As [`TristimulusWeights::xyz`].
@@ -251,6 +280,10 @@ impl TristimulusWeights {
         }
         Xyz { x, y, z }
     }
+}
+
+fn finite(xyz: &Xyz) -> bool {
+    xyz.x.is_finite() && xyz.y.is_finite() && xyz.z.is_finite()
 }
 
 /// CIE XYZ of one spectrum (convenience for [`TristimulusWeights`]; build the weights

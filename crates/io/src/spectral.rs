@@ -8,7 +8,7 @@
 //! | [`read_coat_index`] | `wavelength_nm, n` (a `k` column must be 0) | `n ≥ 1` |
 //! | [`read_absorption`] | `wavelength_nm, alpha_per_um` | `α ≥ 0`, µm⁻¹, Napierian |
 //! | [`read_spectra`] | `wavelength_nm, reflectance_factor` [+ `theta_i_deg, aspecular_deg`] | `R ≥ 0` |
-//! | [`read_multiangle`] | `theta_i_deg, aspecular_deg` + `L, a, b` [+ `L_uncertainty`], or + `wavelength_nm, reflectance_factor` | |
+//! | [`read_multiangle`] | `theta_i_deg, aspecular_deg` + `L, a, b` [+ `L_uncertainty`], or + `wavelength_nm, reflectance_factor` | `0 ≤ L* ≤` [`MAX_LIGHTNESS`], `\|a*\|, \|b*\| ≤` [`MAX_LIGHTNESS`], `L_uncertainty > 0`; `R ≥ 0` |
 //!
 //! Wavelengths are vacuum wavelengths in nanometres, strictly increasing in file order
 //! (within each geometry for the files with geometry columns), at least two per table
@@ -26,6 +26,15 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::table::{Table, TableError};
+
+/// The largest `L*` (and `|a*|`, `|b*|`) a measured colour target may have. `L*` of a
+/// surface is `116 (Y/Yn)^(1/3) − 16 ≥ 0`; above 100 where the luminance factor `Y/Yn`
+/// exceeds the perfect diffuser's, as metallic coatings near specular do (`L*` 100–200
+/// at 15° aspecular; the model's own `model --multi-angle` gives 255 at −15° for a
+/// hwhm 3° layer). 1000 is a luminance factor of about 640, beyond any multi-angle
+/// geometry: what lies above is a unit or typing error (or `1e300`), refused naming the
+/// line and column rather than compared.
+pub const MAX_LIGHTNESS: f64 = 1000.0;
 
 /// `wavelength_nm, n, k` as read (optical constants of a flake metal).
 #[derive(Debug, Clone, PartialEq)]
@@ -305,7 +314,10 @@ pub fn read_spectra_from(reader: impl Read, file: &str) -> Result<SpectraFile, T
 ///
 /// # Errors
 /// As [`read_spectra`]; for a file with both or neither column set, a repeated geometry
-/// in a CIELAB file, a non-finite `L*`, `a*`, `b*` or a negative uncertainty.
+/// in a CIELAB file, an `L*` that is not a number in `[0, MAX_LIGHTNESS]`, an `a*` or
+/// `b*` beyond `±MAX_LIGHTNESS` ([`MAX_LIGHTNESS`]), or an `L_uncertainty` that is not a
+/// finite number `> 0` (a zero uncertainty would weigh its geometry infinitely in `fit
+/// --measured-multiangle`).
 pub fn read_multiangle(path: &Path) -> Result<MultiAngleFile, TableError> {
     let (f, name) = open(path)?;
     read_multiangle_from(f, &name)
@@ -368,19 +380,46 @@ pub fn read_multiangle_from(reader: impl Read, file: &str) -> Result<MultiAngleF
                 let l_uncertainty = match cu {
                     Some(c) => {
                         let u = t.num(*line, rec, c, "L_uncertainty")?;
-                        if u < 0.0 {
-                            return Err(t.bad(*line, "L_uncertainty", format!("{u} is negative")));
+                        if !(u > 0.0) {
+                            return Err(t.bad(
+                                *line,
+                                "L_uncertainty",
+                                format!(
+                                    "{u}: expected a standard uncertainty of L* > 0 (a zero one would weigh this geometry infinitely; leave the column out for an unweighted fit)"
+                                ),
+                            ));
                         }
                         Some(u)
                     }
                     None => None,
                 };
+                let l = t.num(*line, rec, cl, "L")?;
+                if !(0.0..=MAX_LIGHTNESS).contains(&l) {
+                    return Err(t.bad(
+                        *line,
+                        "L",
+                        format!(
+                            "{l}: expected a CIELAB lightness L* from 0 to {MAX_LIGHTNESS} (L* of a surface is never negative; above 100 only for luminance factors beyond the perfect diffuser, as near specular)"
+                        ),
+                    ));
+                }
+                let mut ab = [0.0; 2];
+                for (v, (c, name)) in ab.iter_mut().zip([(cla, "a"), (clb, "b")]) {
+                    *v = t.num(*line, rec, c, name)?;
+                    if v.abs() > MAX_LIGHTNESS {
+                        return Err(t.bad(
+                            *line,
+                            name,
+                            format!("{v}: expected a CIELAB {name}* from -{MAX_LIGHTNESS} to {MAX_LIGHTNESS}"),
+                        ));
+                    }
+                }
                 rows.push(LabRow {
                     theta_i,
                     aspecular,
-                    l: t.num(*line, rec, cl, "L")?,
-                    a: t.num(*line, rec, cla, "a")?,
-                    b: t.num(*line, rec, clb, "b")?,
+                    l,
+                    a: ab[0],
+                    b: ab[1],
                     l_uncertainty,
                     line: *line,
                 });

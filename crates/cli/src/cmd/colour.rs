@@ -72,6 +72,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.colour.illuminant(),
         args.colour.observer(),
     )?;
+    for w in &report.warnings {
+        crate::output::warn(w);
+    }
     if let Some(dest) = &out {
         let n = report.spectra.len();
         plan.write(
@@ -125,6 +128,7 @@ fn summary(args: &Args, r: &ColourReport) -> Value {
         },
         "units": colour_units(),
         "delta_e": "delta_e_ab: CIE 1976; delta_e_94: CIE 1994, graphic-arts constants, weights from the reference's chroma; delta_e_2000: CIEDE2000 (kL = kC = kH = 1); delta_l/a/b: sample - reference",
+        "warnings": r.warnings,
     });
     let geometric = r.spectra.iter().any(|s| s.geometry.is_some());
     if geometric {

@@ -24,7 +24,7 @@ use flakescatter_colour::{
     Cie94, Geometry, GeometrySet, Illuminant, Lab, Observer, TristimulusWeights, Xyz, delta_e_94,
     delta_e_2000, delta_e_ab,
 };
-use flakescatter_io::spectral::{MultiAngleData, MultiAngleFile, SpectraFile};
+use flakescatter_io::spectral::{MAX_LIGHTNESS, MultiAngleData, MultiAngleFile, SpectraFile};
 use flakescatter_stats::heightmap::HeightMap;
 
 use super::{SpectralCoating, spectral_distribution_curves, spectral_topographic_curves};
@@ -168,9 +168,13 @@ pub fn multi_angle_colour(
                 .iter()
                 .map(|r| r.std_err.map(|e| std::f64::consts::PI * e))
                 .collect();
-            let xyz = weights
-                .xyz(&reflectance)
-                .map_err(|e| PipelineError::Spectral(format!("colorimetry: {e}")))?;
+            let xyz = weights.xyz(&reflectance).map_err(|e| {
+                PipelineError::Spectral(format!(
+                    "colorimetry of the model's spectrum at θi {}° aspecular {}°: {e}",
+                    shown_deg(ti),
+                    shown_deg(geoms[k].aspecular())
+                ))
+            })?;
             let lab = xyz.to_lab(&white);
             let luminance_factor = xyz.y / white.y;
             let sigma_y: Option<f64> = se
@@ -259,9 +263,15 @@ pub struct MeasuredGeometry {
 /// `illuminant` / `observer`, which the file does not say), or computed from each
 /// geometry's spectrum at its own wavelengths (ASTM E308 weights).
 ///
+/// A colour target is a surface colour: `0 ≤ L* ≤` [`MAX_LIGHTNESS`] and `|a*|, |b*| ≤`
+/// [`MAX_LIGHTNESS`] (the file's, or computed from its spectrum), and a stated
+/// `L_uncertainty` is `> 0`, as [`flakescatter_io::spectral::read_multiangle`] checks
+/// when it reads a file; a [`MultiAngleFile`] built in code is held to the same rules.
+///
 /// # Errors
-/// [`PipelineError::Measurement`] naming the file and line for a spectrum colorimetry
-/// cannot integrate or a geometry that is not valid.
+/// [`PipelineError::Measurement`] naming the file and line (and column) for a spectrum
+/// colorimetry cannot integrate, a colour or uncertainty outside those rules, or a
+/// geometry that is not valid.
 pub fn measured_colours(
     file: &MultiAngleFile,
     illuminant: Illuminant,
@@ -275,11 +285,27 @@ pub fn measured_colours(
         MultiAngleData::Lab(rows) => rows
             .iter()
             .map(|r| {
+                let bad = |column: &str, what: String| {
+                    PipelineError::Measurement(format!(
+                        "{}, line {}, column {column}: {what}",
+                        file.file, r.line
+                    ))
+                };
+                if let Some(u) = r.l_uncertainty
+                    && !(u > 0.0 && u.is_finite())
+                {
+                    return Err(bad(
+                        "L_uncertainty",
+                        format!("{u}: expected a standard uncertainty of L* > 0"),
+                    ));
+                }
+                let lab = Lab::new(r.l, r.a, r.b).map_err(|e| bad("L, a, b", e.to_string()))?;
+                if let Some((column, what)) = implausible(&lab) {
+                    return Err(bad(column, what));
+                }
                 Ok(MeasuredGeometry {
                     geometry: geometry(r.theta_i, r.aspecular, r.line)?,
-                    lab: Lab::new(r.l, r.a, r.b).map_err(|e| {
-                        PipelineError::Measurement(format!("{}, line {}: {e}", file.file, r.line))
-                    })?,
+                    lab,
                     l_uncertainty: r.l_uncertainty,
                     spectrum: None,
                     line: r.line,
@@ -304,6 +330,12 @@ pub fn measured_colours(
                             file.file
                         ))
                     })?;
+                if let Some((_, what)) = implausible(&lab) {
+                    return Err(PipelineError::Measurement(format!(
+                        "{}: the spectrum of the geometry starting on line {line} (column reflectance_factor) gives {what}",
+                        file.file
+                    )));
+                }
                 Ok(MeasuredGeometry {
                     geometry: geometry(ti, asp, line)?,
                     lab,
@@ -314,6 +346,29 @@ pub fn measured_colours(
             })
             .collect(),
     }
+}
+
+/// The first coordinate of `lab` outside a surface colour's range (module docs of
+/// [`measured_colours`]), as `(column, what was expected)`.
+fn implausible(lab: &Lab) -> Option<(&'static str, String)> {
+    if !(0.0..=MAX_LIGHTNESS).contains(&lab.l) {
+        return Some((
+            "L",
+            format!(
+                "L* = {}: expected a CIELAB lightness from 0 to {MAX_LIGHTNESS} (a surface's L* is never negative, and above {MAX_LIGHTNESS} its luminance factor would exceed about 640)",
+                lab.l
+            ),
+        ));
+    }
+    for (column, v) in [("a", lab.a), ("b", lab.b)] {
+        if v.abs() > MAX_LIGHTNESS {
+            return Some((
+                column,
+                format!("{column}* = {v}: expected -{MAX_LIGHTNESS} to {MAX_LIGHTNESS}"),
+            ));
+        }
+    }
+    None
 }
 
 /// Model against measurement at one geometry.
@@ -492,6 +547,10 @@ pub struct ColourReport {
     pub flop_index: Option<f64>,
     /// The reference's flop index.
     pub reference_flop_index: Option<f64>,
+    /// Cautions: spectra whose colour lies beyond any surface colour (`L*` above
+    /// [`MAX_LIGHTNESS`]), where CIELAB and the differences are computed (finite, never
+    /// a spurious 0) but rest on the rounding of numbers that large.
+    pub warnings: Vec<String>,
 }
 
 /// One spectrum's geometry, XYZ, CIELAB and first line.
@@ -580,11 +639,29 @@ pub fn colour_report(
             line: *line,
         });
     }
+    let mut warnings = far_beyond(&sample.file, &rows);
+    if let (Some((r, _)), Some(file)) = (&refs, reference) {
+        warnings.extend(far_beyond(&file.file, r));
+    }
     Ok(ColourReport {
         flop_index: flop_of(&rows),
         reference_flop_index: refs.as_ref().and_then(|(r, _)| flop_of(r)),
         spectra,
+        warnings,
     })
+}
+
+/// A caution per spectrum of `file` whose `L*` exceeds [`MAX_LIGHTNESS`].
+fn far_beyond(file: &str, rows: &[Colour]) -> Vec<String> {
+    rows.iter()
+        .filter(|r| r.2.l > MAX_LIGHTNESS)
+        .map(|r| {
+            format!(
+                "{file}: the spectrum starting on line {} has L* = {:.4e} (Y = {:.4e}), far beyond any surface colour (L* <= {MAX_LIGHTNESS}); its a*, b*, hue and colour differences are computed but rest on rounding at that scale",
+                r.3, r.2.l, r.1.y
+            )
+        })
+        .collect()
 }
 
 /// The reference's colours, checked to match the sample's layout.
