@@ -6,13 +6,15 @@
 //! converts to the same radians, so outputs show `30`, never `29.999999999999996`.
 
 use anyhow::bail;
+use flakescatter::stats::decimal::{DecimalRange, degrees_text, typed_degrees};
 
 /// Largest number of angles a list may expand to.
 pub const MAX_ANGLES: usize = 1_000_000;
 
-/// Parse `0,30,60`, `-70:70:0.5` (inclusive) or a comma-separated mix, in degrees. Range
-/// values are rounded to the decimals of `start` and `step`, so that `0:1:0.1` gives
-/// `0.3`, not `0.30000000000000004`.
+/// Parse `0,30,60`, `-70:70:0.5` (inclusive) or a comma-separated mix, in degrees (or
+/// the unit of the flag). Range values are the exact decimals `start + k·step`
+/// ([`DecimalRange`]), so that `0:1:0.1` gives `0.3`, not `0.30000000000000004`, and
+/// `1e-1:1:1e-1` the same.
 pub fn angles(flag: &str, text: &str) -> anyhow::Result<Vec<f64>> {
     let mut out = Vec::new();
     if text.trim().is_empty() {
@@ -48,19 +50,15 @@ pub fn angles(flag: &str, text: &str) -> anyhow::Result<Vec<f64>> {
                 if stop < start {
                     bail!("{flag} `{item}`: the range is empty (stop < start)");
                 }
-                // Inclusive, robust to rounding: count the steps once.
-                let count = ((stop - start) / step + 1e-9).floor();
-                if count + 1.0 + out.len() as f64 > MAX_ANGLES as f64 {
+                // Inclusive, stepped on the decimals as typed (numerics::decimal):
+                // `0:0.3:0.1` is 0, 0.1, 0.2, 0.3, never 0.30000000000000004.
+                let Some(range) = DecimalRange::new(start, stop, step) else {
+                    bail!("{flag} `{item}`: expected `start:stop:step` with finite numbers");
+                };
+                if range.len() + out.len() as u128 > MAX_ANGLES as u128 {
                     bail!("{flag} `{item}`: more than {MAX_ANGLES} angles");
                 }
-                let decimals = decimals(a).max(decimals(c));
-                for k in 0..=(count as usize) {
-                    let v = start + step * k as f64;
-                    out.push(match decimals {
-                        Some(d) => format!("{v:.d$}").parse().unwrap_or(v),
-                        None => v,
-                    });
-                }
+                out.extend(range.iter());
             }
             _ => bail!("{flag} `{item}`: expected a number or `start:stop:step`"),
         }
@@ -69,15 +67,6 @@ pub fn angles(flag: &str, text: &str) -> anyhow::Result<Vec<f64>> {
         }
     }
     Ok(out)
-}
-
-/// Digits after the decimal point of a plain decimal (`None` for exponent notation).
-fn decimals(s: &str) -> Option<usize> {
-    let s = s.trim();
-    if s.contains(['e', 'E']) {
-        return None;
-    }
-    Some(s.split_once('.').map_or(0, |(_, f)| f.len()))
 }
 
 /// Angles in degrees within a range, or an error naming the flag and the range:
@@ -154,31 +143,12 @@ pub fn shortest(x: f64) -> String {
 /// `d.to_radians() == rad` (so `30f64.to_radians()` shows as `30`). Other values show
 /// their degrees to full precision.
 pub fn deg(rad: f64) -> String {
-    if rad == 0.0 {
-        return "0".into();
-    }
-    let d = rad.to_degrees();
-    for p in 0..=15 {
-        let s = format!("{d:.p$}");
-        if s.parse::<f64>().is_ok_and(|v| v.to_radians() == rad) {
-            return trim_zeros(&s);
-        }
-    }
-    shortest(d)
+    degrees_text(rad)
 }
 
 /// [`deg`] as a number (for JSON).
 pub fn deg_num(rad: f64) -> f64 {
-    deg(rad).parse().unwrap_or_else(|_| rad.to_degrees())
-}
-
-fn trim_zeros(s: &str) -> String {
-    let t = if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.')
-    } else {
-        s
-    };
-    if t == "-0" { "0".into() } else { t.into() }
+    typed_degrees(rad)
 }
 
 /// A number rounded for display to `decimals` places, without a `-0.000`; from 1e15

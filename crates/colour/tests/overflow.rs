@@ -73,8 +73,11 @@ fn xyz_is_linear_up_to_the_largest_double_and_an_error_beyond() {
     ));
 }
 
-/// `(name, lab1, lab2, ΔE00 limit, ΔE94/k limit, ΔE*ab)` from the colour-science table.
-fn pairs() -> Vec<(String, [f64; 3], [f64; 3], f64, f64, f64)> {
+/// `(name, lab1, lab2, ΔE00 limit, ΔE94/k limit, ΔE*ab)`: one row of the table.
+type Pair = (String, [f64; 3], [f64; 3], f64, f64, f64);
+
+/// The pairs of the colour-science table.
+fn pairs() -> Vec<Pair> {
     let text = include_str!("data/colour_science_extreme_delta_e.csv");
     text.lines()
         .skip(1)

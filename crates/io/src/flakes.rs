@@ -277,7 +277,9 @@ pub fn write_histogram(
 /// Writes any binned distribution in the histogram CSV format of [`write_histogram`]:
 /// `edges_rad` (`n + 1` increasing edges, radians) and `n` area fractions; per bin
 /// `p_per_rad = fraction / Δθ` and `p_tilde = fraction / (cos θlo − cos θhi)` (the exact
-/// solid-angle normalisation, `Σ p̃ (cos θlo − cos θhi) = Σ fraction`).
+/// solid-angle normalisation, `Σ p̃ (cos θlo − cos θhi) = Σ fraction`). Edges are
+/// written in degrees as the shortest decimals that convert to them
+/// ([`flakescatter_stats::decimal::degrees_text`]): `1.5`, not `1.5000000000000002`.
 ///
 /// # Errors
 /// [`FlakeTableError::Io`] if writing fails; `file` names the destination.
@@ -298,8 +300,8 @@ pub fn write_histogram_bins(
     .map_err(|e| write_err(file, e))?;
     for (e, f) in edges_rad.windows(2).zip(area_fractions) {
         w.write_record([
-            e[0].to_degrees().to_string(),
-            e[1].to_degrees().to_string(),
+            flakescatter_stats::decimal::degrees_text(e[0]),
+            flakescatter_stats::decimal::degrees_text(e[1]),
             f.to_string(),
             (f / (e[1] - e[0])).to_string(),
             (f / (e[0].cos() - e[1].cos())).to_string(),

@@ -10,7 +10,9 @@
 //! * [`nnls`]: non-negative least squares (Lawson & Hanson), for the non-parametric
 //!   orientation estimate;
 //! * [`Vec3`] and [`UnitVec3`]: the 3-vector and unit 3-vector every layer shares
-//!   (defined here once; `optics` and `stats` re-export them).
+//!   (defined here once; `optics` and `stats` re-export them);
+//! * [`decimal`]: ranges and bin edges stepped on the decimals the user typed, and
+//!   angles in radians shown as the degrees they were typed as.
 //!
 //! No physics and no units here: the callers state theirs.
 //!
@@ -34,6 +36,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod decimal;
 pub mod legendre;
 pub mod lm;
 pub mod nnls;

@@ -87,7 +87,9 @@ fn the_degree_of_polarisation_has_a_stated_rounding_tolerance() {
     assert!((s.dop() - 1.0).abs() <= 2.0 * f64::EPSILON, "{}", s.dop());
     assert!(s.parameters()[1] <= 1.0 + 2.0 * f64::EPSILON);
     assert!(Analyzer::polarizer(s).is_ok());
-    // 45° linear typed to 10 digits: DoP 1 + 1.9e-11, a polariser.
+    // Elliptical, 1/√2 typed to 10 digits: DoP 1 + 1.9e-11, a polariser. (The typed
+    // approximation is the point of the test.)
+    #[allow(clippy::approx_constant)]
     let typed = Stokes::new([1.0, 0.0, 0.707_106_781_2, 0.707_106_781_2]).unwrap();
     assert!(Analyzer::polarizer(typed).is_ok());
     // 1 − 1e-8: a beam, but not an ideal polariser; the message shows the digits.

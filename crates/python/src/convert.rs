@@ -477,17 +477,5 @@ pub fn nan(x: Option<f64>) -> f64 {
 /// 29.999999999999996). The CLI writes angles read from files this way; other values
 /// give their degrees to full precision.
 pub fn typed_degrees(rad: f64) -> f64 {
-    if rad == 0.0 {
-        return 0.0;
-    }
-    let d = rad.to_degrees();
-    for p in 0..=15 {
-        let s = format!("{d:.p$}");
-        if let Ok(v) = s.parse::<f64>()
-            && v.to_radians() == rad
-        {
-            return v;
-        }
-    }
-    d
+    flakescatter::stats::decimal::typed_degrees(rad)
 }

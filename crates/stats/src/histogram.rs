@@ -77,11 +77,27 @@ pub struct AreaHistogram {
 
 /// Bin edges `0, Δθ, 2Δθ, …` up to `π/2` (the last bin cut at `π/2`).
 ///
+/// When `Δθ` is a decimal number of degrees converted to radians (`1.5f64.to_radians()`,
+/// as every width from the command line, a manifest or Python is), edge `i` is the exact
+/// decimal `i × 1.5°` converted ([`crate::decimal::bin_edges`]), so the edges read back
+/// as `0, 1.5, 3, 4.5, …` degrees, not `1.5000000000000002`, `3.0000000000000004`;
+/// otherwise `i × Δθ`.
+///
 /// # Errors
 /// [`HistogramError::BadBinWidth`] unless `0 < Δθ ≤ π/4`.
 pub fn bin_edges(bin_width: f64) -> Result<Vec<f64>, HistogramError> {
     if !(bin_width.is_finite() && bin_width > 0.0 && bin_width <= FRAC_PI_4 * (1.0 + 1e-12)) {
         return Err(HistogramError::BadBinWidth(bin_width));
+    }
+    let w_deg = crate::decimal::typed_degrees(bin_width);
+    if w_deg.to_radians() == bin_width
+        && let Some(edges) = crate::decimal::bin_edges(w_deg, 90.0)
+    {
+        let mut edges: Vec<f64> = edges.iter().map(|d| d.to_radians()).collect();
+        if let Some(last) = edges.last_mut() {
+            *last = FRAC_PI_2;
+        }
+        return Ok(edges);
     }
     // Guard against 90/Δ landing a hair above an integer through rounding.
     let n = ((FRAC_PI_2 / bin_width) * (1.0 - 1e-12)).ceil().max(1.0) as usize;
@@ -116,7 +132,14 @@ impl AreaHistogram {
                     value: theta,
                 });
             }
-            let i = ((theta / bin_width) as usize).min(nb - 1);
+            // The bin whose [lo, hi) holds θ, by the edges themselves.
+            let mut i = ((theta / bin_width) as usize).min(nb - 1);
+            while i + 1 < nb && theta >= edges[i + 1] {
+                i += 1;
+            }
+            while i > 0 && theta < edges[i] {
+                i -= 1;
+            }
             areas[i] += area;
             total += area;
             flakes += 1;

@@ -26,6 +26,7 @@ pub mod segment;
 
 /// The linear-algebra crate whose types appear in this API (re-exported so callers
 /// need not depend on it).
+pub use flakescatter_numerics::decimal;
 pub use nalgebra;
 
 pub use distribution::{DistributionError, GaussianWidth, Orientation};

@@ -449,14 +449,13 @@ impl Angles {
                 if to < from {
                     return Err(format!("{key}: the range is empty (to < from)"));
                 }
-                let count = ((to - from) / step + 1e-9).floor();
-                if count > 1e6 {
+                // Stepped on the decimals as written (`-80 + 0.1 k` is -79.9, …, 80).
+                let range = flakescatter_stats::decimal::DecimalRange::new(*from, *to, *step)
+                    .ok_or_else(|| format!("{key}: from, to and step must be finite, step > 0"))?;
+                if range.len() > 1_000_001 {
                     return Err(format!("{key}: more than 10^6 angles"));
                 }
-                // Rounded to 1e-9° so that -70 + 0.5 k prints as typed.
-                Ok((0..=count as usize)
-                    .map(|k| ((from + step * k as f64) * 1e9).round() / 1e9 + 0.0)
-                    .collect())
+                Ok(range.iter().collect())
             }
         }
     }
@@ -774,6 +773,26 @@ mod tests {
         assert_eq!(m.instrument.z_step_um, 0.3);
         let ts = m.models.theta_s_deg.unwrap().degrees("k").unwrap();
         assert_eq!((ts.len(), ts[0], ts[1], ts[280]), (281, -70.0, -69.5, 70.0));
+        // Issue 52, item 16: a range steps on its decimals; every angle prints as the
+        // decimal -80 + k/10 (one place), and the end is included exactly.
+        let r = Angles::Range {
+            from: -80.0,
+            to: 80.0,
+            step: 0.1,
+        };
+        let v = r.degrees("k").unwrap();
+        assert_eq!(v.len(), 1601);
+        for (k, x) in v.iter().enumerate() {
+            // The decimal text of (k − 800)/10, from integers.
+            let n = k as i64 - 800;
+            let (sign, q, r) = (if n < 0 { "-" } else { "" }, n.abs() / 10, n.abs() % 10);
+            let want = if r == 0 {
+                format!("{sign}{q}")
+            } else {
+                format!("{sign}{q}.{r}")
+            };
+            assert_eq!(format!("{x}"), want, "k = {k}");
+        }
     }
 
     #[test]

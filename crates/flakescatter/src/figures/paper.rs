@@ -200,7 +200,8 @@ pub(super) fn fig7(
             label: format!("generator's Gaussian p~, hwhm {hwhm}°"),
             points: (0..=200)
                 .map(|k| {
-                    let t = f64::from(k) * 0.1;
+                    // k/10 is the double nearest the decimal: 0.3, not 0.30000000000000004.
+                    let t = f64::from(k) / 10.0;
                     (t, o.p_tilde(t.to_radians()))
                 })
                 .collect(),

@@ -24,6 +24,7 @@
 use std::path::Path;
 
 use flakescatter_paint::{Channel, ChannelParams, CoatParams, FlakeMetal, PaintParams};
+use flakescatter_stats::decimal::typed_degrees;
 use flakescatter_stats::{GaussianWidth, Orientation};
 use serde::{Deserialize, Serialize};
 
@@ -294,7 +295,7 @@ impl ParamsFile {
 pub fn orientation_section(o: &Orientation) -> OrientationSection {
     if let Some(w) = o.gaussian_width() {
         return OrientationSection::Gaussian {
-            hwhm_deg: w.hwhm().to_degrees(),
+            hwhm_deg: typed_degrees(w.hwhm()),
         };
     }
     if let Some((alpha, shape)) = o.pearson_vii_params() {
@@ -306,7 +307,7 @@ pub fn orientation_section(o: &Orientation) -> OrientationSection {
     }
     if let Some((knots, ln)) = o.log_linear_knots() {
         return OrientationSection::Table {
-            knots_deg: knots.iter().map(|k| k.to_degrees()).collect(),
+            knots_deg: knots.iter().map(|&k| typed_degrees(k)).collect(),
             ln_p_tilde: ln.to_vec(),
         };
     }
@@ -317,7 +318,8 @@ pub fn orientation_section(o: &Orientation) -> OrientationSection {
         .map(|w| o.mass_between(w[0], w[1]))
         .collect();
     OrientationSection::Histogram {
-        edges_deg: edges.iter().map(|e| e.to_degrees()).collect(),
+        // Degrees as typed: `1.5`, not `1.5000000000000002` (issue 52, item 16).
+        edges_deg: edges.iter().map(|&e| typed_degrees(e)).collect(),
         area_fractions,
     }
 }

@@ -44,14 +44,21 @@ impl GaussianWidth {
         }
     }
 
-    /// The half-width at half-maximum `w = s·sqrt(2 ln 2)`, radians.
+    /// The half-width at half-maximum `w = s·sqrt(2 ln 2)`, radians (a width given as
+    /// a hwhm returns exactly that value, not its round trip through `s`).
     pub fn hwhm(self) -> f64 {
-        self.sigma() * HWHM_PER_SIGMA
+        match self {
+            Self::Hwhm(w) => w,
+            _ => self.sigma() * HWHM_PER_SIGMA,
+        }
     }
 
     /// The rms tilt `σt = s·√2`, radians.
     pub fn rms_tilt(self) -> f64 {
-        self.sigma() * std::f64::consts::SQRT_2
+        match self {
+            Self::RmsTilt(t) => t,
+            _ => self.sigma() * std::f64::consts::SQRT_2,
+        }
     }
 
     pub(super) fn name(self) -> &'static str {
