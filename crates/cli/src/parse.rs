@@ -79,12 +79,24 @@ pub fn check_range(
     lo_open: bool,
     hi_open: bool,
 ) -> anyhow::Result<()> {
+    check_range_in(flag, values, (lo, hi), (lo_open, hi_open), ("°", "degrees"))
+}
+
+/// [`check_range`] for values in another unit: `unit` is `(after a value, the unit's
+/// name)`, e.g. `(" nm", "nanometres")` gives "0 nm is outside (0, inf) nanometres".
+pub fn check_range_in(
+    flag: &str,
+    values: &[f64],
+    (lo, hi): (f64, f64),
+    (lo_open, hi_open): (bool, bool),
+    (symbol, name): (&str, &str),
+) -> anyhow::Result<()> {
     for &v in values {
         let above = if lo_open { v > lo } else { v >= lo };
         let below = if hi_open { v < hi } else { v <= hi };
         if !(above && below) {
             bail!(
-                "{flag}: {}° is outside {}{lo}, {hi}{} degrees",
+                "{flag}: {}{symbol} is outside {}{lo}, {hi}{} {name}",
                 shortest(v),
                 if lo_open { "(" } else { "[" },
                 if hi_open { ")" } else { "]" }
@@ -121,6 +133,36 @@ pub fn whole(s: &str) -> Result<usize, String> {
         Ok(v) if v < 0 => Err("expected a whole number >= 0".into()),
         Ok(v) => usize::try_from(v).map_err(|_| "too large".into()),
         Err(_) => Err("expected a whole number >= 0".into()),
+    }
+}
+
+/// A whole number in `[LO, HI]`, for clap: `0`, `-1`, `1.5`, `1e20` and text all get the
+/// same message, "expected a whole number from LO to HI" (issue 52, item 23: `volume
+/// --rays` gave one message for 0 and another for −1, 1e20 and 1.5).
+pub fn whole_in<const LO: u64, const HI: u64>(s: &str) -> Result<u64, String> {
+    whole_between(s, u128::from(LO), u128::from(HI), u128::from(u64::MAX)).map(|v| v as u64)
+}
+
+/// [`whole_in`] for counts held as `usize`.
+pub fn count_in<const LO: usize, const HI: usize>(s: &str) -> Result<usize, String> {
+    whole_between(s, LO as u128, HI as u128, usize::MAX as u128).map(|v| v as usize)
+}
+
+/// `s` as a whole number in `[lo, hi]` (`hi == max`: no upper bound is stated).
+fn whole_between(s: &str, lo: u128, hi: u128, max: u128) -> Result<u128, String> {
+    match s.trim().parse::<u128>() {
+        Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+        _ if hi == max => Err(format!("expected a whole number >= {lo}")),
+        _ => Err(format!("expected a whole number from {lo} to {hi}")),
+    }
+}
+
+/// An odd whole number ≥ 3, for clap (least-squares windows): `4`, `1`, `-1`, `2.5` all
+/// get "expected an odd whole number of pixels >= 3".
+pub fn odd_window(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<i128>() {
+        Ok(v) if v >= 3 && v % 2 == 1 => usize::try_from(v).map_err(|_| "too large".into()),
+        _ => Err("expected an odd whole number of pixels >= 3".into()),
     }
 }
 

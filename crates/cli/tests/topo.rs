@@ -223,7 +223,7 @@ fn bad_input_exits_with_status_2_and_a_clear_message() {
             vec![p, "--intensity", i, "--cutoff", "1.0"],
             "cutoff 1 leaves 0 of 1600 pixels usable",
         ),
-        (vec![p, "--window", "4"], "--window 4"),
+        (vec![p, "--window", "4"], "--window <K>"),
         (
             vec![small.to_str().unwrap(), "--window", "11"],
             "larger than height map",

@@ -385,7 +385,7 @@ fn bad_flags_exit_2_naming_the_flag_and_leave_nothing() {
             "--depth-um 0:0",
         ),
         (vec!["--tile-um", "20"], "--tile-um 20"),
-        (vec!["--rays", "0"], "--rays 0"),
+        (vec!["--rays", "0"], "--rays <N>"),
         (vec!["--rays", "-5"], "--rays"),
         (
             vec!["--layers", "0"],

@@ -17,7 +17,7 @@ use serde_json::{Value, json};
 
 use crate::cmd::synth::FirstPage;
 use crate::output::{Kind, Plan, note, print_json, warn};
-use crate::parse::{pair, whole};
+use crate::parse::pair;
 
 /// The axial-peak estimator (docs/physics.md §9).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -90,7 +90,7 @@ pub struct Args {
     pub fraction: f64,
     /// Slices kept on each side of the running maximum, 1 to 32: must cover the slices
     /// within the peak (FWHM / (2 · z step) + 1).
-    #[arg(long, value_name = "N", default_value_t = 3, value_parser = whole, allow_negative_numbers = true)]
+    #[arg(long, value_name = "N", default_value_t = 3, value_parser = crate::parse::count_in::<1, MAX_HALF_WINDOW>)]
     pub half_window: usize,
     /// Pixel pitch in µm, `D` or `DX,DY` (overrides the file's).
     #[arg(long, value_name = "DX[,DY]", allow_hyphen_values = true)]

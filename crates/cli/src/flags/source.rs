@@ -286,7 +286,7 @@ pub struct SegmentArgs {
     )]
     pub noise_um: f64,
     /// Smallest flake kept, pixels (>= 3).
-    #[arg(long = "min-pixels", value_name = "N", default_value_t = 100, value_parser = crate::parse::whole, allow_negative_numbers = true)]
+    #[arg(long = "min-pixels", value_name = "N", default_value_t = 100, value_parser = crate::parse::count_in::<3, { usize::MAX }>)]
     pub min_pixels: usize,
 }
 

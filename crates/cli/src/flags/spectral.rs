@@ -18,7 +18,7 @@ use serde_json::{Value, json};
 
 use super::{InstrumentArgs, OpticsArgs};
 use crate::output::Plan;
-use crate::parse::{angles, check_range};
+use crate::parse::{angles, check_range_in};
 
 /// Default wavelengths of a colour computation, nm (CIE 015's 380–780 nm at 10 nm).
 pub const DEFAULT_WAVELENGTHS: &str = "380:780:10";
@@ -154,8 +154,13 @@ impl SpectralArgs {
                 w.len()
             );
         }
-        check_range("--wavelengths", &w, 0.0, f64::INFINITY, true, true)
-            .map_err(|e| anyhow::anyhow!("{e} (nanometres)"))?;
+        check_range_in(
+            "--wavelengths",
+            &w,
+            (0.0, f64::INFINITY),
+            (true, true),
+            (" nm", "nanometres"),
+        )?;
         if let Some(p) = w.windows(2).find(|p| p[1] <= p[0]) {
             bail!(
                 "--wavelengths {text}: {} nm does not follow {} nm; give strictly increasing wavelengths",

@@ -67,7 +67,7 @@ pub struct Args {
     #[arg(long = "pixel-normals", requires = "map")]
     pub pixel_normals: bool,
     /// Least-squares window of the pixel normals, pixels (odd, >= 3).
-    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::whole, allow_negative_numbers = true, requires = "pixel_normals")]
+    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::odd_window, requires = "pixel_normals")]
     pub window: usize,
     /// Side of the tiles whose spread gives the pixel-level interval, µm.
     #[arg(long = "tile-um", value_name = "UM", default_value_t = DEFAULT_BLOCK_UM, allow_negative_numbers = true, requires = "pixel_normals")]

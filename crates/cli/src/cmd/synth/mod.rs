@@ -101,7 +101,7 @@ pub struct Args {
     )]
     pub coverage: Option<f64>,
     /// Place exactly this many flakes instead of a coverage.
-    #[arg(long, value_name = "N", value_parser = whole, allow_negative_numbers = true)]
+    #[arg(long, value_name = "N", value_parser = crate::parse::count_in::<1, { flakescatter::synth::MAX_FLAKES }>)]
     pub count: Option<usize>,
     /// Flake roughness rms, µm (0 = smooth).
     #[arg(

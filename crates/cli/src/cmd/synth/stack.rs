@@ -8,7 +8,6 @@ use flakescatter::stack::covering_slices;
 use flakescatter::synth::{AxialResponse, BitDepth, LayerParams, StackSpec, SyntheticStack};
 
 use super::errors::invalid;
-use crate::parse::whole;
 
 /// The axial response of a synthetic stack.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -107,7 +106,7 @@ pub struct StackOutArgs {
     pub z_first_um: Option<f64>,
     /// Number of slices (with --z-first-um; default: enough to reach 3 FWHM above the
     /// highest surface point).
-    #[arg(long, value_name = "N", value_parser = whole, requires = "z_first_um", allow_negative_numbers = true)]
+    #[arg(long, value_name = "N", value_parser = crate::parse::count_in::<3, MAX_SLICES>, requires = "z_first_um")]
     pub slices: Option<usize>,
     /// Which end of the stack page 0 holds (ImageJ has no field for it: read a `top`
     /// file with `stack --first-page top`).

@@ -48,7 +48,7 @@ pub struct Args {
     #[command(flatten)]
     pub input: MapInputArgs,
     /// Side of the least-squares window for local normals, pixels (odd, >= 3).
-    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::whole, allow_negative_numbers = true)]
+    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::odd_window)]
     pub window: usize,
     /// Side of the square map tiles whose spread gives std_err, µm (a few flake
     /// diameters).

@@ -143,9 +143,10 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub aperture: f64,
-    /// Rays per incidence in all, shared among the --layers (each layer gets rays/layers,
-    /// rounded up to a multiple of 64, the batches of its ray errors).
-    #[arg(long, value_name = "N", default_value_t = 1_000_000, value_parser = crate::parse::whole_u64, allow_negative_numbers = true)]
+    /// Rays per incidence in all, 1 to 2^40 = 1099511627776, shared among the --layers
+    /// (each layer gets rays/layers, rounded up to a multiple of 64, the batches of its
+    /// ray errors).
+    #[arg(long, value_name = "N", default_value_t = 1_000_000, value_parser = crate::parse::whole_in::<1, { settings::MAX_RAYS }>)]
     pub rays: u64,
     /// Independent layers drawn from the seed, 1 to 10000: the curves are their mean,
     /// std_err its standard error over layers (rays and layers; with 1 layer the rays

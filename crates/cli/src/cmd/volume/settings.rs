@@ -10,7 +10,8 @@ use super::{Args, Rims, SubstrateKind};
 use crate::flags::{InstrumentArgs, OpticsArgs};
 
 /// Largest number of rays per incidence (the tracer's limit, 2^40).
-const MAX_RAYS: u64 = 1 << 40;
+/// Largest `--rays`.
+pub(super) const MAX_RAYS: u64 = 1 << 40;
 
 /// Checks a length flag: finite and > 0 µm.
 fn positive(flag: &str, v: f64) -> anyhow::Result<f64> {
@@ -107,7 +108,7 @@ impl Args {
         let tile = positive("--tile-um", self.tile_um)?;
         if self.rays == 0 || self.rays > MAX_RAYS {
             bail!(
-                "--rays {}: expected between 1 and 2^40 rays per incidence",
+                "--rays {}: expected a whole number from 1 to {MAX_RAYS}",
                 self.rays
             );
         }
