@@ -142,6 +142,10 @@ fn colour_targets_outside_a_surface_colours_range_are_refused() {
     };
     let cases: Vec<(String, &str)> = vec![
         (lab("-5", "1", None), "column L"),
+        // Below 0 by more than noise: max(1, 5 u) (-0.7 with u = 0.3 is noise, accepted
+        // by the fits' simulations in crates/flakescatter/tests/spectral_fit.rs).
+        (lab("-1.01", "1", None), "column L"),
+        (lab("-1.6", "1", Some("0.3")), "column L"),
         (lab("1e300", "1", None), "column L"),
         (lab("1000.5", "1", None), "column L"),
         (lab("60", "1e300", None), "column a"),

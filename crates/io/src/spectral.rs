@@ -8,7 +8,7 @@
 //! | [`read_coat_index`] | `wavelength_nm, n` (a `k` column must be 0) | `n ≥ 1` |
 //! | [`read_absorption`] | `wavelength_nm, alpha_per_um` | `α ≥ 0`, µm⁻¹, Napierian |
 //! | [`read_spectra`] | `wavelength_nm, reflectance_factor` [+ `theta_i_deg, aspecular_deg`] | `R ≥ 0` |
-//! | [`read_multiangle`] | `theta_i_deg, aspecular_deg` + `L, a, b` [+ `L_uncertainty`], or + `wavelength_nm, reflectance_factor` | `0 ≤ L* ≤` [`MAX_LIGHTNESS`], `\|a*\|, \|b*\| ≤` [`MAX_LIGHTNESS`], `L_uncertainty > 0`; `R ≥ 0` |
+//! | [`read_multiangle`] | `theta_i_deg, aspecular_deg` + `L, a, b` [+ `L_uncertainty`], or + `wavelength_nm, reflectance_factor` | [`min_lightness`] `≤ L* ≤` [`MAX_LIGHTNESS`], `\|a*\|, \|b*\| ≤` [`MAX_LIGHTNESS`], `L_uncertainty > 0`; `R ≥ 0` |
 //!
 //! Wavelengths are vacuum wavelengths in nanometres, strictly increasing in file order
 //! (within each geometry for the files with geometry columns), at least two per table
@@ -35,6 +35,18 @@ use crate::table::{Table, TableError};
 /// geometry: what lies above is a unit or typing error (or `1e300`), refused naming the
 /// line and column rather than compared.
 pub const MAX_LIGHTNESS: f64 = 1000.0;
+
+/// How far below 0 a measured `L*` without a stated uncertainty may lie: a surface's
+/// `L*` is never negative, but a measurement of a dark geometry (far from specular) can
+/// read a little below 0 through noise; `L* = −5` is a typing error, refused.
+pub const LIGHTNESS_NOISE: f64 = 1.0;
+
+/// The lowest measured `L*` accepted: `−max(LIGHTNESS_NOISE, 5 u)` for a stated standard
+/// uncertainty `u` (five standard uncertainties below 0), `−LIGHTNESS_NOISE` without.
+#[must_use]
+pub fn min_lightness(l_uncertainty: Option<f64>) -> f64 {
+    -l_uncertainty.map_or(LIGHTNESS_NOISE, |u| LIGHTNESS_NOISE.max(5.0 * u))
+}
 
 /// `wavelength_nm, n, k` as read (optical constants of a flake metal).
 #[derive(Debug, Clone, PartialEq)]
@@ -394,12 +406,13 @@ pub fn read_multiangle_from(reader: impl Read, file: &str) -> Result<MultiAngleF
                     None => None,
                 };
                 let l = t.num(*line, rec, cl, "L")?;
-                if !(0.0..=MAX_LIGHTNESS).contains(&l) {
+                let lo = min_lightness(l_uncertainty);
+                if !(lo..=MAX_LIGHTNESS).contains(&l) {
                     return Err(t.bad(
                         *line,
                         "L",
                         format!(
-                            "{l}: expected a CIELAB lightness L* from 0 to {MAX_LIGHTNESS} (L* of a surface is never negative; above 100 only for luminance factors beyond the perfect diffuser, as near specular)"
+                            "{l}: expected a CIELAB lightness L* from {lo} to {MAX_LIGHTNESS} (L* of a surface is never negative, below 0 only by measurement noise: max(1, 5 L_uncertainty); above 100 only for luminance factors beyond the perfect diffuser, as near specular)"
                         ),
                     ));
                 }

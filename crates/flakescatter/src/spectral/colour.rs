@@ -24,7 +24,9 @@ use flakescatter_colour::{
     Cie94, Geometry, GeometrySet, Illuminant, Lab, Observer, TristimulusWeights, Xyz, delta_e_94,
     delta_e_2000, delta_e_ab,
 };
-use flakescatter_io::spectral::{MAX_LIGHTNESS, MultiAngleData, MultiAngleFile, SpectraFile};
+use flakescatter_io::spectral::{
+    MAX_LIGHTNESS, MultiAngleData, MultiAngleFile, SpectraFile, min_lightness,
+};
 use flakescatter_stats::heightmap::HeightMap;
 
 use super::{SpectralCoating, spectral_distribution_curves, spectral_topographic_curves};
@@ -263,7 +265,7 @@ pub struct MeasuredGeometry {
 /// `illuminant` / `observer`, which the file does not say), or computed from each
 /// geometry's spectrum at its own wavelengths (ASTM E308 weights).
 ///
-/// A colour target is a surface colour: `0 ≤ L* ≤` [`MAX_LIGHTNESS`] and `|a*|, |b*| ≤`
+/// A colour target is a surface colour: [`min_lightness`] `≤ L* ≤` [`MAX_LIGHTNESS`] and `|a*|, |b*| ≤`
 /// [`MAX_LIGHTNESS`] (the file's, or computed from its spectrum), and a stated
 /// `L_uncertainty` is `> 0`, as [`flakescatter_io::spectral::read_multiangle`] checks
 /// when it reads a file; a [`MultiAngleFile`] built in code is held to the same rules.
@@ -300,7 +302,7 @@ pub fn measured_colours(
                     ));
                 }
                 let lab = Lab::new(r.l, r.a, r.b).map_err(|e| bad("L, a, b", e.to_string()))?;
-                if let Some((column, what)) = implausible(&lab) {
+                if let Some((column, what)) = implausible(&lab, r.l_uncertainty) {
                     return Err(bad(column, what));
                 }
                 Ok(MeasuredGeometry {
@@ -330,7 +332,7 @@ pub fn measured_colours(
                             file.file
                         ))
                     })?;
-                if let Some((_, what)) = implausible(&lab) {
+                if let Some((_, what)) = implausible(&lab, None) {
                     return Err(PipelineError::Measurement(format!(
                         "{}: the spectrum of the geometry starting on line {line} (column reflectance_factor) gives {what}",
                         file.file
@@ -350,12 +352,13 @@ pub fn measured_colours(
 
 /// The first coordinate of `lab` outside a surface colour's range (module docs of
 /// [`measured_colours`]), as `(column, what was expected)`.
-fn implausible(lab: &Lab) -> Option<(&'static str, String)> {
-    if !(0.0..=MAX_LIGHTNESS).contains(&lab.l) {
+fn implausible(lab: &Lab, l_uncertainty: Option<f64>) -> Option<(&'static str, String)> {
+    let lo = min_lightness(l_uncertainty);
+    if !(lo..=MAX_LIGHTNESS).contains(&lab.l) {
         return Some((
             "L",
             format!(
-                "L* = {}: expected a CIELAB lightness from 0 to {MAX_LIGHTNESS} (a surface's L* is never negative, and above {MAX_LIGHTNESS} its luminance factor would exceed about 640)",
+                "L* = {}: expected a CIELAB lightness from {lo} to {MAX_LIGHTNESS} (a surface's L* is never negative, below 0 only by measurement noise: max(1, 5 L_uncertainty); above {MAX_LIGHTNESS} its luminance factor would exceed about 640)",
                 lab.l
             ),
         ));
