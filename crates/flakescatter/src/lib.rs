@@ -78,10 +78,10 @@
 pub mod analyze;
 pub mod chart;
 pub mod compare;
-pub mod distinct;
 pub mod figures;
 pub mod fit;
 pub mod inputs;
+pub use inputs::distinct;
 pub mod instrument;
 pub mod multiangle;
 pub mod overlay;

@@ -32,6 +32,7 @@
 
 pub mod al3d;
 pub mod brdf;
+pub mod channel;
 pub mod curves;
 pub mod detectors;
 pub mod files;
@@ -56,16 +57,14 @@ pub mod text;
 pub mod units;
 pub mod x3p;
 
+pub use channel::{ChannelError, ChannelSelector, describe_channels};
 pub use map::{
     MapError, MapFormat, ReadMapError, WriteMapError, list_channels, list_channels_bytes,
     read_bytes, read_intensity, read_intensity_bytes, read_map, read_map_bytes, write_intensity,
     write_map,
 };
 pub use reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
-pub use select::{
-    ChannelError, ChannelSelector, SelectedRead, describe_channels, read_selected,
-    read_selected_bytes,
-};
+pub use select::{SelectedRead, read_selected, read_selected_bytes};
 pub use stack::{
     PageOrder, ReadStackError, SampleType, StackError, StackFormat, StackInfo, StackOptions,
     StackReader,

@@ -21,6 +21,7 @@ use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
 use crate::al3d::{self, Al3dError};
+use crate::channel::{ChannelError, ChannelSelector};
 use crate::frt::{self, FrtError};
 use crate::gwy::{self, GwyError};
 use crate::metropro::{self, MetroProError};
@@ -28,7 +29,6 @@ use crate::opd::{self, OpdError};
 use crate::plu::{self, PluError};
 use crate::reader::{Channel, Confidence, DecimalMark, ReadOptions, ValueKind};
 use crate::sdf::{self, SdfError};
-use crate::select::{ChannelError, ChannelSelector};
 use crate::sur::{self, SurError};
 use crate::text::{self, TextError};
 use crate::x3p::{self, ArchiveError, X3pError};
@@ -512,7 +512,7 @@ pub fn read_bytes(
 ) -> Result<(HeightMap, MapFormat), MapError> {
     check_pitch(options)?;
     let format = choose(bytes, extension)?;
-    let declared = crate::quantity::declared_bytes(format, bytes).map_err(MapError::X3p)?;
+    let declared = declared_bytes(format, bytes).map_err(MapError::X3p)?;
     let kind = quantity(declared, options, kind)?;
     check_flags(format, options, kind)?;
     let spec = spec(format);
@@ -697,7 +697,8 @@ impl<'a> Source<'a> {
                 let format = MapFormat::X3p;
                 check_pitch(options)?;
                 rewind(reader)?;
-                let declared = crate::quantity::x3p(&mut *reader).map_err(MapError::X3p)?;
+                let declared =
+                    crate::quantity::x3p(&x3p::main_xml(&mut *reader).map_err(MapError::X3p)?);
                 let kind = quantity(declared, options, kind)?;
                 check_flags(format, options, kind)?;
                 if let Some(requested) = options.channel {
@@ -789,7 +790,7 @@ pub fn list_channels_bytes(
 ) -> Result<(Vec<Channel>, MapFormat), MapError> {
     let format = choose(bytes, extension)?;
     let mut channels = (spec(format).channels)(bytes, options)?;
-    if let Ok(Some(d)) = crate::quantity::declared_bytes(format, bytes)
+    if let Ok(Some(d)) = declared_bytes(format, bytes)
         && d.quantity == ValueKind::Intensity
         && matches!(format, MapFormat::X3p | MapFormat::Sdf)
     {
@@ -892,5 +893,18 @@ fn write_with(
     std::fs::write(path, bytes).map_err(|source| WriteMapError::Io {
         path: path.to_path_buf(),
         source,
+    })
+}
+
+/// What a file of `format` held in memory declares ([`crate::quantity`]).
+fn declared_bytes(
+    format: MapFormat,
+    bytes: &[u8],
+) -> Result<Option<crate::quantity::Declared>, X3pError> {
+    Ok(match format {
+        MapFormat::X3p => crate::quantity::x3p(&x3p::main_xml(std::io::Cursor::new(bytes))?),
+        MapFormat::Sdf => crate::quantity::sdf(bytes),
+        MapFormat::Text => crate::quantity::text(bytes),
+        _ => None,
     })
 }

@@ -17,11 +17,7 @@
 //! other quantity is refused ([`crate::MapError::Quantity`]), unless
 //! [`ReadOptions::as_stored`](crate::ReadOptions::as_stored) asks for the file's own.
 
-use std::io::{Read, Seek};
-
-use crate::map::MapFormat;
 use crate::reader::{ValueKind, split_lines};
-use crate::x3p::X3pError;
 
 /// How the comment of an X3P intensity image starts.
 pub const X3P_INTENSITY_MARK: &str =
@@ -55,15 +51,15 @@ pub(crate) fn x3p_comment(comment: String, intensity: bool) -> String {
     }
 }
 
-/// What `main.xml` of an X3P file declares.
-pub(crate) fn x3p<R: Read + Seek>(reader: R) -> Result<Option<Declared>, X3pError> {
-    let xml = crate::x3p::main_xml(reader)?;
-    let Ok(text) = std::str::from_utf8(&xml) else {
-        return Ok(None);
+/// What the `main.xml` of an X3P file declares (`xml`: its bytes, as
+/// [`crate::x3p::main_xml`] gives them).
+pub(crate) fn x3p(xml: &[u8]) -> Option<Declared> {
+    let Ok(text) = std::str::from_utf8(xml) else {
+        return None;
     };
     let Ok(doc) = roxmltree::Document::parse(text) else {
         // The reader reports what is wrong with the XML.
-        return Ok(None);
+        return None;
     };
     let at = |path: &str| {
         path.split('/')
@@ -75,19 +71,19 @@ pub(crate) fn x3p<R: Read + Seek>(reader: R) -> Result<Option<Declared>, X3pErro
     };
     let comment = at("Record2/Comment").unwrap_or_default();
     if comment.starts_with(X3P_INTENSITY_MARK) {
-        return Ok(Some(Declared {
+        return Some(Declared {
             quantity: ValueKind::Intensity,
             by: "its Record2/Comment starts \"Intensity, unit-less\"".into(),
-        }));
+        });
     }
     let ours = at("Record2/ProbingSystem/Identification").as_deref() == Some("flakescatter");
     if ours && at("Record1/Axes/CZ/Increment").as_deref() == Some("1") {
-        return Ok(Some(Declared {
+        return Some(Declared {
             quantity: ValueKind::Intensity,
             by: "it was written by flakescatter with a Z Increment of 1, as its intensity images are".into(),
-        }));
+        });
     }
-    Ok(None)
+    None
 }
 
 /// What an SDF file declares (its trailer).
@@ -164,19 +160,6 @@ pub(crate) fn text(bytes: &[u8]) -> Option<Declared> {
         });
     }
     None
-}
-
-/// What a file of `format` held in memory declares.
-pub(crate) fn declared_bytes(
-    format: MapFormat,
-    bytes: &[u8],
-) -> Result<Option<Declared>, X3pError> {
-    Ok(match format {
-        MapFormat::X3p => x3p(std::io::Cursor::new(bytes))?,
-        MapFormat::Sdf => sdf(bytes),
-        MapFormat::Text => text(bytes),
-        _ => None,
-    })
 }
 
 /// The quantity to read: `wanted` when the file declares none, else the file's own with

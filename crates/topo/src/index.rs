@@ -464,7 +464,7 @@ mod tests {
             cones.push(Cone::out_of_plane(t, p, a).unwrap());
         }
         #[cfg(target_arch = "x86_64")]
-        let v4 = crate::simd::avx512_or_note("index_finds_every_containing_cone");
+        let v4 = crate::simd::testing::avx512_or_note("index_finds_every_containing_cone");
         for (margin, per_chord) in [(0.0, FINE), (0.0, COARSE), (0.01, COARSE), (0.01, FINE)] {
             let index = ConeIndex::with_margin(&cones, margin, per_chord);
             let (mut hits, mut blocked, mut multi) = (0, 0, 0);

@@ -321,18 +321,22 @@ macro_rules! dispatch {
 }
 pub(crate) use dispatch;
 
-/// The AVX-512 form of a kernel, or `None` with a note on stderr saying that its
-/// comparison with the portable reference was skipped (no AVX-512 on this processor),
-/// so that a skipped comparison is never silent.
-#[cfg(all(test, target_arch = "x86_64"))]
-pub(crate) fn avx512_or_note(test: &str) -> Option<pulp::x86::V4> {
-    let v4 = pulp::x86::V4::try_new();
-    if v4.is_none() {
-        eprintln!(
-            "note: {test}: this processor has no AVX-512; the AVX-512 kernels were not compared with their portable references (only the portable form was tested)"
-        );
+/// What the tests of the kernels share.
+#[cfg(test)]
+pub(crate) mod testing {
+    /// The AVX-512 form of a kernel, or `None` with a note on stderr saying that its
+    /// comparison with the portable reference was skipped (no AVX-512 on this
+    /// processor), so that a skipped comparison is never silent.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn avx512_or_note(test: &str) -> Option<pulp::x86::V4> {
+        let v4 = pulp::x86::V4::try_new();
+        if v4.is_none() {
+            eprintln!(
+                "note: {test}: this processor has no AVX-512; the AVX-512 kernels were not compared with their portable references (only the portable form was tested)"
+            );
+        }
+        v4
     }
-    v4
 }
 
 #[cfg(test)]
@@ -380,7 +384,7 @@ mod tests {
     fn inside_masks_equal_the_reference() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         #[cfg(target_arch = "x86_64")]
-        let v4 = avx512_or_note("inside_masks_equal_the_reference");
+        let v4 = testing::avx512_or_note("inside_masks_equal_the_reference");
         for _ in 0..5000 {
             let mut block = Block::empty();
             for l in 0..rng.random_range(0..=LANES) {
@@ -410,7 +414,7 @@ mod tests {
     fn add_hits_adds_to_the_set_lanes_only() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         #[cfg(target_arch = "x86_64")]
-        let v4 = avx512_or_note("add_hits_adds_to_the_set_lanes_only");
+        let v4 = testing::avx512_or_note("add_hits_adds_to_the_set_lanes_only");
         for _ in 0..2000 {
             let sums = test_sums(&mut rng);
             let counts: [u32; LANES] = std::array::from_fn(|_| rng.random_range(0..1000));
@@ -446,7 +450,7 @@ mod tests {
     fn runs_add_to_their_first_lanes_only() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
         #[cfg(target_arch = "x86_64")]
-        let v4 = avx512_or_note("runs_add_to_their_first_lanes_only");
+        let v4 = testing::avx512_or_note("runs_add_to_their_first_lanes_only");
         for _ in 0..2000 {
             let sums = test_sums(&mut rng);
             let v: [f64; LANES] = std::array::from_fn(|_| rng.random_range(0.0..10.0));

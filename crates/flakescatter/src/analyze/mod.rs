@@ -743,7 +743,7 @@ pub fn analyze_sample(
         maps: input.maps.len(),
         ..Work::default()
     };
-    let mut warnings: Vec<String> = crate::distinct::check_distinct_maps(
+    let mut warnings: Vec<String> = crate::inputs::distinct::check_distinct_maps(
         &input.maps,
         m.maps.allow_duplicates,
         "set `maps.allow_duplicates = true`",

@@ -7,6 +7,8 @@
 //! map is µm above its lowest slice and its intensity the brightest sample (full scale
 //! 1 for integer stacks). The cutoff is in the intensity's own stored values.
 
+pub mod distinct;
+
 use std::path::{Path, PathBuf};
 
 use flakescatter_confocal::{PeakOptions, PeakReport};
@@ -179,14 +181,14 @@ pub enum LoadError {
     /// The intensity map given is the height map itself (the same path, the same file
     /// through a symbolic or hard link or `..`, or a byte-identical copy): a map cannot
     /// mask itself.
-    #[error("{}: the intensity map {} is {}; give the intensity image of the same area (a second file, or an intensity channel of this file)", map.display(), intensity.display(), match why { crate::distinct::Sameness::SameFile if map == intensity => "the height map file itself".to_string(), crate::distinct::Sameness::SameFile => "the height map file itself (the same file by another name)".to_string(), crate::distinct::Sameness::SameContent(h) => format!("a byte-identical copy of the height map (SHA-256 {h})") })]
+    #[error("{}: the intensity map {} is {}; give the intensity image of the same area (a second file, or an intensity channel of this file)", map.display(), intensity.display(), match why { distinct::Sameness::SameFile if map == intensity => "the height map file itself".to_string(), distinct::Sameness::SameFile => "the height map file itself (the same file by another name)".to_string(), distinct::Sameness::SameContent(h) => format!("a byte-identical copy of the height map (SHA-256 {h})") })]
     OwnIntensity {
         /// The height map.
         map: PathBuf,
         /// The intensity map given.
         intensity: PathBuf,
         /// How it is the same.
-        why: crate::distinct::Sameness,
+        why: distinct::Sameness,
     },
     /// An intensity map is given without a cutoff to apply.
     #[error("{}: the intensity map {} is given but no cutoff to apply it with", map.display(), intensity.display())]
@@ -300,7 +302,7 @@ pub fn load_map(
                 });
             }
             if let Some(i) = &source.intensity
-                && let Some(why) = crate::distinct::same_data(path, i)
+                && let Some(why) = distinct::same_data(path, i)
             {
                 return Err(LoadError::OwnIntensity {
                     map: path.clone(),

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use flakescatter_io::files::{ReadFileError, file_len, same_file, sha256_file};
 
-use crate::inputs::MapSource;
+use super::MapSource;
 
 /// Why two map files are one.
 #[derive(Debug, Clone, PartialEq, Eq)]
