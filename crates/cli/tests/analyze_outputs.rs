@@ -6,65 +6,14 @@
 //! not fatal; a map too small for the tiles names itself, the key and the size that
 //! works.
 
-use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use serde_json::Value;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-anaout-{name}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run_in(dir: &Path, args: &[&str]) -> Output {
-    bin().current_dir(dir).args(args).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Every file under `d` (relative path → bytes), directories as `path/`, symbolic
-/// links (not followed) as their target.
-fn snapshot(d: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![d.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for e in fs::read_dir(&dir).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(d).unwrap().display().to_string();
-            let meta = fs::symlink_metadata(&p).unwrap();
-            if meta.file_type().is_symlink() {
-                out.insert(
-                    rel,
-                    fs::read_link(&p)
-                        .unwrap()
-                        .display()
-                        .to_string()
-                        .into_bytes(),
-                );
-            } else if meta.is_dir() {
-                out.insert(rel + "/", Vec::new());
-                stack.push(p);
-            } else {
-                out.insert(rel, fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
-}
+mod common;
+use common::{root, run_in, scratch, snapshot, stderr};
 
 /// The files of a report (relative paths), without the marker and directories.
 fn report_files(d: &Path) -> Vec<String> {
@@ -115,7 +64,7 @@ fn sample_folder(d: &Path, measured: bool) -> PathBuf {
 
 #[test]
 fn the_sample_folder_as_out_is_refused_and_untouched() {
-    let d = scratch("here");
+    let d = scratch("anaout", "here");
     sample_folder(&d, true);
     fs::create_dir(d.join("sub")).unwrap();
     std::os::unix::fs::symlink(&d, d.join("link")).unwrap();
@@ -135,7 +84,7 @@ fn the_sample_folder_as_out_is_refused_and_untouched() {
 /// the marker); the cache of the earlier report is still reused.
 #[test]
 fn a_rerun_leaves_exactly_its_own_files() {
-    let d = scratch("rerun");
+    let d = scratch("anaout", "rerun");
     let m = sample_folder(&d, true);
     let o = run_in(&d, &["analyze", "s.toml", "--out", "r"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -176,7 +125,7 @@ fn a_rerun_leaves_exactly_its_own_files() {
 /// where `cache/models.json` goes, with something in it) is refused, untouched.
 #[test]
 fn a_half_failed_run_leaves_the_previous_report() {
-    let d = scratch("half");
+    let d = scratch("anaout", "half");
     sample_folder(&d, true);
     let o = run_in(&d, &["analyze", "s.toml", "--out", "r"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -225,7 +174,7 @@ fn a_half_failed_run_leaves_the_previous_report() {
 /// work: nothing is created.
 #[test]
 fn batch_names_that_collide_are_refused_before_any_work() {
-    let d = scratch("names");
+    let d = scratch("anaout", "names");
     sample_folder(&d, false);
     let manifest = fs::read_to_string(d.join("s.toml")).unwrap();
     let write = |file: &str, name: &str| {
@@ -283,7 +232,7 @@ fn batch_names_that_collide_are_refused_before_any_work() {
 /// warning, and the cause said once.
 #[test]
 fn the_smooth_fixture_alone_is_reported_with_its_failed_statistic() {
-    let d = scratch("fixture");
+    let d = scratch("anaout", "fixture");
     let fx = root().join("fixtures").canonicalize().unwrap();
     fs::write(
         d.join("s.toml"),
@@ -316,7 +265,7 @@ fn the_smooth_fixture_alone_is_reported_with_its_failed_statistic() {
 /// (8 × 8 pixels) is refused naming the map and `instrument.min_pixels`.
 #[test]
 fn a_tiny_map_names_itself_the_key_and_the_size_that_works() {
-    let d = scratch("tiny");
+    let d = scratch("anaout", "tiny");
     for (size, code) in [("64", 0), ("8", 2)] {
         let o = run_in(
             &d,

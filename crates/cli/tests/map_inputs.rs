@@ -5,31 +5,10 @@
 //! Each is exit status 2 naming the files (or flag), before any output is written.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../fixtures")
-        .join(name)
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-mapinputs-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{fixture, run, s, scratch};
 
 /// Exit status 2, every needle in stderr, no panic; the stderr.
 fn refused(o: &Output, needles: &[&str]) -> String {
@@ -53,7 +32,7 @@ fn copy_pair(d: &Path, name: &str) -> (PathBuf, PathBuf) {
 
 #[test]
 fn a_map_is_never_its_own_intensity_image() {
-    let d = scratch("own");
+    let d = scratch("mapinputs", "own");
     let (map, _) = copy_pair(&d, "a");
     let sym = d.join("sym.x3p");
     std::os::unix::fs::symlink(&map, &sym).unwrap();
@@ -136,7 +115,7 @@ fn a_map_is_never_its_own_intensity_image() {
 
 #[test]
 fn one_map_pooled_twice_is_refused_unless_allowed() {
-    let d = scratch("dup");
+    let d = scratch("mapinputs", "dup");
     let (a, _) = copy_pair(&d, "a");
     let (b, _) = copy_pair(&d, "b");
     let hard = d.join("c.height.x3p");
@@ -222,7 +201,7 @@ fn one_map_pooled_twice_is_refused_unless_allowed() {
 
 #[test]
 fn a_dangling_link_among_the_maps_is_named() {
-    let d = scratch("dangling");
+    let d = scratch("mapinputs", "dangling");
     let maps = d.join("maps");
     std::fs::create_dir_all(&maps).unwrap();
     copy_pair(&maps, "a");
@@ -309,7 +288,7 @@ fn a_dangling_link_among_the_maps_is_named() {
 
 #[test]
 fn an_empty_height_suffix_is_refused_once() {
-    let d = scratch("suffix");
+    let d = scratch("mapinputs", "suffix");
     copy_pair(&d, "a");
     copy_pair(&d, "b");
     let o = run(&[

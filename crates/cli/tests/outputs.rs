@@ -11,59 +11,12 @@
 //! * help and version text to a full stdout is exit status 1 with a message, to a
 //!   closed pipe ends quietly.
 
-use std::collections::BTreeMap;
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::path::Path;
+use std::process::{Output, Stdio};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
-
-fn run_in(dir: &Path, args: &[String]) -> Output {
-    bin().current_dir(dir).args(args).output().unwrap()
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-outputs-{name}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Every entry under `d` (symbolic links not followed) with its bytes (files) or its
-/// target (links).
-fn snapshot(d: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![d.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for e in fs::read_dir(&dir).unwrap() {
-            let p = e.unwrap().path();
-            let rel = p.strip_prefix(d).unwrap().display().to_string();
-            let meta = fs::symlink_metadata(&p).unwrap();
-            if meta.file_type().is_symlink() {
-                out.insert(
-                    rel,
-                    fs::read_link(&p)
-                        .unwrap()
-                        .display()
-                        .to_string()
-                        .into_bytes(),
-                );
-            } else if meta.is_dir() {
-                out.insert(rel + "/", Vec::new());
-                stack.push(p);
-            } else {
-                out.insert(rel, fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
-}
+mod common;
+use common::{bin, root, run_in, scratch, snapshot};
 
 fn expect(o: &Output, code: i32, needles: &[&str], what: &str) {
     let err = String::from_utf8_lossy(&o.stderr);
@@ -263,7 +216,7 @@ fn args(template: &str, input: &str, out: &str) -> Vec<String> {
 
 #[test]
 fn every_output_flag_naming_an_input_by_any_spelling_is_refused() {
-    let d = scratch("files");
+    let d = scratch("outputs", "files");
     inputs(&d);
     for (template, input, ext, flags) in FILE_CASES {
         for out in spellings(&d, input, ext) {
@@ -301,7 +254,7 @@ fn sample(d: &Path) {
 /// and through a symbolic link: refused naming both, nothing written.
 #[test]
 fn every_output_directory_holding_an_input_is_refused() {
-    let d = scratch("dirs");
+    let d = scratch("outputs", "dirs");
     inputs(&d);
     sample(&d);
     let fixtures = d.join("fx");
@@ -360,7 +313,7 @@ fn every_output_directory_holding_an_input_is_refused() {
 /// same command is replaced whole: afterwards it holds exactly this run's files.
 #[test]
 fn only_an_earlier_output_is_replaced_and_then_whole() {
-    let d = scratch("owned");
+    let d = scratch("outputs", "owned");
     inputs(&d);
     fs::copy(d.join("map.x3p"), d.join("other.x3p")).unwrap();
     let ov = d.join("ov");

@@ -5,32 +5,11 @@
 //! (no µm), and is refused where heights are expected.
 
 use std::io::Read;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../fixtures")
-        .join(name)
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-quantity-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{fixture, run, s, scratch};
 
 fn ok(o: &Output) {
     assert_eq!(
@@ -107,7 +86,7 @@ fn same(a: &[f64], b: &[f64], what: &str) {
 
 #[test]
 fn the_intensity_fixture_converts_to_every_format_and_back_unchanged() {
-    let d = scratch("convert");
+    let d = scratch("quantity", "convert");
     let src = fixture("synth-hwhm3-smooth.intensity.x3p");
     let raw = raw_x3p(&src);
     assert_eq!(raw.len(), 512 * 512);
@@ -180,7 +159,7 @@ fn the_intensity_fixture_converts_to_every_format_and_back_unchanged() {
 
 #[test]
 fn an_intensity_image_is_refused_where_heights_are_expected() {
-    let d = scratch("refuse");
+    let d = scratch("quantity", "refuse");
     let src = fixture("synth-hwhm3-smooth.intensity.x3p");
     let txt = d.join("i.txt");
     ok(&run(&["convert", s(&src), s(&txt)]));
