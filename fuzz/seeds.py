@@ -460,5 +460,18 @@ for which, files in spectral.items():
         write("spectral", bytes([which]) + b"\r\n".join(lines[:8]) + b"\r\n")
 write("spectral", b"\x01wavelength_nm,n\n400,1.52\n700,1.50\n")
 write("spectral", b"\x04theta_i_deg,aspecular_deg,L,a,b\n45,15,90.5,-0.6,-1.4\n45,45,40,-0.2,-0.9\n")
+# `analyze` manifests: the shipped sample manifest, and small hand-made ones with the
+# angle-range forms, a [measured] table and both angle forms of [models].
+with open(os.path.join(ROOT, "fixtures", "sample.toml"), "rb") as f:
+    write("manifest", f.read())
+write("manifest", b'name = "a"\n[maps]\nfiles = ["x.x3p"]\n')
+write("manifest", b'[maps]\nfiles = ["m/*.x3p"]\n[models]\ntheta_i_deg = [45]\ntheta_s_deg = { from = -70, to = 70, step = 1 }\n')
+write("manifest", b'[maps]\nfiles = ["a.txt"]\n[measured]\nfiles = ["curves.csv"]\n[models]\ntheta_s_deg = [-10, 0, 10]\n')
+# Polarimetry: little-endian doubles, a Stokes vector then a Jones matrix's eight
+# numbers (the states of the issue: subnormal, huge, just over-polarised, circular).
+for stokes in ([1, 1, 0, 0], [1e-310, 1e-310, 0, 0], [1e200, 1e200, 0, 0], [1, 1.00000001, 0, 0],
+               [1, 0, 0, 1], [2, 0.5, -0.3, 1.2], [1, 0.7071067812, 0.7071067812, 0]):
+    for jones in ([], [-0.6, 0.1, 0, 0, 0, 0, 0.7, -0.2], [1, 0, 0.3, 0, 0.3, 0, 1, 0]):
+        write("polarimetry", struct.pack("<%dd" % (4 + len(jones)), *stokes, *jones))
 for t in sorted(os.listdir(OUT)):
     print(t, len(os.listdir(os.path.join(OUT, t))))
