@@ -68,13 +68,18 @@ fn main() -> ExitCode {
     let mut command = negative_values::command();
     let parsed = command
         .try_get_matches_from_mut(std::env::args_os())
-        .and_then(|m| Cli::from_arg_matches(&m).map_err(|e| e.format(&mut command)));
-    let cli = match parsed {
-        Ok(cli) => cli,
+        .and_then(|m| {
+            Cli::from_arg_matches(&m)
+                .map(|cli| (cli, m))
+                .map_err(|e| e.format(&mut command))
+        });
+    let (cli, matches) = match parsed {
+        Ok(parsed) => parsed,
         Err(e) => return common::clap_exit(&e),
     };
-    // Flags that act only in another mode are refused before any work (flags/modes.rs).
-    if let Err(err) = flags::modes::check() {
+    // Flags that act only in another mode are refused before any work (flags/modes.rs),
+    // on the matches just parsed (the same rules for values that start with `-`).
+    if let Err(err) = flags::modes::check(&command, &matches) {
         return common::report(&err);
     }
     let result: anyhow::Result<()> = match cli.command {

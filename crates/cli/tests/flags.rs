@@ -112,6 +112,38 @@ fn flags_outside_their_mode_are_refused_naming_the_flag_and_what_it_needs() {
     let out = s(&f.dir.join("never.csv"));
     let ovl = s(&f.dir.join("never-overlays"));
     let mut cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        // A value that starts with `-` elsewhere on the line must not switch the rules
+        // off (the rules once re-parsed the line without the negative-value rule, and
+        // gave up silently when that parse failed).
+        (
+            vec![
+                "segment",
+                &map,
+                "--intensity",
+                &imap,
+                "--peak",
+                "argmax",
+                "--cutoff",
+                "-1e-3",
+            ],
+            vec!["--peak", "z-stacks", "leave --peak out"],
+        ),
+        (
+            vec![
+                "fit",
+                "--measured",
+                &m,
+                "--theta-s",
+                "-.5,10",
+                "--lambda",
+                "5",
+            ],
+            vec!["--lambda 5", "--nonparametric"],
+        ),
+        (
+            vec!["stats", "--flakes", &flakes, "--allow-duplicate-maps"],
+            vec!["--allow-duplicate-maps", "--map"],
+        ),
         // fit: the Gaussian fit has no bins and no smoothness weight.
         (
             vec!["fit", "--measured", &m, "--lambda", "5"],

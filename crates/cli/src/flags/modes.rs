@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 
 use anyhow::bail;
 use clap::parser::ValueSource;
-use clap::{ArgMatches, Command, CommandFactory};
+use clap::{ArgMatches, Command};
 
 /// What a flag needs to act.
 #[derive(Clone, Copy)]
@@ -75,8 +75,9 @@ fn substrate_rough(m: &ArgMatches) -> bool {
 }
 
 /// The flags of `stats` that read or segment maps (none of them acts on `--flakes`).
-const STATS_MAP_FLAGS: [&str; 23] = [
+const STATS_MAP_FLAGS: [&str; 24] = [
     "pixel_um",
+    "allow_duplicate_maps",
     "z_unit",
     "accept_md5_mismatch",
     "decimal_comma",
@@ -280,21 +281,18 @@ pub fn given(id: &str) -> bool {
     GIVEN.get().is_some_and(|g| g.iter().any(|x| x == id))
 }
 
-/// Checks the command line of this process against [`RULES`], and records what was
-/// typed for [`given`]. Call once, after the command line parsed.
+/// Checks the parsed command line (`matches` of `command`, the command tree `main`
+/// parsed with) against [`RULES`], and records what was typed for [`given`]. Call
+/// once, after the command line parsed.
 ///
 /// # Errors
 /// The first rule broken, naming the flag (and its value) and what it needs.
-pub fn check() -> anyhow::Result<()> {
-    let mut command = crate::Cli::command();
-    let Ok(matches) = command.try_get_matches_from_mut(std::env::args_os()) else {
-        return Ok(());
-    };
+pub fn check(command: &Command, matches: &ArgMatches) -> anyhow::Result<()> {
     let Some((name, sub)) = matches.subcommand() else {
         return Ok(());
     };
     let Some(cmd) = command.find_subcommand(name) else {
-        return Ok(());
+        bail!("internal: the parsed subcommand `{name}` is not in the command tree");
     };
     let typed: Vec<String> = cmd
         .get_arguments()
@@ -356,6 +354,8 @@ fn broken(name: &str, cmd: &Command, sub: &ArgMatches, typed: &[String]) -> anyh
 
 #[cfg(test)]
 mod tests {
+    use clap::CommandFactory;
+
     use super::*;
 
     /// Every rule names flags its commands have (a misspelt id would never fire).
