@@ -55,7 +55,7 @@ pub fn angles(flag: &str, text: &str) -> anyhow::Result<Vec<f64>> {
                 let Some(range) = DecimalRange::new(start, stop, step) else {
                     bail!("{flag} `{item}`: expected `start:stop:step` with finite numbers");
                 };
-                if range.len() + out.len() as u128 > MAX_ANGLES as u128 {
+                if range.len().saturating_add(out.len() as u128) > MAX_ANGLES as u128 {
                     bail!("{flag} `{item}`: more than {MAX_ANGLES} angles");
                 }
                 out.extend(range.iter());

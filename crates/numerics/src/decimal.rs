@@ -60,6 +60,14 @@ fn from_digits(digits: i128, places: u32) -> f64 {
     v + 0.0
 }
 
+/// The number of points of a range that has no exact decimal form:
+/// `⌊(stop − start)/step + 1e-9⌋ + 1`, or `u128::MAX` when that is beyond 10³⁰ or not
+/// a number (the width overflows the doubles).
+fn fallback_len(start: f64, stop: f64, step: f64) -> u128 {
+    let n = ((stop - start) / step + 1e-9).floor();
+    if n < 1e30 { n as u128 + 1 } else { u128::MAX }
+}
+
 /// An inclusive range `start:stop:step` of decimals (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DecimalRange {
@@ -98,12 +106,14 @@ impl DecimalRange {
                 start,
                 step,
                 exact: None,
-                len: ((stop - start) / step + 1e-9).floor() as u128 + 1,
+                len: fallback_len(start, stop, step),
             },
         })
     }
 
-    /// The number of points (at least 1).
+    /// The number of points (at least 1; `u128::MAX` stands for any count beyond 10³⁰,
+    /// e.g. a step of 1e-300 over a unit range or a range wider than the doubles, so
+    /// that a caller's limit refuses it).
     #[must_use]
     pub fn len(&self) -> u128 {
         self.len
@@ -204,6 +214,28 @@ mod tests {
         );
         assert_eq!(bin_edges(7.0, 90.0).unwrap().last(), Some(&90.0));
         assert_eq!(bin_edges(7.0, 90.0).unwrap().len(), 14);
+    }
+
+    #[test]
+    fn counts_beyond_any_limit_saturate() {
+        // 1/1e-300 = 1e300 points and a width beyond the doubles (1e308 − (−1e308) is
+        // infinite): both have no exact decimal form, and both are "more than any
+        // limit" (they once overflowed the count, panicking in debug builds and
+        // wrapping to 0 points in release).
+        assert_eq!(
+            DecimalRange::new(0.0, 1.0, 1e-300).unwrap().len(),
+            u128::MAX
+        );
+        assert_eq!(
+            DecimalRange::new(-1e308, 1e308, 1.0).unwrap().len(),
+            u128::MAX
+        );
+        assert_eq!(DecimalRange::new(0.0, 1e39, 1.0).unwrap().len(), u128::MAX);
+        // Below the cap the count is the closed form ⌊(stop − start)/step⌋ + 1.
+        assert_eq!(
+            DecimalRange::new(0.0, 1e20, 1.0).unwrap().len(),
+            100_000_000_000_000_000_001
+        );
     }
 
     #[test]
