@@ -30,6 +30,8 @@
 //! overrides it), an order problem as the page order's (an option giving the first page
 //! overrides it).
 
+use std::collections::BTreeMap;
+
 use roxmltree::Node;
 
 use super::meta::{Field, unit_to_um};
@@ -52,7 +54,9 @@ type Positions = (Vec<f64>, Option<f64>);
 
 /// The positions of the `nz` z planes in `pixels`, or why they are unusable.
 fn positions(pixels: Node<'_, '_>, nz: usize) -> Result<Option<Positions>, String> {
-    let mut pos: Vec<Option<(f64, String)>> = vec![None; nz];
+    // By TheZ: `nz` comes from the file's SizeZ and is not checked against the pages
+    // here, so nothing is allocated by it.
+    let mut pos: BTreeMap<usize, (f64, String)> = BTreeMap::new();
     let mut any = false;
     for plane in pixels.children().filter(|n| n.tag_name().name() == "Plane") {
         let the = |k: &str| {
@@ -83,24 +87,30 @@ fn positions(pixels: Node<'_, '_>, nz: usize) -> Result<Option<Positions>, Strin
                 format!("OME-XML Plane TheZ={z} PositionZ={text:?} is not a finite number")
             })?;
         let unit = plane.attribute("PositionZUnit").unwrap_or("µm").to_string();
-        if let Some((w, u)) = &pos[z]
+        if let Some((w, u)) = pos.get(&z)
             && (*w != v || *u != unit)
         {
             return Err(format!(
                 "OME-XML Plane TheZ={z} is given twice, with PositionZ {w} {u} and {v} {unit}"
             ));
         }
-        pos[z] = Some((v, unit));
+        pos.insert(z, (v, unit));
     }
     if !any {
         return Ok(None);
     }
-    if let Some(missing) = pos.iter().position(Option::is_none) {
+    if pos.len() < nz {
+        // Every key is below nz, so one of 0..nz is missing: the first gap, else the end.
+        let missing = pos
+            .keys()
+            .enumerate()
+            .find(|(i, z)| *i != **z)
+            .map_or(pos.len(), |(i, _)| i);
         return Err(format!(
             "OME-XML Plane TheZ={missing} has no PositionZ while other planes have one"
         ));
     }
-    let pos: Vec<(f64, String)> = pos.into_iter().flatten().collect();
+    let pos: Vec<(f64, String)> = pos.into_values().collect();
     let unit = &pos[0].1;
     if let Some((k, (_, u))) = pos.iter().enumerate().find(|(_, (_, u))| u != unit) {
         return Err(format!(
@@ -249,6 +259,20 @@ mod tests {
         let d = ome(&xml(Some(0.3), &[], None).replace("SizeZ=\"0\"", "SizeZ=\"3\"")).unwrap();
         assert_eq!(d.z_step_um.unwrap().unwrap().0, 0.3);
         assert!(d.top_first.is_none());
+    }
+
+    #[test]
+    fn a_huge_size_z_allocates_nothing_and_names_the_missing_plane() {
+        // Three planes with positions, SizeZ claiming 10^12 (and u64::MAX): the
+        // positions were once held in a vector of SizeZ entries, so the reader aborted
+        // allocating 32 TB. Now the first plane without a position is named.
+        for size in ["1000000000000", "18446744073709551615"] {
+            let text = xml(Some(0.3), &["0", "0.3", "0.6"], None)
+                .replace("SizeZ=\"3\"", &format!("SizeZ=\"{size}\""));
+            let d = ome(&text).unwrap();
+            let e = d.z_step_um.unwrap().unwrap_err();
+            assert!(e.contains("TheZ=3 has no PositionZ"), "{size}: {e}");
+        }
     }
 
     #[test]
