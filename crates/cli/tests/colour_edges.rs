@@ -151,6 +151,12 @@ fn colour_targets_outside_a_surface_colours_range_are_refused() {
         (lab("60", "1e300", None), "column a"),
         (lab("60", "1", Some("0")), "column L_uncertainty"),
         (lab("60", "1", Some("-0.2")), "column L_uncertainty"),
+        // A huge uncertainty must not open the floor of L*: at most 100, and L* never
+        // below -20 (with u = 1e300 the floor was -5e300, and L* = -1e300 gave a
+        // delta E of 1e300).
+        (lab("-1e300", "1", Some("1e300")), "column L_uncertainty"),
+        (lab("60", "1", Some("100.5")), "column L_uncertainty"),
+        (lab("-20.5", "1", Some("50")), "column L"),
     ];
     // A measured spectrum whose colour is no surface's: L* = 116·1e4^(1/3) − 16 = 2483.
     let mut spectral = String::from("theta_i_deg,aspecular_deg,wavelength_nm,reflectance_factor\n");

@@ -99,8 +99,11 @@ pub fn delta_e_94(reference: &Lab, sample: &Lab, params: Cie94) -> f64 {
     let tc = dc / (params.k_c * sc);
     // ΔH*² can come out a rounding error below zero when the hue difference vanishes.
     let dh2 = da * da + db * db - dc * dc;
-    if dh2.is_finite() {
-        let th2 = if dh2 < 0.0 { 0.0 } else { dh2 } / (params.k_h * sh).powi(2);
+    // `(kH SH)²` overflows for C*ab above about 1e154, where dividing by it would
+    // drop the hue term to a spurious 0: then the scaled path below.
+    let sh2 = (params.k_h * sh).powi(2);
+    if dh2.is_finite() && sh2.is_finite() {
+        let th2 = if dh2 < 0.0 { 0.0 } else { dh2 } / sh2;
         let s = tl * tl + tc * tc + th2;
         if s.is_finite() {
             return s.sqrt();

@@ -174,3 +174,16 @@ fn a_huge_lightness_difference_alone_is_still_a_difference() {
     let d = delta_e_2000(&x, &y);
     assert!((d / (2e200 / s_l) - 1.0).abs() < 1e-14, "{d}");
 }
+
+#[test]
+fn a_hue_difference_at_a_huge_chroma_is_not_lost() {
+    // C*ab = 1e160, so (kH·SH)² = (1 + 0.015·1e160)² overflows; b* differs by 1e150 and
+    // nothing else does to double precision (C*ab of the sample is 1e160·√(1 + 1e-20),
+    // 1e160 in doubles), so ΔE94 = ΔH*/(kH·SH) = 1e150 / (1 + 0.015e160) (kH = 1).
+    // Dividing ΔH*² by the overflowed square once gave 0.
+    let x = Lab::new(50.0, 1e160, 0.0).unwrap();
+    let y = Lab::new(50.0, 1e160, 1e150).unwrap();
+    let want = 1e150 / (1.0 + 0.015 * 1e160);
+    let d = delta_e_94(&x, &y, Cie94::GRAPHIC_ARTS);
+    assert!((d / want - 1.0).abs() < 1e-12, "{d} against {want}");
+}

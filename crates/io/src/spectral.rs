@@ -8,7 +8,7 @@
 //! | [`read_coat_index`] | `wavelength_nm, n` (a `k` column must be 0) | `n ≥ 1` |
 //! | [`read_absorption`] | `wavelength_nm, alpha_per_um` | `α ≥ 0`, µm⁻¹, Napierian |
 //! | [`read_spectra`] | `wavelength_nm, reflectance_factor` [+ `theta_i_deg, aspecular_deg`] | `R ≥ 0` |
-//! | [`read_multiangle`] | `theta_i_deg, aspecular_deg` + `L, a, b` [+ `L_uncertainty`], or + `wavelength_nm, reflectance_factor` | [`min_lightness`] `≤ L* ≤` [`MAX_LIGHTNESS`], `\|a*\|, \|b*\| ≤` [`MAX_LIGHTNESS`], `L_uncertainty > 0`; `R ≥ 0` |
+//! | [`read_multiangle`] | `theta_i_deg, aspecular_deg` + `L, a, b` [+ `L_uncertainty`], or + `wavelength_nm, reflectance_factor` | [`min_lightness`] `≤ L* ≤` [`MAX_LIGHTNESS`], `\|a*\|, \|b*\| ≤` [`MAX_LIGHTNESS`], `0 < L_uncertainty ≤` [`MAX_L_UNCERTAINTY`]; `R ≥ 0` |
 //!
 //! Wavelengths are vacuum wavelengths in nanometres, strictly increasing in file order
 //! (within each geometry for the files with geometry columns), at least two per table
@@ -41,11 +41,21 @@ pub const MAX_LIGHTNESS: f64 = 1000.0;
 /// read a little below 0 through noise; `L* = −5` is a typing error, refused.
 pub const LIGHTNESS_NOISE: f64 = 1.0;
 
+/// The furthest below 0 a measured `L*` may lie whatever its stated uncertainty.
+pub const MAX_LIGHTNESS_NOISE: f64 = 20.0;
+
+/// The largest standard uncertainty of `L*` accepted: `L*` spans 0–100, so an
+/// uncertainty beyond that says nothing of the colour (a unit or typing error).
+pub const MAX_L_UNCERTAINTY: f64 = 100.0;
+
 /// The lowest measured `L*` accepted: `−max(LIGHTNESS_NOISE, 5 u)` for a stated standard
-/// uncertainty `u` (five standard uncertainties below 0), `−LIGHTNESS_NOISE` without.
+/// uncertainty `u` (five standard uncertainties below 0), `−LIGHTNESS_NOISE` without, and
+/// never below `−MAX_LIGHTNESS_NOISE`.
 #[must_use]
 pub fn min_lightness(l_uncertainty: Option<f64>) -> f64 {
-    -l_uncertainty.map_or(LIGHTNESS_NOISE, |u| LIGHTNESS_NOISE.max(5.0 * u))
+    -l_uncertainty
+        .map_or(LIGHTNESS_NOISE, |u| LIGHTNESS_NOISE.max(5.0 * u))
+        .min(MAX_LIGHTNESS_NOISE)
 }
 
 /// `wavelength_nm, n, k` as read (optical constants of a flake metal).
@@ -401,6 +411,15 @@ pub fn read_multiangle_from(reader: impl Read, file: &str) -> Result<MultiAngleF
                                 ),
                             ));
                         }
+                        if u > MAX_L_UNCERTAINTY {
+                            return Err(t.bad(
+                                *line,
+                                "L_uncertainty",
+                                format!(
+                                    "{u}: expected a standard uncertainty of L* of at most {MAX_L_UNCERTAINTY} (L* spans 0 to 100)"
+                                ),
+                            ));
+                        }
                         Some(u)
                     }
                     None => None,
@@ -412,7 +431,7 @@ pub fn read_multiangle_from(reader: impl Read, file: &str) -> Result<MultiAngleF
                         *line,
                         "L",
                         format!(
-                            "{l}: expected a CIELAB lightness L* from {lo} to {MAX_LIGHTNESS} (L* of a surface is never negative, below 0 only by measurement noise: max(1, 5 L_uncertainty); above 100 only for luminance factors beyond the perfect diffuser, as near specular)"
+                            "{l}: expected a CIELAB lightness L* from {lo} to {MAX_LIGHTNESS} (L* of a surface is never negative, below 0 only by measurement noise: max(1, 5 L_uncertainty), at most 20; above 100 only for luminance factors beyond the perfect diffuser, as near specular)"
                         ),
                     ));
                 }
