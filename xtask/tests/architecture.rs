@@ -321,17 +321,19 @@ fn no_circles_between_a_crates_modules() {
 const MAX_FILE_LINES: usize = 800;
 const MAX_FN_LINES: usize = 150;
 
-/// A source file's lines before its unit-test module (`#[cfg(test)]` followed by a
-/// `mod` or `pub(crate) mod` line); tests are not counted.
+/// A source file's lines before its unit-test module (`#[cfg(test)]` followed by an
+/// inline `mod NAME {` or `pub(crate) mod NAME {`); tests are not counted.
 fn non_test_lines(path: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(path).unwrap();
     let lines: Vec<String> = text.lines().map(str::to_string).collect();
     let end = (0..lines.len())
         .find(|&i| {
             lines[i].starts_with("#[cfg(test)]")
-                && lines
-                    .get(i + 1)
-                    .is_some_and(|l| l.trim_start_matches("pub(crate) ").starts_with("mod "))
+                && lines.get(i + 1).is_some_and(|l| {
+                    // An inline module (`mod tests {`), not `mod tests;` in another file.
+                    l.trim_start_matches("pub(crate) ").starts_with("mod ")
+                        && l.trim_end().ends_with('{')
+                })
         })
         .unwrap_or(lines.len());
     lines[..end].to_vec()

@@ -418,15 +418,16 @@ fn plural(kind: ValueKind) -> &'static str {
 #[derive(Debug, Error)]
 pub enum ReadMapError {
     /// The file could not be read at all.
-    #[error("cannot read height map {}: {source}", path.display())]
+    #[error("cannot read map {}: {source}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The operating-system error.
         source: std::io::Error,
     },
-    /// The file was read but its content is not a usable height map.
-    #[error("height map {}: {error}", path.display())]
+    /// The file was read but its content is not a usable map (heights, or an
+    /// intensity image where one is read).
+    #[error("map {}: {error}", path.display())]
     Format {
         /// The file.
         path: PathBuf,
@@ -439,7 +440,7 @@ pub enum ReadMapError {
 #[derive(Debug, Error)]
 pub enum WriteMapError {
     /// The file could not be written.
-    #[error("cannot write height map {}: {source}", path.display())]
+    #[error("cannot write map {}: {source}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -447,7 +448,7 @@ pub enum WriteMapError {
         source: std::io::Error,
     },
     /// The zip container could not be assembled.
-    #[error("cannot write height map {}: {source}", path.display())]
+    #[error("cannot write map {}: {source}", path.display())]
     Archive {
         /// The file.
         path: PathBuf,
@@ -455,7 +456,7 @@ pub enum WriteMapError {
         source: ArchiveError,
     },
     /// The format cannot be written.
-    #[error("cannot write height map {}: writing {format} is not supported; use X3P, SDF or text", path.display())]
+    #[error("cannot write map {}: writing {format} is not supported; use X3P, SDF or text", path.display())]
     Unsupported {
         /// The file.
         path: PathBuf,

@@ -60,11 +60,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut loaded = load_all(&[source], &load)?;
     let loaded = loaded.remove(0).loaded;
     let map = &loaded.map;
+    let values = match map.quantity() {
+        flakescatter::stats::heightmap::Quantity::Height => "heights",
+        flakescatter::stats::heightmap::Quantity::Intensity => "intensities",
+    };
     let detail = format!(
-        "{} x {} {}s, {} from {}",
+        "{} x {} {values}, {} from {}",
         map.nx(),
         map.ny(),
-        map.quantity().name(),
         format.name(),
         loaded.format
     );

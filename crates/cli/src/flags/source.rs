@@ -183,7 +183,7 @@ pub struct MapArgs {
     pub pixel_um: Option<String>,
     /// Unit of the heights in plain-text matrices without a unit header: `um`, `nm` or
     /// `m`. Overrides the file's unit; refused for X3P and SDF height maps, which are
-    /// calibrated (and ignored for intensity maps).
+    /// calibrated, and for intensity images, which have no height unit.
     #[arg(long = "z-unit", value_name = "UNIT")]
     pub z_unit: Option<String>,
     /// Read X3P files whose MD5 checksums do not match; the mismatch is reported in the

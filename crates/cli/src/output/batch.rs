@@ -30,6 +30,16 @@ pub struct Batch {
     this: Vec<String>,
 }
 
+/// Whether `name` is one normal path component (no separator, not `.` or `..`, not
+/// absolute, not empty).
+fn is_plain_name(name: &str) -> bool {
+    let mut c = Path::new(name).components();
+    matches!(
+        (c.next(), c.next()),
+        (Some(std::path::Component::Normal(n)), None) if n == std::ffi::OsStr::new(name)
+    )
+}
+
 fn fail(p: &Path, e: &dyn std::fmt::Display) -> anyhow::Error {
     Failure(format!("cannot write {}: {e}", p.display())).into()
 }
@@ -48,6 +58,15 @@ impl Batch {
             std::fs::create_dir_all(dir).map_err(|e| fail(dir, &e))?;
         }
         let previous = read_marker(dir).unwrap_or_default();
+        // The marker is a file anyone can edit: only plain folder names inside `dir`
+        // are taken from it (never `..`, an absolute path or a path with separators).
+        if let Some(bad) = previous.dirs.iter().find(|d| !is_plain_name(d)) {
+            anyhow::bail!(
+                "{}: lists `{bad}` as a sample folder, which is not a plain folder name inside {}; remove the directory or its marker by hand",
+                dir.join(MARKER).display(),
+                dir.display()
+            );
+        }
         for f in previous
             .files
             .iter()
@@ -118,5 +137,20 @@ impl Batch {
         }
         self.dirs.clone_from(&self.this);
         self.mark(self.files)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::is_plain_name;
+
+    #[test]
+    fn only_plain_folder_names_are_taken_from_a_marker() {
+        for ok in ["a", "sample-1", "x.y"] {
+            assert!(is_plain_name(ok), "{ok}");
+        }
+        for bad in ["", ".", "..", "/abs/other", "a/b", "../up", "a/", "./a"] {
+            assert!(!is_plain_name(bad), "{bad}");
+        }
     }
 }
