@@ -193,7 +193,8 @@ pub fn gk15<V: QuadValue, F: FnMut(f64) -> V>(f: &mut F, a: f64, b: f64) -> (V, 
 /// `(a, b)` are ignored). Panels are bisected, largest error first, until the summed
 /// error estimate is below `max(abs_tol, rel_tol·|I|)` or `max_panels` is reached.
 /// Returns `(integral, error estimate)`; for a vector value the tolerance refers to
-/// [`QuadValue::size`] and the error to [`QuadValue::distance`].
+/// [`QuadValue::size`] and the error to [`QuadValue::distance`]. A panel too small to
+/// split is accepted as it is (its error counted as 0) and refinement goes on.
 pub fn adaptive<V: QuadValue, F: FnMut(f64) -> V>(
     mut f: F,
     a: f64,
@@ -203,51 +204,26 @@ pub fn adaptive<V: QuadValue, F: FnMut(f64) -> V>(
     rel_tol: f64,
     max_panels: usize,
 ) -> (V, f64) {
-    if b <= a {
-        return (V::zero(), 0.0);
-    }
-    let mut pts: Vec<f64> = breaks.iter().copied().filter(|&x| x > a && x < b).collect();
-    pts.push(a);
-    pts.push(b);
-    pts.sort_by(f64::total_cmp);
-    pts.dedup();
-    let mut panels: Vec<(f64, f64, V, f64)> = pts
-        .windows(2)
-        .map(|w| {
-            let (v, e) = gk15(&mut f, w[0], w[1]);
-            (w[0], w[1], v, e)
-        })
-        .collect();
-    loop {
-        let total = total(panels.iter().map(|p| p.2));
-        let err: f64 = panels.iter().map(|p| p.3).sum();
-        if err <= abs_tol.max(rel_tol * total.size()) || panels.len() >= max_panels {
-            return (total, err);
-        }
-        let (worst, _) = panels
-            .iter()
-            .enumerate()
-            .max_by(|x, y| x.1.3.total_cmp(&y.1.3))
-            .expect("at least one panel");
-        let (lo, hi, _, _) = panels.swap_remove(worst);
-        let mid = 0.5 * (lo + hi);
-        if mid <= lo || mid >= hi {
-            // Panel too small to split: accept it as it is.
-            let (v, _) = gk15(&mut f, lo, hi);
-            panels.push((lo, hi, v, 0.0));
-            continue;
-        }
-        let (v1, e1) = gk15(&mut f, lo, mid);
-        let (v2, e2) = gk15(&mut f, mid, hi);
-        panels.push((lo, mid, v1, e1));
-        panels.push((mid, hi, v2, e2));
-    }
+    let tol = Tolerance {
+        abs: abs_tol,
+        rel: rel_tol,
+        max_panels,
+    };
+    refine(
+        |lo, hi| gk15(&mut f, lo, hi),
+        a,
+        b,
+        breaks,
+        tol,
+        TooSmall::Accept,
+    )
 }
 
 /// As [`adaptive`] for an integrand that returns `(value, absolute error of the value)`
 /// (an inner integral with its own error estimate): a panel's error is the Kronrod–Gauss
 /// difference plus the Kronrod-weighted integral of the inner errors, so the returned
-/// estimate bounds both levels. Returns `(integral, error estimate)`.
+/// estimate bounds both levels. Returns `(integral, error estimate)`. A panel too small
+/// to split ends the refinement, its error kept in the estimate.
 pub fn adaptive_nested<V: QuadValue, F: FnMut(f64) -> (V, f64)>(
     mut f: F,
     a: f64,
@@ -257,10 +233,7 @@ pub fn adaptive_nested<V: QuadValue, F: FnMut(f64) -> (V, f64)>(
     rel_tol: f64,
     max_panels: usize,
 ) -> (V, f64) {
-    if b <= a {
-        return (V::zero(), 0.0);
-    }
-    let mut panel = |lo: f64, hi: f64| {
+    let panel = |lo: f64, hi: f64| {
         let (mut k, mut g, mut inner) = (V::zero(), V::zero(), 0.0);
         for (x, wk, wg) in gk15_nodes(lo, hi) {
             let (y, e) = f(x);
@@ -270,6 +243,46 @@ pub fn adaptive_nested<V: QuadValue, F: FnMut(f64) -> (V, f64)>(
         }
         (k, k.distance(&g) + inner)
     };
+    let tol = Tolerance {
+        abs: abs_tol,
+        rel: rel_tol,
+        max_panels,
+    };
+    refine(panel, a, b, breaks, tol, TooSmall::Stop)
+}
+
+/// When [`refine`] stops.
+#[derive(Debug, Clone, Copy)]
+struct Tolerance {
+    abs: f64,
+    rel: f64,
+    max_panels: usize,
+}
+
+/// What [`refine`] does with the worst panel when its midpoint is one of its ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum TooSmall {
+    /// Keep its value with an error of 0 and go on with the others.
+    Accept,
+    /// Stop: the estimate keeps this panel's error.
+    Stop,
+}
+
+/// The adaptive loop of [`adaptive`] and [`adaptive_nested`]: `panel(lo, hi)` gives a
+/// panel's `(value, error estimate)`; the initial panels are `[a, b]` cut at `breaks`;
+/// the panel of largest error is bisected until the summed error is below
+/// `max(abs, rel·|I|)` or there are `max_panels` panels.
+fn refine<V: QuadValue>(
+    mut panel: impl FnMut(f64, f64) -> (V, f64),
+    a: f64,
+    b: f64,
+    breaks: &[f64],
+    tol: Tolerance,
+    too_small: TooSmall,
+) -> (V, f64) {
+    if b <= a {
+        return (V::zero(), 0.0);
+    }
     let mut pts: Vec<f64> = breaks.iter().copied().filter(|&x| x > a && x < b).collect();
     pts.push(a);
     pts.push(b);
@@ -285,7 +298,7 @@ pub fn adaptive_nested<V: QuadValue, F: FnMut(f64) -> (V, f64)>(
     loop {
         let total = total(panels.iter().map(|p| p.2));
         let err: f64 = panels.iter().map(|p| p.3).sum();
-        if err <= abs_tol.max(rel_tol * total.size()) || panels.len() >= max_panels {
+        if err <= tol.abs.max(tol.rel * total.size()) || panels.len() >= tol.max_panels {
             return (total, err);
         }
         let (worst, _) = panels
@@ -296,8 +309,12 @@ pub fn adaptive_nested<V: QuadValue, F: FnMut(f64) -> (V, f64)>(
         let (lo, hi, _, _) = panels[worst];
         let mid = 0.5 * (lo + hi);
         if mid <= lo || mid >= hi {
-            // Too small to split: stop refining; the estimate keeps this panel's error.
-            return (total, err);
+            if too_small == TooSmall::Stop {
+                return (total, err);
+            }
+            let (lo, hi, v, _) = panels.swap_remove(worst);
+            panels.push((lo, hi, v, 0.0));
+            continue;
         }
         panels.swap_remove(worst);
         let (v1, e1) = panel(lo, mid);
