@@ -245,3 +245,35 @@ impl Cone {
         self.axis.z * PI * s * s
     }
 }
+
+/// The distinct half-angles of `cones` (radians), in order of first appearance.
+#[must_use]
+pub fn distinct_apertures(cones: &[Cone]) -> Vec<f64> {
+    let mut apertures: Vec<f64> = Vec::new();
+    for c in cones {
+        if !apertures.contains(&c.half_angle()) {
+            apertures.push(c.half_angle());
+        }
+    }
+    apertures
+}
+
+/// The detectors of a run that reports values relative to specular: `cones`, then for
+/// each incidence of `theta_i` (radians, in order) one in-plane specular cone
+/// (`θs = −θi`) per aperture of `apertures` ([`distinct_apertures`]), in order.
+///
+/// # Errors
+/// As [`Cone::in_plane`].
+pub fn with_specular_cones(
+    cones: &[Cone],
+    theta_i: &[f64],
+    apertures: &[f64],
+) -> Result<Vec<Cone>, OpticsError> {
+    let mut all = cones.to_vec();
+    for &t in theta_i {
+        for &a in apertures {
+            all.push(Cone::in_plane(-t, a)?);
+        }
+    }
+    Ok(all)
+}

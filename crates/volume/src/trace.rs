@@ -32,7 +32,9 @@
 //! `pulp` picks for the processor; the arithmetic is the same operations in the same
 //! order (no fused multiply–add), so the results do not depend on it.
 
-use flakescatter_optics::detector::{self, Cone, orthonormal_frame};
+use flakescatter_optics::detector::{
+    self, Cone, distinct_apertures, orthonormal_frame, with_specular_cones,
+};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel::{self, FresnelPower};
 use flakescatter_optics::{UnitVec3, Vec3, refraction};
@@ -530,18 +532,8 @@ impl<'a> Tracer<'a> {
         let n = self.options.n;
         // Internal detectors: the user's cones, then one specular cone per incidence and
         // distinct aperture (for `relative`).
-        let mut apertures: Vec<f64> = Vec::new();
-        for c in cones {
-            if !apertures.contains(&c.half_angle()) {
-                apertures.push(c.half_angle());
-            }
-        }
-        let mut all = cones.to_vec();
-        for &t in theta_i {
-            for &a in &apertures {
-                all.push(Cone::in_plane(-t, a).map_err(VolumeError::Detector)?);
-            }
-        }
+        let apertures = distinct_apertures(cones);
+        let all = with_specular_cones(cones, theta_i, &apertures).map_err(VolumeError::Detector)?;
         let batch_rays = self.options.rays.div_ceil(BATCHES);
         let rays = batch_rays * BATCHES;
         let g = self.grid.side() as u64;

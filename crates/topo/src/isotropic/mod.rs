@@ -235,12 +235,7 @@ impl TopoModel {
 
         // Internal detectors per incidence: the user's cones, then a specular cone per
         // distinct aperture (for `relative`).
-        let mut apertures: Vec<f64> = Vec::new();
-        for c in cones {
-            if !apertures.contains(&c.half_angle()) {
-                apertures.push(c.half_angle());
-            }
-        }
+        let apertures = flakescatter_optics::detector::distinct_apertures(cones);
         let ndet = cones.len() + apertures.len();
         let setup = IsoSetup::new(opts, theta_i, cones, &apertures, delta)?;
         let sums = schedule::accumulate(self, maps, &setup, ndet, delta, progress);

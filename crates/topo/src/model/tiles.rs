@@ -5,7 +5,7 @@
 //! sums of the tile sums ([`TileStats`]).
 
 use flakescatter_optics::absorption::PathAbsorption;
-use flakescatter_optics::detector::Cone;
+use flakescatter_optics::detector::{Cone, distinct_apertures, with_specular_cones};
 use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
@@ -162,18 +162,8 @@ impl TopoModel {
 
         // Internal detectors: the user's cones, then one specular cone per incidence and
         // distinct aperture (for `relative`).
-        let mut apertures: Vec<f64> = Vec::new();
-        for c in cones {
-            if !apertures.contains(&c.half_angle()) {
-                apertures.push(c.half_angle());
-            }
-        }
-        let mut all = cones.to_vec();
-        for &t in theta_i {
-            for &a in &apertures {
-                all.push(Cone::in_plane(-t, a).map_err(TopoError::Detector)?);
-            }
-        }
+        let apertures = distinct_apertures(cones);
+        let all = with_specular_cones(cones, theta_i, &apertures).map_err(TopoError::Detector)?;
         let ndet = all.len();
         let scale: Vec<f64> = all
             .iter()
