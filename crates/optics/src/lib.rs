@@ -13,6 +13,8 @@
 //! * [`flake`]: flake reflectance (perfect conductor or complex index);
 //! * [`material`]: optical constants of flake metals versus wavelength (built-in
 //!   aluminium tables, user tables);
+//! * [`catalogue`]: named layer materials (TiO2, Fe2O3, SiO2, Al2O3, mica, Al, Cr, Ag;
+//!   sources in `data/README.md`), constants `n+ki` and user tables;
 //! * [`dispersion`]: the clear coat's real index versus wavelength (constant, Cauchy,
 //!   table) and tables of real quantities versus wavelength;
 //! * [`absorption`]: the binder's absorption along a ray's path inside the film;
@@ -22,6 +24,8 @@
 //! * [`jones`]: the Jones matrix of a ray's whole path (entry, flake, exit, with the
 //!   frame rotations between the planes of incidence) in SCATMECH's `(s, p)` bases, and
 //!   of the clear coat's specular reflection (physics.md §11);
+//! * [`thinfilm`]: thin-film stacks (interference flakes): amplitude and power
+//!   reflection and transmission for s and p by Rouard's recursion (physics.md §13);
 //! * [`mueller`]: Mueller matrices and the non-depolarisation and realisability
 //!   checks; [`stokes`]: Stokes vectors (normalised on construction) and analysers.
 //!
@@ -56,6 +60,7 @@
 //! ```
 
 pub mod absorption;
+pub mod catalogue;
 pub mod detector;
 pub mod dispersion;
 pub mod flake;
@@ -67,6 +72,7 @@ pub mod polarization;
 pub mod reflection;
 pub mod refraction;
 pub mod stokes;
+pub mod thinfilm;
 
 pub use nalgebra;
 

@@ -232,7 +232,7 @@ impl ComplexIndexTable {
 /// Parse an embedded `wavelength_nm,n,k` file (`#` comment lines, one header row). The
 /// files are compiled in and checked by the test suite, so a malformed one is a build
 /// defect, not user input.
-fn parse_embedded(text: &str) -> ComplexIndexTable {
+pub(crate) fn parse_embedded(text: &str) -> ComplexIndexTable {
     let mut reader = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
         .trim(csv::Trim::All)
