@@ -60,6 +60,8 @@ enum Command {
     Volume(cmd::volume::Args),
     /// Colour of reflectance spectra (XYZ, CIELAB, L*C*h) and ΔE from a reference, per geometry for multi-angle files.
     Colour(cmd::colour::Args),
+    /// Thin-film (interference) flakes: amplitude and power reflection and transmission of a layer stack over angles and wavelengths.
+    Film(cmd::film::Args),
     /// A sample from its manifest (maps, measured curve) to a report: statistics, models, comparison, fit.
     Analyze(cmd::analyze::Args),
 }
@@ -96,6 +98,7 @@ fn main() -> ExitCode {
         Command::Stats(a) => cmd::stats::run(a),
         Command::Volume(a) => cmd::volume::run(a),
         Command::Colour(a) => cmd::colour::run(a),
+        Command::Film(a) => cmd::film::run(a),
         Command::Analyze(a) => cmd::analyze::run(a),
     };
     match result {

@@ -79,6 +79,7 @@ pub mod analyze;
 pub mod chart;
 pub mod compare;
 pub mod figures;
+pub mod film;
 pub mod fit;
 pub mod inputs;
 pub use inputs::distinct;
