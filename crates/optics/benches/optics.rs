@@ -7,6 +7,9 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use flakescatter_optics::flake::FlakeReflectance;
+use flakescatter_optics::nalgebra::Complex;
+use flakescatter_optics::thinfilm::{FilmStack, Layer};
 use flakescatter_optics::{UnitVec3, Vec3, detector, fresnel, reflection, refraction};
 
 /// Inputs per bench iteration.
@@ -93,6 +96,43 @@ fn bench(c: &mut Criterion) {
                 .zip(&k2)
                 .filter_map(|(a, b)| reflection::half_vector(a, b))
                 .map(|m| m.z)
+                .sum::<f64>()
+        });
+    });
+    // The flake's own optics at one local incidence: a metal (one Fresnel interface)
+    // against a three-layer interference stack (TiO2/mica/TiO2-like, Rouard's recursion)
+    // in the same binder. Their ratio bounds what a stack flake adds per point.
+    let metal = FlakeReflectance::complex(0.96, 6.69).expect("valid index");
+    let cosines: Vec<f64> = angles.iter().map(|t| t.cos()).collect();
+    g.bench_function("flake_metal_amplitudes_x1000", |b| {
+        b.iter(|| {
+            black_box(&cosines)
+                .iter()
+                .map(|&c| {
+                    let (rs, rp) = metal.amplitudes(c, INDEX);
+                    rs.norm_sqr() + rp.norm_sqr()
+                })
+                .sum::<f64>()
+        });
+    });
+    let layer = |n: f64, d: f64| Layer::new(Complex::new(n, 0.0), d).expect("valid layer");
+    let stack = FilmStack::new(vec![
+        layer(2.6, 120.0),
+        layer(1.6, 400.0),
+        layer(2.6, 120.0),
+    ])
+    .expect("valid stack");
+    let binder = Complex::new(INDEX, 0.0);
+    g.bench_function("flake_stack3_response_x1000", |b| {
+        b.iter(|| {
+            black_box(&cosines)
+                .iter()
+                .map(|&c| {
+                    let r = stack
+                        .response(INDEX, binder, c, 550.0)
+                        .expect("valid inputs");
+                    r.r_s() + r.r_p()
+                })
                 .sum::<f64>()
         });
     });
