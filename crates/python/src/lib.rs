@@ -13,6 +13,7 @@ mod analysis;
 mod convert;
 mod errors;
 mod extras;
+mod film;
 mod map;
 mod models;
 mod paint;
@@ -49,6 +50,7 @@ fn _flakescatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(paint::fit_paint, m)?)?;
     m.add_function(wrap_pyfunction!(paint::paint_brdf, m)?)?;
     m.add_function(wrap_pyfunction!(extras::spectrum_to_lab, m)?)?;
+    m.add_function(wrap_pyfunction!(film::film, m)?)?;
     m.add_function(wrap_pyfunction!(extras::delta_e, m)?)?;
     m.add_function(wrap_pyfunction!(extras::localise_stack, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;

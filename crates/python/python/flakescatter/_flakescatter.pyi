@@ -420,6 +420,21 @@ def spectrum_to_lab(
     wavelengths)``. Returns ``X``, ``Y``, ``Z``, ``L``, ``a``, ``b`` (floats or arrays
     of shape (spectra,)) and ``white_point``."""
 
+def film(
+    stack: str,
+    *,
+    theta_deg: Floats,
+    wavelengths_nm: Floats,
+    ambient: float = 1.5,
+    substrate: Optional[str] = None,
+) -> dict[str, Any]:
+    """Amplitude and power reflection/transmission of a thin-film stack
+    (``"TiO2:120/mica:400/TiO2:120"``, layers from the incidence side, thickness in nm)
+    in a binder of index ``ambient``, free or on an opaque ``substrate``. Returns
+    complex ``rs``, ``rp``, ``ts``, ``tp`` and float ``R_s``, ``R_p``, ``T_s``, ``T_p``
+    of shape (wavelengths, angles), and ``stack``, ``theta_deg``, ``wavelengths_nm``.
+    Conventions as the ``tmm`` package (physics.md section 13)."""
+
 def delta_e(
     reference: npt.ArrayLike,
     sample: npt.ArrayLike,
