@@ -35,7 +35,7 @@ pub use flakescatter_numerics::lm::{UncertaintyBasis, chi2_per_dof_999};
 use flakescatter_numerics::nnls::nnls;
 
 /// What the fit uses.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FitSetup {
     /// The coating (its `n` is the start value when `fit_n`).
     pub coating: Coating,
@@ -161,7 +161,10 @@ fn model_values(
     n: f64,
     pick: &dyn Fn(&ModelPoint) -> f64,
 ) -> Result<Vec<f64>, PipelineError> {
-    let coating = Coating { n, ..setup.coating };
+    let coating = Coating {
+        n,
+        ..setup.coating.clone()
+    };
     let mut out = vec![0.0; used.len()];
     for &ti in incidences {
         let idx: Vec<usize> = (0..used.len()).filter(|&k| used[k].theta_i == ti).collect();
@@ -524,7 +527,7 @@ pub fn fit_nonparametric(
             clearcoat: false,
             ..setup.settings
         },
-        ..*setup
+        ..setup.clone()
     };
     let kind = setup.kind;
     let pick = move |p: &ModelPoint| match kind {

@@ -18,7 +18,7 @@ use crate::PipelineError;
 use crate::instrument::Instrument;
 
 /// The coating: clear-coat index and flake reflectance.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Coating {
     /// Clear-coat refractive index (real, ≥ 1; default 1.5).
     pub n: f64,
@@ -131,7 +131,7 @@ pub fn distribution_model(
         ModelOptions {
             transmission: settings.transmission,
             weighting: settings.weighting,
-            flake: coating.flake,
+            flake: coating.flake.clone(),
             clearcoat: settings.clearcoat,
             exit_fresnel: true,
         },
@@ -200,7 +200,7 @@ pub(crate) fn distribution_curves_of(
     Ok(Curves {
         model: "distribution",
         instrument: instrument.clone(),
-        coating: *coating,
+        coating: coating.clone(),
         settings: *settings,
         rows,
         source: description,
@@ -320,7 +320,7 @@ pub(crate) fn topographic_curves_of(
         n: coating.n,
         transmission: settings.transmission,
         weighting: settings.weighting,
-        flake: coating.flake,
+        flake: coating.flake.clone(),
         clearcoat: settings.clearcoat,
         window: topo.window,
     })?
@@ -348,7 +348,7 @@ pub(crate) fn topographic_curves_of(
     let curves = Curves {
         model: "topographic",
         instrument: instrument.clone(),
-        coating: *coating,
+        coating: coating.clone(),
         settings: *settings,
         rows,
         source: format!(
@@ -414,7 +414,7 @@ pub fn isotropic_curves(
     let curves = Curves {
         model: "topographic-isotropic",
         instrument: instrument.clone(),
-        coating: *coating,
+        coating: coating.clone(),
         settings: *settings,
         rows,
         source: format!(
@@ -440,7 +440,7 @@ pub fn topo_model(
         n: coating.n,
         transmission: settings.transmission,
         weighting: settings.weighting,
-        flake: coating.flake,
+        flake: coating.flake.clone(),
         clearcoat: settings.clearcoat,
         window: topo.window,
     })?

@@ -121,7 +121,7 @@ impl MuellerCurves {
         Curves {
             model: self.model,
             instrument: self.instrument.clone(),
-            coating: self.coating,
+            coating: self.coating.clone(),
             settings: self.settings,
             rows: self
                 .rows
@@ -225,7 +225,7 @@ pub fn distribution_mueller(
     Ok(MuellerCurves {
         model: "distribution",
         instrument: instrument.clone(),
-        coating: *coating,
+        coating: coating.clone(),
         settings: *settings,
         polarimetry: *polarimetry,
         rows,
@@ -263,7 +263,7 @@ pub fn topographic_mueller(
         n: coating.n,
         transmission: settings.transmission,
         weighting: settings.weighting,
-        flake: coating.flake,
+        flake: coating.flake.clone(),
         clearcoat: settings.clearcoat,
         window: topo.window,
     })?
@@ -301,7 +301,7 @@ pub fn topographic_mueller(
     let curves = MuellerCurves {
         model: "topographic",
         instrument: instrument.clone(),
-        coating: *coating,
+        coating: coating.clone(),
         settings: *settings,
         polarimetry: *polarimetry,
         rows,

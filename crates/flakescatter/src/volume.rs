@@ -196,7 +196,7 @@ pub fn volume_curves(
     };
     let options = TraceOptions {
         n: coating.n,
-        flake: coating.flake,
+        flake: coating.flake.clone(),
         substrate: settings.substrate,
         rims: settings.rims,
         rays: settings.rays,
@@ -253,7 +253,7 @@ pub fn volume_curves(
     };
     Ok(VolumeCurves {
         instrument: instrument.clone(),
-        coating: *coating,
+        coating: coating.clone(),
         settings: settings.clone(),
         rows,
         energy: instrument

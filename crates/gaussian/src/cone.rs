@@ -742,10 +742,10 @@ mod tests {
         ];
         let mut checked = 0;
         for o in &orientations {
-            for &flake in &flakes {
+            for flake in &flakes {
                 for &transmission in &transmissions {
                     let options = ModelOptions {
-                        flake,
+                        flake: flake.clone(),
                         transmission,
                         ..ModelOptions::default()
                     };

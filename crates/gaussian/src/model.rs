@@ -39,7 +39,7 @@ use crate::ModelError;
 /// Options of the distribution model. The defaults are the physical model of
 /// physics.md §4: exact unpolarised Fresnel factors, physical weighting, perfect-conductor
 /// flakes, no clear-coat reflection.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ModelOptions {
     /// Fresnel bookkeeping (default `exact-unpolarized`).
     pub transmission: Transmission,

@@ -82,7 +82,7 @@ fn conservation_holds_for_every_option() {
                 8.0,
                 ModelOptions {
                     transmission: t,
-                    flake,
+                    flake: flake.clone(),
                     ..ModelOptions::default()
                 },
             );

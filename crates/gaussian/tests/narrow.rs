@@ -86,7 +86,7 @@ fn a_cone_around_specular_collects_the_delta_limit_for_narrow_widths() {
             ..ModelOptions::default()
         };
         for (hwhm, tol) in [(1e-7, 1e-9), (1e-5, 1e-9), (1e-2, 1e-4)] {
-            let m = gaussian(hwhm, options);
+            let m = gaussian(hwhm, options.clone());
             for ti_deg in [0.0, 30.0, 60.0, 75.0] {
                 let ti = f64::to_radians(ti_deg);
                 let inc = m.incidence(ti).unwrap();

@@ -210,7 +210,7 @@ fn in_the_plane_s_and_p_are_the_old_exact_results() {
                 n,
                 o.clone(),
                 ModelOptions {
-                    flake,
+                    flake: flake.clone(),
                     ..ModelOptions::default()
                 },
             );
@@ -731,7 +731,7 @@ fn the_old_s_p_separated_factors_are_off_out_of_plane() {
             n,
             o.clone(),
             ModelOptions {
-                flake,
+                flake: flake.clone(),
                 ..ModelOptions::default()
             },
         );

@@ -8,13 +8,36 @@
 //! `rs = (cos ι − w)/(cos ι + w)`, `rp = (N² cos ι − w)/(N² cos ι + w)`,
 //! `w = sqrt(N² − sin² ι)` (principal branch). The paper's assumption is a perfect
 //! conductor, `|r|² = 1` for both polarisations.
+//!
+//! An interference flake ([`FlakeReflectance::Stack`], physics.md §13) is a thin-film
+//! stack at one wavelength, in the medium around it (`n_medium` is the ambient on its
+//! incidence side and, for a free flake, below it) or on an opaque core. Its amplitudes
+//! are the stack's `(r_s, r_p)` in the same convention; the power it transmits
+//! (`T = 1 − R − A`) leaves the flake downward and is not part of this reflectance (each
+//! model states where it goes).
+
+use std::sync::Arc;
 
 use nalgebra::Complex;
 
 use crate::OpticsError;
+use crate::thinfilm::{FilmStack, solve_unchecked};
+
+/// A thin-film flake at one wavelength: its layers (from the side light arrives on),
+/// the wavelength, and an opaque core under the layers (`None`: a free flake, the
+/// medium around it on both sides).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StackFlake {
+    /// The layers.
+    pub stack: FilmStack,
+    /// Vacuum wavelength, nm (> 0, finite).
+    pub wavelength_nm: f64,
+    /// The core's complex index, or `None` for a free flake.
+    pub core: Option<Complex<f64>>,
+}
 
 /// How a flake reflects.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum FlakeReflectance {
     /// Perfect conductor: `Rs = Rp = 1` (the paper's assumption; the default).
     #[default]
@@ -26,6 +49,8 @@ pub enum FlakeReflectance {
         /// Extinction coefficient (imaginary part), `≥ 0`.
         k: f64,
     },
+    /// A thin-film (interference) flake at one wavelength.
+    Stack(Arc<StackFlake>),
 }
 
 impl FlakeReflectance {
@@ -52,13 +77,66 @@ impl FlakeReflectance {
     #[must_use]
     #[inline]
     pub fn power(&self, cos_iota: f64, n_medium: f64) -> (f64, f64) {
-        match *self {
+        match self {
             Self::PerfectConductor => (1.0, 1.0),
-            Self::Complex { .. } => {
+            Self::Complex { .. } | Self::Stack(_) => {
                 let (rs, rp) = self.amplitudes(cos_iota, n_medium);
                 (rs.norm_sqr(), rp.norm_sqr())
             }
         }
+    }
+
+    /// A thin-film flake: `stack` at `wavelength_nm`, free (`core = None`) or on an
+    /// opaque core of index `core`.
+    ///
+    /// # Errors
+    /// [`OpticsError::InvalidComplexIndex`] for a bad core index,
+    /// [`OpticsError::InvalidWavelength`] for a wavelength that is not finite and > 0.
+    pub fn stack(
+        stack: FilmStack,
+        wavelength_nm: f64,
+        core: Option<Complex<f64>>,
+    ) -> Result<Self, OpticsError> {
+        if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
+            return Err(OpticsError::InvalidWavelength(wavelength_nm));
+        }
+        if let Some(c) = core {
+            Self::complex(c.re, c.im)?;
+        }
+        Ok(Self::Stack(Arc::new(StackFlake {
+            stack,
+            wavelength_nm,
+            core,
+        })))
+    }
+
+    /// Power transmittances `(Ts, Tp)` through the flake (into the medium below it, or
+    /// absorbed by its core): 0 for a metal or perfect conductor.
+    #[must_use]
+    pub fn transmitted(&self, cos_iota: f64, n_medium: f64) -> (f64, f64) {
+        match self {
+            Self::PerfectConductor | Self::Complex { .. } => (0.0, 0.0),
+            Self::Stack(f) => {
+                let r = self.stack_response(f, cos_iota, n_medium);
+                (r.t_s(), r.t_p())
+            }
+        }
+    }
+
+    fn stack_response(
+        &self,
+        f: &StackFlake,
+        cos_iota: f64,
+        n_medium: f64,
+    ) -> crate::thinfilm::Response {
+        let exit = f.core.unwrap_or(Complex::new(n_medium, 0.0));
+        solve_unchecked(
+            f.stack.layers(),
+            n_medium,
+            exit,
+            cos_iota.clamp(0.0, 1.0),
+            f.wavelength_nm,
+        )
     }
 
     /// Amplitude reflection coefficients `(rs, rp)` at local incidence cosine
@@ -69,9 +147,9 @@ impl FlakeReflectance {
     #[must_use]
     #[inline]
     pub fn amplitudes(&self, cos_iota: f64, n_medium: f64) -> (Complex<f64>, Complex<f64>) {
-        match *self {
+        match self {
             Self::PerfectConductor => (Complex::new(-1.0, 0.0), Complex::new(1.0, 0.0)),
-            Self::Complex { n, k } => {
+            &Self::Complex { n, k } => {
                 let c = cos_iota.clamp(0.0, 1.0);
                 let sin2 = 1.0 - c * c;
                 let big_n = Complex::new(n, k) / n_medium;
@@ -81,6 +159,10 @@ impl FlakeReflectance {
                 let rs = (cc - w) / (cc + w);
                 let rp = (n2 * cc - w) / (n2 * cc + w);
                 (rs, rp)
+            }
+            Self::Stack(f) => {
+                let r = self.stack_response(f, cos_iota, n_medium);
+                (r.rs, r.rp)
             }
         }
     }

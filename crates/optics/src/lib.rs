@@ -124,6 +124,9 @@ pub enum OpticsError {
         /// Its degree of polarisation (< 1 − the tolerance).
         dop: f64,
     },
+    /// A wavelength that is not finite and positive.
+    #[error("wavelength {0} nm is not valid: expected a finite number > 0")]
+    InvalidWavelength(f64),
     /// An angle outside the range where it has a meaning.
     #[error("{name} = {value} rad is out of range: expected {expected}")]
     AngleOutOfRange {

@@ -211,7 +211,9 @@ fn in_the_plane_the_path_gives_the_fresnel_power_products() {
                     let Some(path) = ray(n, ti.to_radians(), tilt.to_radians(), az) else {
                         continue;
                     };
-                    let (m00, m01) = path.transfer(&amplitudes(&path, n, flake)).first_row();
+                    let (m00, m01) = path
+                        .transfer(&amplitudes(&path, n, flake.clone()))
+                        .first_row();
                     let entry = fresnel::air_to_coating(ti.to_radians(), n);
                     let exit = fresnel::power_from_cosines(path.k_out.z, path.k2.z, n);
                     let (rs, rp) = flake.power(-path.k1.dot(&path.m), n);

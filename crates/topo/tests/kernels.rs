@@ -154,7 +154,7 @@ fn plain_runs_are_the_same_bits_with_the_portable_kernels() {
     ];
     let mut rays = 0;
     for (name, options, cones) in &cases {
-        let model = TopoModel::new(*options)
+        let model = TopoModel::new(options.clone())
             .unwrap()
             .with_block_um(12.0)
             .unwrap();
@@ -214,7 +214,7 @@ fn mueller_isotropic_normals_and_tilts_are_the_same_bits_with_the_portable_kerne
             ..TopoOptions::default()
         },
     ] {
-        let model = TopoModel::new(options)
+        let model = TopoModel::new(options.clone())
             .unwrap()
             .with_block_um(12.0)
             .unwrap();

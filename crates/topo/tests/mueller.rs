@@ -231,11 +231,11 @@ fn m00_and_the_readout_are_the_scalar_runs_and_the_clear_coat_is_its_fresnel_mat
             clearcoat,
             ..TopoOptions::default()
         };
-        let mu = TopoModel::new(opts)
+        let mu = TopoModel::new(opts.clone())
             .unwrap()
             .run_mueller(&[&map], &ti, &cones, &s_light, &|_, _| {})
             .unwrap();
-        let unpol = TopoModel::new(opts)
+        let unpol = TopoModel::new(opts.clone())
             .unwrap()
             .run(&[&map], &ti, &cones)
             .unwrap();

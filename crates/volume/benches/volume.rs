@@ -82,7 +82,7 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("volume");
     group.sample_size(10);
     for (name, cell) in [("half", 8.0), ("one", 16.0), ("two", 32.0)] {
-        let tracer = Tracer::with_cell(&layer, options, cell).unwrap();
+        let tracer = Tracer::with_cell(&layer, options.clone(), cell).unwrap();
         let segments = tracer.run(&theta, &cones).unwrap().segments;
         group.throughput(Throughput::Elements(segments));
         group.bench_function(format!("trace_1e5_flakes/cell_{name}_diameter"), |b| {

@@ -166,13 +166,13 @@ pub fn run_layers(
     }
     let per_layer = TraceOptions {
         rays: options.rays.div_ceil(u64::from(layers)).max(1),
-        ..*options
+        ..options.clone()
     };
     let mut runs = Vec::with_capacity(layers as usize);
     let mut stats = Vec::with_capacity(layers as usize);
     for k in 0..u64::from(layers) {
         let layer = Layer::generate_realisation(params, k)?;
-        let tracer = Tracer::new(&layer, per_layer)?.with_realisation(k);
+        let tracer = Tracer::new(&layer, per_layer.clone())?.with_realisation(k);
         let result = tracer.run_with_progress(theta_i, cones, &|done, total| {
             progress(k * total + done, u64::from(layers) * total);
         })?;

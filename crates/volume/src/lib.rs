@@ -121,6 +121,12 @@ pub use trace::{
 /// Errors of the volume model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum VolumeError {
+    /// Interference (thin-film) flakes: the light they transmit would have to go on
+    /// through the flake, which this model does not trace yet.
+    #[error(
+        "interference (thin-film stack) flakes are not in the volume model yet: it does not trace the light a flake transmits; use the distribution or topographic model"
+    )]
+    StackFlake,
     /// A parameter outside its range.
     #[error("{name} = {value}: expected {expected}")]
     Parameter {

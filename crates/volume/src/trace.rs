@@ -103,7 +103,7 @@ impl RimRule {
 }
 
 /// Options of the tracer.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TraceOptions {
     /// Film (binder) refractive index, real, ≥ 1 (default 1.5).
     pub n: f64,
@@ -431,6 +431,9 @@ impl<'a> Tracer<'a> {
         })?;
         if let FlakeReflectance::Complex { n, k } = options.flake {
             FlakeReflectance::complex(n, k).map_err(VolumeError::FlakeIndex)?;
+        }
+        if matches!(options.flake, FlakeReflectance::Stack(_)) {
+            return Err(VolumeError::StackFlake);
         }
         if let Substrate::Specular(r) | Substrate::Lambertian(r) = options.substrate
             && !(r.is_finite() && (0.0..=1.0).contains(&r))

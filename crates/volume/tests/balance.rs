@@ -58,7 +58,7 @@ fn energy_balance_sums_to_one_in_every_configuration() {
             let n = if (k + m) % 2 == 0 { 1.5 } else { 1.0 };
             let options = TraceOptions {
                 n,
-                flake: flakes[(k + m) % 2],
+                flake: flakes[(k + m) % 2].clone(),
                 substrate,
                 rims: rim,
                 rays: 6400,
@@ -123,7 +123,7 @@ fn results_are_bit_identical_for_any_thread_count() {
         seed: 9,
         ..TraceOptions::default()
     };
-    let tracer = Tracer::new(&layer, options).unwrap();
+    let tracer = Tracer::new(&layer, options.clone()).unwrap();
     // Five incidences of a few chunks each: the tracer groups consecutive incidences
     // into rounds by the number of threads, which must not change a bit either.
     let angles = [20f64, 35.0, 45.0, 60.0, 75.0].map(f64::to_radians);
@@ -336,34 +336,58 @@ fn bad_layer_parameters_are_named() {
 #[test]
 fn bad_trace_options_and_geometry_are_refused() {
     let layer = Layer::generate(&LayerParams::new(spec()).unwrap()).unwrap();
-    let bad = |o: TraceOptions| match Tracer::new(&layer, o) {
+    let bad = |o: TraceOptions| match Tracer::new(&layer, o.clone()) {
         Err(VolumeError::Parameter { name, .. }) => name,
         Err(e) => panic!("unexpected error {e:?}"),
         Ok(_) => panic!("accepted {o:?}"),
     };
     let d = TraceOptions::default();
-    assert_eq!(bad(TraceOptions { n: 0.9, ..d }), "n");
-    assert_eq!(bad(TraceOptions { n: f64::NAN, ..d }), "n");
+    assert_eq!(
+        bad(TraceOptions {
+            n: 0.9,
+            ..d.clone()
+        }),
+        "n"
+    );
+    assert_eq!(
+        bad(TraceOptions {
+            n: f64::NAN,
+            ..d.clone()
+        }),
+        "n"
+    );
     assert_eq!(
         bad(TraceOptions {
             substrate: Substrate::Specular(1.5),
-            ..d
+            ..d.clone()
         }),
         "substrate_reflectance"
     );
     assert_eq!(
         bad(TraceOptions {
             substrate: Substrate::Lambertian(-0.1),
-            ..d
+            ..d.clone()
         }),
         "substrate_reflectance"
     );
-    assert_eq!(bad(TraceOptions { rays: 0, ..d }), "rays");
-    assert_eq!(bad(TraceOptions { max_events: 0, ..d }), "max_events");
+    assert_eq!(
+        bad(TraceOptions {
+            rays: 0,
+            ..d.clone()
+        }),
+        "rays"
+    );
+    assert_eq!(
+        bad(TraceOptions {
+            max_events: 0,
+            ..d.clone()
+        }),
+        "max_events"
+    );
     assert_eq!(
         bad(TraceOptions {
             min_weight: 1.0,
-            ..d
+            ..d.clone()
         }),
         "min_weight"
     );
@@ -379,7 +403,7 @@ fn bad_trace_options_and_geometry_are_refused() {
     ));
     for cell in [0.0, -1.0, f64::NAN] {
         assert!(matches!(
-            Tracer::with_cell(&layer, d, cell),
+            Tracer::with_cell(&layer, d.clone(), cell),
             Err(VolumeError::Parameter {
                 name: "cell_um",
                 ..
@@ -387,7 +411,14 @@ fn bad_trace_options_and_geometry_are_refused() {
         ));
     }
     assert_eq!(
-        match Tracer::with_cell(&layer, TraceOptions { n: 0.5, ..d }, 5.0) {
+        match Tracer::with_cell(
+            &layer,
+            TraceOptions {
+                n: 0.5,
+                ..d.clone()
+            },
+            5.0
+        ) {
             Err(VolumeError::Parameter { name, .. }) => name,
             _ => "accepted",
         },

@@ -134,7 +134,7 @@ fn check_returning_flake(theta_i: f64, flake_r: FlakeReflectance, rims: RimRule,
     let rays = 64 * 4000;
     let options = TraceOptions {
         n,
-        flake: flake_r,
+        flake: flake_r.clone(),
         rims,
         rays,
         seed: 11,

@@ -11,8 +11,10 @@ use anyhow::{Context, bail};
 use flakescatter::Instrument;
 use flakescatter::io::spectral::{read_absorption, read_coat_index, read_complex_index};
 use flakescatter::optics::absorption::FlakeDepth;
+use flakescatter::optics::catalogue::{Catalogue, MaterialSpec};
 use flakescatter::optics::dispersion::{Cauchy, CoatIndex, SpectralTable};
 use flakescatter::optics::material::ComplexIndexTable;
+use flakescatter::optics::thinfilm::StackSpec;
 use flakescatter::spectral::{BinderAbsorption, FlakeSpectrum, MAX_WAVELENGTHS, SpectralCoating};
 use serde_json::{Value, json};
 
@@ -66,6 +68,26 @@ pub struct SpectralArgs {
     /// Optical constants of the flakes from a CSV `wavelength_nm,n,k`.
     #[arg(long, value_name = "FILE", conflicts_with = "flake_index")]
     pub flake_nk: Option<PathBuf>,
+    /// Interference flakes: each flake a thin-film stack, layers from the side light
+    /// arrives on, `material:thickness_nm` separated by `/` (e.g.
+    /// `TiO2:120/mica:400/TiO2:120`; materials as in `film`), in the clear coat's binder
+    /// (physics.md §13). Runs at --wavelengths [default 380:780:10].
+    #[arg(
+        long,
+        value_name = "SPEC",
+        allow_hyphen_values = true,
+        conflicts_with_all = ["flake_nk", "flake_index", "flake_material"]
+    )]
+    pub flake_stack: Option<String>,
+    /// With --flake-stack: an opaque core under the layers (e.g. aluminium), a material
+    /// name or `n+ki`. Default: none, a free flake with the binder below it.
+    #[arg(
+        long,
+        value_name = "MATERIAL",
+        allow_hyphen_values = true,
+        requires = "flake_stack"
+    )]
+    pub flake_core: Option<String>,
     /// Clear-coat dispersion n(λ) = A + B/λ² + C/λ⁴ with λ in µm: `A,B` or `A,B,C`, B in
     /// µm², C in µm⁴ (e.g. 1.49,0.0045). Replaces --n.
     #[arg(long, value_name = "A,B[,C]", allow_hyphen_values = true, conflicts_with_all = ["coat_index", "n"])]
@@ -122,6 +144,7 @@ impl SpectralArgs {
     pub fn describes_a_spectrum(&self) -> bool {
         self.flake_material.is_some()
             || self.flake_nk.is_some()
+            || self.flake_stack.is_some()
             || self.coat_cauchy.is_some()
             || self.coat_index.is_some()
             || self.binder_absorption.is_some()
@@ -133,6 +156,7 @@ impl SpectralArgs {
             ("--wavelengths", self.wavelengths.is_some()),
             ("--flake-material", self.flake_material.is_some()),
             ("--flake-nk", self.flake_nk.is_some()),
+            ("--flake-stack", self.flake_stack.is_some()),
             ("--coat-cauchy", self.coat_cauchy.is_some()),
             ("--coat-index", self.coat_index.is_some()),
             ("--binder-absorption", self.binder_absorption.is_some()),
@@ -186,7 +210,9 @@ impl SpectralArgs {
         instrument: &InstrumentArgs,
         plot: bool,
     ) -> anyhow::Result<(Vec<f64>, Instrument)> {
-        let Some(wavelengths) = self.wavelengths_nm(None)? else {
+        // A stack has no single-wavelength meaning: its runs are spectral by default.
+        let default = self.flake_stack.is_some().then_some(DEFAULT_WAVELENGTHS);
+        let Some(wavelengths) = self.wavelengths_nm(default)? else {
             bail!(
                 "{} describes the coating versus wavelength: give --wavelengths LIST (nm), e.g. 380:780:10, or --multi-angle",
                 self.first_flag().unwrap_or("a spectral flag")
@@ -209,8 +235,30 @@ impl SpectralArgs {
         Ok((wavelengths, instrument))
     }
 
+    /// `--flake-stack` (and `--flake-core`) as a flake spectrum, with its JSON echo.
+    fn stack_flake(&self) -> anyhow::Result<(FlakeSpectrum, Value)> {
+        let catalogue = Catalogue::builtin();
+        let text = self.flake_stack.as_deref().unwrap_or_default();
+        let stack = StackSpec::parse(text, &catalogue).context("--flake-stack")?;
+        let core = self
+            .flake_core
+            .as_deref()
+            .map(|c| catalogue.parse(c))
+            .transpose()
+            .context("--flake-core")?;
+        let echo = json!({
+            "stack": stack.label(),
+            "core": core.as_ref().map(MaterialSpec::label),
+            "medium": "the clear coat's index on both sides (a free flake) unless a core is given",
+        });
+        Ok((FlakeSpectrum::Stack { stack, core }, echo))
+    }
+
     /// Checks the flags that need no file.
     pub fn validate(&self) -> anyhow::Result<()> {
+        if self.flake_stack.is_some() {
+            self.stack_flake()?;
+        }
         if let Some(c) = &self.coat_cauchy {
             cauchy(c)?;
         }
@@ -265,6 +313,7 @@ impl SpectralArgs {
             (None, None) => (CoatIndex::Constant(base.n), json!({"n": base.n})),
         };
         let (flake, flake_echo) = match (self.flake_material, &self.flake_nk) {
+            _ if self.flake_stack.is_some() => self.stack_flake()?,
             (Some(m), _) => (FlakeSpectrum::Table(m.table().clone()), json!(m.name())),
             (None, Some(path)) => {
                 let f = read_complex_index(path)

@@ -667,7 +667,7 @@ fn run_models(
                 .as_ref()
                 .and_then(|s| s.kind.parse().ok())
                 .unwrap_or_default();
-            let setup = FitSetup::new(*coating, settings, instrument.aperture(), kind);
+            let setup = FitSetup::new(coating.clone(), settings, instrument.aperture(), kind);
             Some(
                 fit_gaussian(curve, &setup, stats.pooled.hwhm(), false)
                     .map(|f| FitRec {

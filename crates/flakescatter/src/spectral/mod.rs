@@ -60,9 +60,11 @@ pub use colour::{
 pub use fit::{LightnessFit, LightnessFitSetup, LightnessFitWarning, fit_lightness};
 
 use flakescatter_optics::absorption::{FlakeDepth, PathAbsorption};
+use flakescatter_optics::catalogue::MaterialSpec;
 use flakescatter_optics::dispersion::{CoatIndex, SpectralTable};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::material::ComplexIndexTable;
+use flakescatter_optics::thinfilm::StackSpec;
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_topo::TopoResult;
 use rayon::prelude::*;
@@ -84,6 +86,15 @@ pub enum FlakeSpectrum {
     Fixed(FlakeReflectance),
     /// A table of `n + i k` versus wavelength (built-in aluminium or a user's file).
     Table(ComplexIndexTable),
+    /// Interference flakes: a thin-film stack (physics.md §13), free in the binder or on
+    /// an opaque core, resolved at each wavelength with the clear coat's index as the
+    /// medium around the flake.
+    Stack {
+        /// The layers, from the side light arrives on.
+        stack: StackSpec,
+        /// An opaque core under the layers (`None`: a free flake).
+        core: Option<MaterialSpec>,
+    },
 }
 
 /// The binder's absorption coefficient versus wavelength with the flakes' depth.
@@ -108,7 +119,7 @@ pub struct SpectralCoating {
 }
 
 /// A coating at one wavelength: the monochromatic coating and the binder's absorption.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CoatingAt {
     /// Index and flake reflectance at this wavelength.
     pub coating: Coating,
@@ -122,7 +133,7 @@ impl SpectralCoating {
     pub fn from_coating(coating: &Coating) -> Self {
         Self {
             coat: CoatIndex::Constant(coating.n),
-            flake: FlakeSpectrum::Fixed(coating.flake),
+            flake: FlakeSpectrum::Fixed(coating.flake.clone()),
             binder: None,
         }
     }
@@ -146,12 +157,27 @@ impl SpectralCoating {
             PipelineError::Spectral(format!("clear-coat index at {wavelength_nm} nm: {e}"))
         })?;
         let flake = match &self.flake {
-            FlakeSpectrum::Fixed(f) => *f,
-            FlakeSpectrum::Table(t) => t.flake_at(wavelength_nm).map_err(|e| {
+            FlakeSpectrum::Fixed(f) => f,
+            FlakeSpectrum::Table(t) => &t.flake_at(wavelength_nm).map_err(|e| {
                 PipelineError::Spectral(format!(
                     "flake optical constants at {wavelength_nm} nm: {e}"
                 ))
             })?,
+            FlakeSpectrum::Stack { stack, core } => {
+                let spectral = |e: String| {
+                    PipelineError::Spectral(format!("flake stack at {wavelength_nm} nm: {e}"))
+                };
+                let layers = stack
+                    .at(wavelength_nm)
+                    .map_err(|e| spectral(e.to_string()))?;
+                let core = core
+                    .as_ref()
+                    .map(|c| c.index_at(wavelength_nm))
+                    .transpose()
+                    .map_err(|e| spectral(format!("core: {e}")))?;
+                &FlakeReflectance::stack(layers, wavelength_nm, core)
+                    .map_err(|e| spectral(e.to_string()))?
+            }
         };
         let absorption = match &self.binder {
             None => None,
@@ -165,7 +191,10 @@ impl SpectralCoating {
             }
         };
         Ok(CoatingAt {
-            coating: Coating { n, flake },
+            coating: Coating {
+                n,
+                flake: flake.clone(),
+            },
             absorption,
         })
     }

@@ -52,6 +52,7 @@ mod spec;
 
 use nalgebra::Complex;
 
+pub(crate) use solve::response as solve_unchecked;
 pub use solve::{Polarization, Response};
 pub use spec::{StackSpec, StackSpecError};
 

@@ -113,8 +113,10 @@ fn interface(na: C, qa: C, nb: C, qb: C) -> (C, C, C, C) {
     (rs, ts, rp, tp)
 }
 
-/// The response of validated inputs (see [`super::FilmStack::response`]).
-pub(super) fn response(
+/// The response of validated inputs (see [`super::FilmStack::response`]): a real
+/// ambient > 0, an exit index with `n > 0`, `k ≥ 0`, `cos_theta ∈ [0, 1]`, a finite
+/// wavelength > 0.
+pub(crate) fn response(
     layers: &[Layer],
     n_ambient: f64,
     n_exit: C,

@@ -645,7 +645,7 @@ mod tests {
                         let opts = TopoOptions {
                             transmission,
                             weighting,
-                            flake,
+                            flake: flake.clone(),
                             ..TopoOptions::default()
                         };
                         for len in [1, 7, 9, 64, rays.len()] {

@@ -116,7 +116,7 @@ pub(crate) fn tile_warnings(total_tiles: u64) -> Vec<TopoWarning> {
 }
 
 /// Options of the topographic model.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TopoOptions {
     /// Clear-coat refractive index (real, ≥ 1; default 1.5).
     pub n: f64,
