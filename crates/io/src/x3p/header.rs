@@ -5,6 +5,7 @@ use flakescatter_stats::heightmap::HeightMap;
 use roxmltree::{Document, Node};
 
 use super::error::X3pError;
+use crate::bytes::{f32_le, f64_le, i16_le, i32_le};
 use crate::reader::{ReadOptions, ValueKind};
 use crate::units::parse_scaled;
 
@@ -102,10 +103,10 @@ impl DataType {
 
     pub(super) fn decode(self, c: &[u8]) -> f64 {
         match self {
-            DataType::I16 => f64::from(i16::from_le_bytes([c[0], c[1]])),
-            DataType::I32 => f64::from(i32::from_le_bytes([c[0], c[1], c[2], c[3]])),
-            DataType::F32 => f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
-            DataType::F64 => f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]),
+            DataType::I16 => f64::from(i16_le(c, 0)),
+            DataType::I32 => f64::from(i32_le(c, 0)),
+            DataType::F32 => f64::from(f32_le(c, 0)),
+            DataType::F64 => f64_le(c, 0),
         }
     }
 }
