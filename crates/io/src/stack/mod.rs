@@ -28,7 +28,6 @@
 //! * **Zeiss LSM** (private tag 34412 `CZ_LSMINFO`): `VoxelSizeX/Y/Z` in metres.
 //! * A plain TIFF carries no z step, and its resolution tags are usually a display
 //!   resolution (72 dpi), not a calibration: both must be given as options.
-
 //!
 //! Rooms: this module (what a stack is: formats, sample types, options, the
 //! [`StackInfo`] read), `error` (what can go wrong), `reader` (the TIFF directories
