@@ -31,6 +31,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::f32_le;
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
 /// What is wrong with an AL3D file.
@@ -377,12 +378,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     for row in 0..h.ny {
         for col in 0..h.nx {
             let a = h.offset + row * h.stride + col * 4;
-            let v = f64::from(f32::from_le_bytes([
-                bytes[a],
-                bytes[a + 1],
-                bytes[a + 2],
-                bytes[a + 3],
-            ]));
+            let v = f64::from(f32_le(bytes, a));
             let repeatable = plane.is_none_or(|(start, shift, min, filter)| {
                 f64::from(bytes[start + row * line + col]) * shift + min <= filter
             });

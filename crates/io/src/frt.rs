@@ -49,6 +49,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::{f64_le, i32_le, u16_le, u32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
 /// What is wrong with an FRT file.
@@ -119,20 +120,6 @@ const INTENSITY: u32 = 0x2;
 /// Scores `bytes` as FRT: certain for the magic `FRTM_GLIDERV`.
 pub fn detect(bytes: &[u8]) -> Confidence {
     if bytes.starts_with(MAGIC) { 100 } else { 0 }
-}
-
-fn u16_at(b: &[u8], a: usize) -> u16 {
-    u16::from_le_bytes([b[a], b[a + 1]])
-}
-
-fn u32_at(b: &[u8], a: usize) -> u32 {
-    u32::from_le_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
-}
-
-fn f64_at(b: &[u8], a: usize) -> f64 {
-    let mut w = [0; 8];
-    w.copy_from_slice(&b[a..a + 8]);
-    f64::from_le_bytes(w)
 }
 
 /// Latin-1 text up to the first NUL, trimmed.
@@ -289,7 +276,7 @@ fn parse(bytes: &[u8]) -> Result<Frt<'_>, FrtError> {
             });
         }
     };
-    let count = usize::from(u16_at(bytes, 16));
+    let count = usize::from(u16_le(bytes, 16));
     let mut at = HEADER;
     let mut blocks: Vec<Block<'_>> = Vec::new();
     for k in 0..count {
@@ -302,11 +289,11 @@ fn parse(bytes: &[u8]) -> Result<Frt<'_>, FrtError> {
                 end,
             });
         }
-        let id = u16_at(bytes, at);
+        let id = u16_le(bytes, at);
         let size = if size_width == 4 {
-            u64::from(u32_at(bytes, at + 2))
+            u64::from(u32_le(bytes, at + 2))
         } else {
-            u64::from(u32_at(bytes, at + 2)) | (u64::from(u32_at(bytes, at + 6)) << 32)
+            u64::from(u32_le(bytes, at + 2)) | (u64::from(u32_le(bytes, at + 6)) << 32)
         };
         let body = at + head;
         if size > (end - body) as u64 {
@@ -413,7 +400,7 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
                 });
             }
             let d = &b.data[p..p + 16];
-            let head = (u32_at(d, 0), u32_at(d, 4), u32_at(d, 8), u32_at(d, 12));
+            let head = (u32_le(d, 0), u32_le(d, 4), u32_le(d, 8), u32_le(d, 12));
             let img = image(b, b.body + p, head, b.body + p + 16, left - 16)?;
             p += 16 + img.nx * img.ny * img.bits / 8;
             out.push(img);
@@ -430,7 +417,7 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
             });
         };
         let s = size.fixed(12, "image size")?;
-        let head = (TOPOGRAPHY, u32_at(s, 0), u32_at(s, 4), u32_at(s, 8));
+        let head = (TOPOGRAPHY, u32_le(s, 0), u32_le(s, 4), u32_le(s, 8));
         // Bits and sizes checked first (no limit), then the data against them.
         let img = image(size, size.at, head, b.body, usize::MAX)?;
         let need = data_size(head.1, head.2, head.3).unwrap_or(u64::MAX);
@@ -490,7 +477,7 @@ fn pitch_um(f: &Frt<'_>, img: &Image) -> Result<(f64, f64), FrtError> {
     };
     let d = b.fixed(44, "scan range")?;
     let axis = |a: usize, n: usize, name: &str| {
-        let range = f64_at(d, a);
+        let range = f64_le(d, a);
         let p = range * 1e6 / n as f64;
         if range.is_finite() && p.is_finite() && p > 0.0 {
             Ok(p)
@@ -586,7 +573,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
                     hint: ", so the heights cannot be scaled",
                 });
             };
-            let zscale = f64_at(b.fixed(12, "z scale")?, 4);
+            let zscale = f64_le(b.fixed(12, "z scale")?, 4);
             let s = zscale * 1e6;
             if !(zscale.is_finite() && s.is_finite() && s != 0.0) {
                 return Err(FrtError::Block {
@@ -605,7 +592,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let range = match f.block(0x0070) {
         Some(b) => {
             let d = b.fixed(8, "valid range")?;
-            Some((i64::from(u32_at(d, 0)), i64::from(u32_at(d, 4))))
+            Some((i64::from(u32_le(d, 0)), i64::from(u32_le(d, 4))))
         }
         None => None,
     };
@@ -625,11 +612,11 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     };
     let z: Vec<f64> = if img.bits == 16 {
         raw.chunks_exact(2)
-            .map(|c| value(i64::from(u16::from_le_bytes([c[0], c[1]]))))
+            .map(|c| value(i64::from(u16_le(c, 0))))
             .collect()
     } else {
         raw.chunks_exact(4)
-            .map(|c| value(i64::from(i32::from_le_bytes([c[0], c[1], c[2], c[3]]))))
+            .map(|c| value(i64::from(i32_le(c, 0))))
             .collect()
     };
     let mut map = HeightMap::new(img.nx, img.ny, dx, dy, z).map_err(FrtError::Map)?;
@@ -665,35 +652,35 @@ fn metadata(map: &mut HeightMap, f: &Frt<'_>) -> Result<(), FrtError> {
     }
     if let Some(b) = f.block(0x0067) {
         let d = b.fixed(44, "scan range")?;
-        map.set_metadata("frt.range_x_m", f64_at(d, 0).to_string());
-        map.set_metadata("frt.range_y_m", f64_at(d, 8).to_string());
-        map.set_metadata("frt.offset_x_m", f64_at(d, 16).to_string());
-        map.set_metadata("frt.offset_y_m", f64_at(d, 24).to_string());
-        map.set_metadata("frt.scan_direction", u32_at(d, 40).to_string());
+        map.set_metadata("frt.range_x_m", f64_le(d, 0).to_string());
+        map.set_metadata("frt.range_y_m", f64_le(d, 8).to_string());
+        map.set_metadata("frt.offset_x_m", f64_le(d, 16).to_string());
+        map.set_metadata("frt.offset_y_m", f64_le(d, 24).to_string());
+        map.set_metadata("frt.scan_direction", u32_le(d, 40).to_string());
     }
     if let Some(b) = f.block(0x006c) {
         let d = b.fixed(12, "z scale")?;
-        map.set_metadata("frt.measuring_range_code", u32_at(d, 0).to_string());
-        map.set_metadata("frt.z_scale_m", f64_at(d, 4).to_string());
+        map.set_metadata("frt.measuring_range_code", u32_le(d, 0).to_string());
+        map.set_metadata("frt.z_scale_m", f64_le(d, 4).to_string());
     }
     if let Some(b) = f.block(0x0071) {
         let d = b.fixed(8, "z offset")?;
-        map.set_metadata("frt.z_offset_m", f64_at(d, 0).to_string());
+        map.set_metadata("frt.z_offset_m", f64_le(d, 0).to_string());
     }
     if let Some(b) = f.block(0x006e) {
         let d = b.fixed(12, "hardware")?;
-        map.set_metadata("frt.sensor_type", u32_at(d, 0).to_string());
+        map.set_metadata("frt.sensor_type", u32_le(d, 0).to_string());
     }
     if let Some(b) = f.block(0x0072) {
         let d = b.fixed(12, "measurement time")?;
         // 0xFFFFFFFF: not recorded (an interrupted measurement).
         for (a, key) in [(0, "frt.measurement_started"), (4, "frt.measurement_ended")] {
-            let t = u32_at(d, a);
+            let t = u32_le(d, a);
             if t != u32::MAX {
                 map.set_metadata(key, utc(t));
             }
         }
-        let t = u32_at(d, 8);
+        let t = u32_le(d, 8);
         if t != u32::MAX {
             map.set_metadata("frt.measurement_time_s", t.to_string());
         }
@@ -702,7 +689,7 @@ fn metadata(map: &mut HeightMap, f: &Frt<'_>) -> Result<(), FrtError> {
     if let Some(b) = f.block(0x008e)
         && b.data.len() >= 4
     {
-        let len = u32_at(b.data, 0) as usize;
+        let len = u32_le(b.data, 0) as usize;
         if len <= b.data.len() - 4 {
             let t = text(&b.data[4..4 + len]);
             if !t.is_empty() {
@@ -714,7 +701,7 @@ fn metadata(map: &mut HeightMap, f: &Frt<'_>) -> Result<(), FrtError> {
     if let Some(b) = f.block(0x00a6)
         && b.data.len() >= 264
     {
-        let len = u32_at(b.data, 0) as usize;
+        let len = u32_le(b.data, 0) as usize;
         if len == b.data.len() - 264 {
             let t = text(&b.data[4..4 + len]);
             if !t.is_empty() {

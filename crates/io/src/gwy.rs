@@ -28,6 +28,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::{f64_le, i32_le, i64_le, u32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 use crate::units::length_unit_exponent;
 
@@ -132,7 +133,7 @@ impl<'a> Parser<'a> {
 
     fn u32(&mut self, what: &str) -> Result<u32, GwyError> {
         let b = self.take(4, what)?;
-        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        Ok(u32_le(b, 0))
     }
 
     fn cstr(&mut self, what: &str) -> Result<String, GwyError> {
@@ -191,15 +192,15 @@ impl<'a> Parser<'a> {
                 b'b' | b'c' => Value::Int(i64::from(inner.take(1, &what)?[0])),
                 b'i' => {
                     let b = inner.take(4, &what)?;
-                    Value::Int(i64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+                    Value::Int(i64::from(i32_le(b, 0)))
                 }
                 b'q' => {
                     let b = inner.take(8, &what)?;
-                    Value::Int(i64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                    Value::Int(i64_le(b, 0))
                 }
                 b'd' => {
                     let b = inner.take(8, &what)?;
-                    Value::Double(f64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                    Value::Double(f64_le(b, 0))
                 }
                 b's' => Value::Str(inner.cstr(&what)?),
                 b'o' => Value::Object(inner.object(depth + 1)?),
@@ -468,14 +469,11 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let z: Vec<f64> = f
         .data
         .chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])) * scale)
+        .map(|c| f64_le(c, 0) * scale)
         .collect();
     let mut map = match f.mask {
         Some(m) => {
-            let valid = m
-                .chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])) <= 0.5)
-                .collect();
+            let valid = m.chunks_exact(8).map(|c| f64_le(c, 0) <= 0.5).collect();
             HeightMap::with_mask(f.nx, f.ny, dx, dy, z, valid)
         }
         None => HeightMap::new(f.nx, f.ny, dx, dy, z),

@@ -32,6 +32,7 @@
 
 pub mod al3d;
 pub mod brdf;
+mod bytes;
 pub mod channel;
 pub mod curves;
 pub mod detectors;

@@ -36,6 +36,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::{f32_be, i32_be, u16_be, u32_be};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
 /// What is wrong with a MetroPro file.
@@ -85,18 +86,6 @@ const MAGIC: [u8; 3] = [0x88, 0x1b, 0x03];
 const BASE_HEADER: usize = 834;
 const NO_DATA: i32 = 2_147_483_640;
 
-fn be16(b: &[u8], a: usize) -> u16 {
-    u16::from_be_bytes([b[a], b[a + 1]])
-}
-
-fn be32(b: &[u8], a: usize) -> u32 {
-    u32::from_be_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
-}
-
-fn bef32(b: &[u8], a: usize) -> f32 {
-    f32::from_be_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
-}
-
 fn text(b: &[u8]) -> String {
     let end = b.iter().position(|&c| c == 0).unwrap_or(b.len());
     String::from_utf8_lossy(&b[..end]).trim().to_string()
@@ -108,7 +97,7 @@ pub fn detect(bytes: &[u8]) -> Confidence {
     if bytes.len() < 6 || bytes[..3] != MAGIC || !(0x6f..=0x71).contains(&bytes[3]) {
         return 0;
     }
-    if u16::from(bytes[3] - 0x6e) == be16(bytes, 4) {
+    if u16::from(bytes[3] - 0x6e) == u16_be(bytes, 4) {
         100
     } else {
         70
@@ -136,8 +125,8 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
             end,
         });
     }
-    let format = be16(bytes, 4);
-    let size = be32(bytes, 6);
+    let format = u16_be(bytes, 4);
+    let size = u32_be(bytes, 6);
     let expected_size = if format == 3 { 4096 } else { 834 };
     if !(1..=3).contains(&format) {
         return Err(MetroProError::BadField {
@@ -164,8 +153,9 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
             end,
         });
     }
-    let ac_n = u64::from(be16(bytes, 52)) * u64::from(be16(bytes, 54)) * u64::from(be16(bytes, 56));
-    let ac_bytes = u64::from(be32(bytes, 60));
+    let ac_n =
+        u64::from(u16_be(bytes, 52)) * u64::from(u16_be(bytes, 54)) * u64::from(u16_be(bytes, 56));
+    let ac_bytes = u64::from(u32_be(bytes, 60));
     if ac_bytes != 2 * ac_n {
         return Err(MetroProError::BadField {
             field: "ac_n_bytes",
@@ -174,8 +164,8 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
             expected: "2 × intensity width × height × buckets",
         });
     }
-    let (nx, ny) = (be16(bytes, 68), be16(bytes, 70));
-    let cn_bytes = u64::from(be32(bytes, 72));
+    let (nx, ny) = (u16_be(bytes, 68), u16_be(bytes, 70));
+    let cn_bytes = u64::from(u32_be(bytes, 72));
     if nx == 0 || ny == 0 {
         return Err(MetroProError::BadField {
             field: "cn_width x cn_height",
@@ -202,7 +192,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
             end,
         });
     }
-    let r = match be16(bytes, 218) as i16 {
+    let r = match u16_be(bytes, 218) as i16 {
         0 => 4096.0,
         1 => 32768.0,
         2 => 131072.0,
@@ -216,9 +206,9 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
         }
     };
     let (s, w, o) = (
-        f64::from(bef32(bytes, 164)),
-        f64::from(bef32(bytes, 168)),
-        f64::from(bef32(bytes, 176)),
+        f64::from(f32_be(bytes, 164)),
+        f64::from(f32_be(bytes, 168)),
+        f64::from(f32_be(bytes, 176)),
     );
     let scale_m = s * w * o / r;
     if !scale_m.is_finite() || scale_m <= 0.0 {
@@ -233,14 +223,14 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
         size,
         ac_bytes,
         ac: (
-            usize::from(be16(bytes, 52)),
-            usize::from(be16(bytes, 54)),
-            usize::from(be16(bytes, 56)),
+            usize::from(u16_be(bytes, 52)),
+            usize::from(u16_be(bytes, 54)),
+            usize::from(u16_be(bytes, 56)),
         ),
         nx: usize::from(nx),
         ny: usize::from(ny),
         scale_m,
-        lateral_m: f64::from(bef32(bytes, 184)),
+        lateral_m: f64::from(f32_be(bytes, 184)),
     })
 }
 
@@ -326,7 +316,7 @@ pub fn read(
     let z: Vec<f64> = bytes[start..start + 4 * h.nx * h.ny]
         .chunks_exact(4)
         .map(|c| {
-            let raw = i32::from_be_bytes([c[0], c[1], c[2], c[3]]);
+            let raw = i32_be(c, 0);
             if raw >= NO_DATA {
                 f64::NAN
             } else {
@@ -354,14 +344,23 @@ fn pitch_or(h: &Header, options: &ReadOptions) -> Result<(f64, f64), MetroProErr
 
 fn metadata(map: &mut HeightMap, bytes: &[u8]) {
     map.set_metadata("metropro.software_date", text(&bytes[12..42]));
-    map.set_metadata("metropro.time_stamp", (be32(bytes, 76) as i32).to_string());
+    map.set_metadata(
+        "metropro.time_stamp",
+        (u32_be(bytes, 76) as i32).to_string(),
+    );
     map.set_metadata("metropro.comment", text(&bytes[80..162]));
-    map.set_metadata("metropro.wavelength_m", bef32(bytes, 168).to_string());
-    map.set_metadata("metropro.numerical_aperture", bef32(bytes, 172).to_string());
-    map.set_metadata("metropro.magnification", bef32(bytes, 180).to_string());
+    map.set_metadata("metropro.wavelength_m", f32_be(bytes, 168).to_string());
+    map.set_metadata(
+        "metropro.numerical_aperture",
+        f32_be(bytes, 172).to_string(),
+    );
+    map.set_metadata("metropro.magnification", f32_be(bytes, 180).to_string());
     map.set_metadata("metropro.objective", text(&bytes[246..258]));
     map.set_metadata("metropro.part_name", text(&bytes[258..298]));
-    map.set_metadata("metropro.phase_res", (be16(bytes, 218) as i16).to_string());
+    map.set_metadata(
+        "metropro.phase_res",
+        (u16_be(bytes, 218) as i16).to_string(),
+    );
 }
 
 /// The intensity frame (one bucket) as stored: u16, 65535 an invalid point.
@@ -382,7 +381,7 @@ fn read_intensity(
     let frame = &bytes[h.size..h.size + 2 * nx * ny];
     let z: Vec<f64> = frame
         .chunks_exact(2)
-        .map(|c| match u16::from_be_bytes([c[0], c[1]]) {
+        .map(|c| match u16_be(c, 0) {
             u16::MAX => f64::NAN,
             v => f64::from(v),
         })
@@ -390,6 +389,6 @@ fn read_intensity(
     let mut map = HeightMap::new(nx, ny, dx, dy, z).map_err(MetroProError::Map)?;
     metadata(&mut map, bytes);
     map.set_metadata("metropro.channel", name);
-    map.set_metadata("metropro.ac_range", (be16(bytes, 58) as i16).to_string());
+    map.set_metadata("metropro.ac_range", (u16_be(bytes, 58) as i16).to_string());
     Ok(map)
 }

@@ -23,6 +23,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::{f32_le, f64_le, i16_le, i32_le, u16_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
 /// What is wrong with an OPD file.
@@ -113,8 +114,7 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
     if end < 2 + ENTRY {
         return Err(truncated("the directory entry".into(), 2, ENTRY as u64));
     }
-    let i32_at =
-        |a: usize| i32::from_le_bytes([bytes[a], bytes[a + 1], bytes[a + 2], bytes[a + 3]]);
+    let i32_at = |a: usize| i32_le(bytes, a);
     let dir_len = i32_at(20);
     if dir_len < ENTRY as i32 || !(dir_len as usize).is_multiple_of(ENTRY) {
         return Err(OpdError::Bad {
@@ -139,7 +139,7 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
     for i in 1..dir_len / ENTRY {
         let e = 2 + i * ENTRY;
         let block = name(&bytes[e..e + 16]);
-        let kind = i16::from_le_bytes([bytes[e + 16], bytes[e + 17]]);
+        let kind = i16_le(bytes, e + 16);
         let len = i32_at(e + 18);
         if len < 0 {
             return Err(OpdError::Bad {
@@ -167,7 +167,7 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
                         ),
                     });
                 }
-                let u = |a: usize| usize::from(u16::from_le_bytes([p[a], p[a + 1]]));
+                let u = |a: usize| usize::from(u16_le(p, a));
                 let (nx, ny, item) = (u(0), u(2), u(4));
                 if !matches!(item, 1 | 2 | 4) || nx == 0 || ny == 0 {
                     return Err(OpdError::Bad {
@@ -196,22 +196,16 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
                 });
             }
             (5, _) => file.scalars.push((block, Scalar::Text(name(p)))),
-            (6, 2) | (7, 2) => file.scalars.push((
-                block,
-                Scalar::Number(f64::from(i16::from_le_bytes([p[0], p[1]]))),
-            )),
-            (6, 4) | (12, 4..) => file.scalars.push((
-                block,
-                Scalar::Number(f64::from(i32::from_le_bytes([p[0], p[1], p[2], p[3]]))),
-            )),
-            (7, 4..) => file.scalars.push((
-                block,
-                Scalar::Number(f64::from(f32::from_le_bytes([p[0], p[1], p[2], p[3]]))),
-            )),
-            (8, 8..) => file.scalars.push((
-                block,
-                Scalar::Number(f64::from_le_bytes(p[..8].try_into().unwrap_or([0; 8]))),
-            )),
+            (6, 2) | (7, 2) => file
+                .scalars
+                .push((block, Scalar::Number(f64::from(i16_le(p, 0))))),
+            (6, 4) | (12, 4..) => file
+                .scalars
+                .push((block, Scalar::Number(f64::from(i32_le(p, 0))))),
+            (7, 4..) => file
+                .scalars
+                .push((block, Scalar::Number(f64::from(f32_le(p, 0))))),
+            (8, 8..) => file.scalars.push((block, Scalar::Number(f64_le(p, 0)))),
             _ => {}
         }
         pos += len;
@@ -323,11 +317,11 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         match a.item {
             1 => f64::from(bytes[o]),
             2 => {
-                let v = i16::from_le_bytes([bytes[o], bytes[o + 1]]);
+                let v = i16_le(bytes, o);
                 if v >= 32766 { f64::NAN } else { f64::from(v) }
             }
             _ => {
-                let v = f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+                let v = f32_le(bytes, o);
                 if !v.is_finite() || v >= 1e38 {
                     f64::NAN
                 } else {

@@ -40,6 +40,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::{f32_le, u32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
 /// What is wrong with a PLU file.
@@ -87,14 +88,6 @@ pub enum PluError {
 const HEADER: usize = 500;
 const NOT_MEASURED: f32 = 1_000_001.0;
 
-fn u32_at(b: &[u8], a: usize) -> u32 {
-    u32::from_le_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
-}
-
-fn f32_at(b: &[u8], a: usize) -> f32 {
-    f32::from_le_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
-}
-
 fn text(b: &[u8]) -> String {
     let end = b.iter().position(|&c| c == 0).unwrap_or(b.len());
     String::from_utf8_lossy(&b[..end]).trim().to_string()
@@ -117,9 +110,9 @@ pub fn detect(bytes: &[u8]) -> Confidence {
         // the reader then reports with the offset.
         return 30;
     }
-    let kind = u32_at(bytes, 428);
+    let kind = u32_le(bytes, 428);
     let same_size =
-        u32_at(bytes, 388) == u32_at(bytes, 500) && u32_at(bytes, 392) == u32_at(bytes, 504);
+        u32_le(bytes, 388) == u32_le(bytes, 500) && u32_le(bytes, 392) == u32_le(bytes, 504);
     if matches!(kind, 1 | 3) && bytes[489] >= 1 && same_size {
         60
     } else {
@@ -183,7 +176,7 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
             end,
         });
     }
-    let kind = u32_at(bytes, 428);
+    let kind = u32_le(bytes, 428);
     if kind != 3 {
         return Err(PluError::BadField {
             field: "measurement type",
@@ -193,7 +186,7 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
         });
     }
     let pitch = |field: &'static str, offset: usize| {
-        let v = f64::from(f32_at(bytes, offset));
+        let v = f64::from(f32_le(bytes, offset));
         if v.is_finite() && v > 0.0 {
             Ok(v)
         } else {
@@ -228,7 +221,7 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
                 end,
             });
         }
-        let (ny, nx) = (u32_at(bytes, at), u32_at(bytes, at + 4));
+        let (ny, nx) = (u32_le(bytes, at), u32_le(bytes, at + 4));
         if nx == 0 || ny == 0 {
             return Err(PluError::BadField {
                 field: "layer size",
@@ -314,7 +307,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             let z: Vec<f64> = bytes[layer.data..layer.data + 4 * n]
                 .chunks_exact(4)
                 .map(|c| {
-                    let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+                    let v = f32_le(c, 0);
                     if v == NOT_MEASURED {
                         f64::NAN
                     } else {
@@ -348,9 +341,9 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let mut map = HeightMap::new(layer.nx, layer.ny, h.dx, h.dy, z).map_err(PluError::Map)?;
     map.set_metadata("plu.date", text(&bytes[..128]));
     map.set_metadata("plu.comment", text(&bytes[132..388]));
-    map.set_metadata("plu.algorithm", u32_at(bytes, 432).to_string());
-    map.set_metadata("plu.method", u32_at(bytes, 436).to_string());
-    map.set_metadata("plu.objective", u32_at(bytes, 440).to_string());
+    map.set_metadata("plu.algorithm", u32_le(bytes, 432).to_string());
+    map.set_metadata("plu.method", u32_le(bytes, 436).to_string());
+    map.set_metadata("plu.objective", u32_le(bytes, 440).to_string());
     map.set_metadata("plu.version", bytes[490].to_string());
     map.set_metadata("plu.hardware", bytes[491].to_string());
     map.set_metadata("plu.channel", name);

@@ -17,6 +17,7 @@
 //! other quantity is refused ([`crate::MapError::Quantity`]), unless
 //! [`ReadOptions::as_stored`](crate::ReadOptions::as_stored) asks for the file's own.
 
+use crate::bytes::u16_le;
 use crate::reader::{ValueKind, split_lines};
 
 /// How the comment of an X3P intensity image starts.
@@ -100,7 +101,7 @@ pub(crate) fn sdf(bytes: &[u8]) -> Option<Declared> {
             .collect()
     } else if bytes.len() >= 81 {
         // Binary: the 81-byte header, the data, then any trailer.
-        let u16_at = |a: usize| usize::from(u16::from_le_bytes([bytes[a], bytes[a + 1]]));
+        let u16_at = |a: usize| usize::from(u16_le(bytes, a));
         let width = match bytes[79] {
             0 | 4 => 1,
             1 | 5 => 2,

@@ -21,6 +21,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::{f32_le, f64_le, i16_le, i32_le, u16_le, u32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind, split_lines};
 use crate::units::parse_scaled;
 
@@ -354,12 +355,6 @@ fn read_text(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, SdfEr
 
 const BIN_HEADER: usize = 81;
 
-fn f64_at(bytes: &[u8], a: usize) -> f64 {
-    let mut b = [0u8; 8];
-    b.copy_from_slice(&bytes[a..a + 8]);
-    f64::from_le_bytes(b)
-}
-
 fn binary_header(bytes: &[u8], z_shift: i32) -> Result<Header, SdfError> {
     if bytes.len() < BIN_HEADER {
         return Err(SdfError::TruncatedHeader {
@@ -367,14 +362,14 @@ fn binary_header(bytes: &[u8], z_shift: i32) -> Result<Header, SdfError> {
             needed: BIN_HEADER,
         });
     }
-    let u16_at = |a: usize| usize::from(u16::from_le_bytes([bytes[a], bytes[a + 1]]));
+    let u16_at = |a: usize| usize::from(u16_le(bytes, a));
     let (nx, ny) = (u16_at(42), u16_at(44));
     Ok(Header {
         nx: count_positive("NumPoints", nx, &nx.to_string())?,
         ny: count_positive("NumProfiles", ny, &ny.to_string())?,
-        dx: scale_um("Xscale", f64_at(bytes, 46), 6)?,
-        dy: scale_um("Yscale", f64_at(bytes, 54), 6)?,
-        zs: scale_um("Zscale", f64_at(bytes, 62), z_shift)?,
+        dx: scale_um("Xscale", f64_le(bytes, 46), 6)?,
+        dy: scale_um("Yscale", f64_le(bytes, 54), 6)?,
+        zs: scale_um("Zscale", f64_le(bytes, 62), z_shift)?,
     })
 }
 
@@ -388,7 +383,7 @@ fn read_binary(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, Sdf
     let manufacturer = text(8, 18);
     let created = text(18, 30);
     let modified = text(30, 42);
-    let zres = f64_at(bytes, 70);
+    let zres = f64_le(bytes, 70);
     let compression = bytes[78];
     let dtype = bytes[79];
     if compression != 0 {
@@ -431,12 +426,12 @@ fn read_binary(bytes: &[u8], magic: &str, z_shift: i32) -> Result<HeightMap, Sdf
             let raw = match dtype {
                 0 => f64::from(c[0]),
                 4 => f64::from(c[0] as i8),
-                1 => f64::from(u16::from_le_bytes([c[0], c[1]])),
-                5 => f64::from(i16::from_le_bytes([c[0], c[1]])),
-                2 => f64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]])),
-                3 => f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
-                6 => f64::from(i32::from_le_bytes([c[0], c[1], c[2], c[3]])),
-                _ => f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]),
+                1 => f64::from(u16_le(c, 0)),
+                5 => f64::from(i16_le(c, 0)),
+                2 => f64::from(u32_le(c, 0)),
+                3 => f64::from(f32_le(c, 0)),
+                6 => f64::from(i32_le(c, 0)),
+                _ => f64_le(c, 0),
             };
             raw * zs
         })

@@ -34,6 +34,7 @@
 use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use thiserror::Error;
 
+use crate::bytes::{f32_le, i16_le, i32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 use crate::units::length_unit_exponent;
 
@@ -122,8 +123,8 @@ fn objects(bytes: &[u8]) -> Result<Vec<Object>, SurError> {
             });
         }
         let h = &bytes[at..at + HEADER];
-        let i16_at = |a: usize| i16::from_le_bytes([h[a], h[a + 1]]);
-        let i32_at = |a: usize| i32::from_le_bytes([h[a], h[a + 1], h[a + 2], h[a + 3]]);
+        let i16_at = |a: usize| i16_le(h, a);
+        let i32_at = |a: usize| i32_le(h, a);
         let bad = |field, a: usize, value: String, expected| SurError::BadField {
             object: k,
             field,
@@ -185,10 +186,6 @@ fn objects(bytes: &[u8]) -> Result<Vec<Object>, SurError> {
     Ok(out)
 }
 
-fn f32_at(b: &[u8], a: usize) -> f32 {
-    f32::from_le_bytes([b[a], b[a + 1], b[a + 2], b[a + 3]])
-}
-
 /// A spacing × its step unit, in µm.
 fn step_um(
     b: &[u8],
@@ -198,7 +195,7 @@ fn step_um(
     unit: usize,
     field: &'static str,
 ) -> Result<f64, SurError> {
-    let s = f64::from(f32_at(b, o.at + spacing));
+    let s = f64::from(f32_le(b, o.at + spacing));
     let u = text(&b[o.at + unit..o.at + unit + 16]);
     let e = length_unit_exponent(&u).ok_or_else(|| SurError::BadField {
         object: k,
@@ -272,8 +269,8 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         });
     };
     let h = &bytes[o.at..o.at + HEADER];
-    let i16_at = |a: usize| i16::from_le_bytes([h[a], h[a + 1]]);
-    let i32_at = |a: usize| i32::from_le_bytes([h[a], h[a + 1], h[a + 2], h[a + 3]]);
+    let i16_at = |a: usize| i16_le(h, a);
+    let i32_at = |a: usize| i32_le(h, a);
     let (dx, dy) = match options.pixel_um {
         Some(p) => p,
         None => (
@@ -282,7 +279,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         ),
     };
     let inversion = i16_at(290);
-    let sz = f64::from(f32_at(h, 128));
+    let sz = f64::from(f32_le(h, 128));
     let scale = match kind {
         ValueKind::Intensity => sz,
         ValueKind::Height => {
@@ -319,14 +316,9 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         for col in 0..nx {
             let a = o.data + (row * nx + col) * width;
             let raw = if width == 2 {
-                i64::from(i16::from_le_bytes([bytes[a], bytes[a + 1]]))
+                i64::from(i16_le(bytes, a))
             } else {
-                i64::from(i32::from_le_bytes([
-                    bytes[a],
-                    bytes[a + 1],
-                    bytes[a + 2],
-                    bytes[a + 3],
-                ]))
+                i64::from(i32_le(bytes, a))
             };
             let (c, r) = match inversion {
                 2 => (nx - 1 - col, row),
@@ -349,7 +341,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     map.set_metadata("sur.name_z", text(&h[164..180]));
     map.set_metadata("sur.unit_z", text(&h[212..228]));
     map.set_metadata("sur.inversion", inversion.to_string());
-    map.set_metadata("sur.offset_z", f32_at(h, 474).to_string());
+    map.set_metadata("sur.offset_z", f32_le(h, 474).to_string());
     let year = i16_at(316);
     if year > 0 {
         map.set_metadata(

@@ -190,6 +190,118 @@ impl<'a> Lines<'a> {
     }
 }
 
+/// The text of a table's bytes: UTF-16 with a byte-order mark, UTF-8, else Latin-1
+/// (every byte the code point of the same number); a leading byte-order mark dropped
+/// and lone `\r` line ends made `\n` ([`plain`]).
+fn decode(bytes: &[u8]) -> Cow<'_, [u8]> {
+    let utf16 = match bytes.get(..2) {
+        Some([0xff, 0xfe]) => Some(true),
+        Some([0xfe, 0xff]) => Some(false),
+        _ => None,
+    };
+    let text: Cow<[u8]> = match std::str::from_utf8(bytes) {
+        _ if utf16.is_some() => {
+            // UTF-16 with a byte-order mark (spreadsheets' "Unicode text").
+            let units: Vec<u16> = bytes[2..]
+                .chunks(2)
+                .map(|c| {
+                    let pair = [c[0], *c.get(1).unwrap_or(&0)];
+                    if utf16 == Some(true) {
+                        u16::from_le_bytes(pair)
+                    } else {
+                        u16::from_be_bytes(pair)
+                    }
+                })
+                .collect();
+            Cow::Owned(String::from_utf16_lossy(&units).into_bytes())
+        }
+        Ok(_) => Cow::Borrowed(bytes),
+        // Latin-1: every byte is the code point of the same number.
+        Err(_) => Cow::Owned(
+            bytes
+                .iter()
+                .map(|&b| char::from(b))
+                .collect::<String>()
+                .into_bytes(),
+        ),
+    };
+    match text {
+        Cow::Borrowed(text) => plain(text),
+        Cow::Owned(text) => Cow::Owned(plain(&text).into_owned()),
+    }
+}
+
+/// `text` without a leading byte-order mark, with each lone `\r` made `\n`.
+fn plain(text: &[u8]) -> Cow<'_, [u8]> {
+    let text: &[u8] = text.strip_prefix("\u{feff}".as_bytes()).unwrap_or(text);
+    // The csv reader ends comment lines only at `\n`: a lone `\r` (old Mac files)
+    // becomes `\n`, which keeps every byte offset.
+    if text
+        .iter()
+        .enumerate()
+        .any(|(i, &b)| b == b'\r' && text.get(i + 1) != Some(&b'\n'))
+    {
+        let mut owned = text.to_vec();
+        for i in 0..owned.len() {
+            if owned[i] == b'\r' && owned.get(i + 1) != Some(&b'\n') {
+                owned[i] = b'\n';
+            }
+        }
+        Cow::Owned(owned)
+    } else {
+        Cow::Borrowed(text)
+    }
+}
+
+/// Refuses a header with no column name, a name given twice (both columns named) or
+/// a single column whose name holds `;` or tabs (another delimiter than `,`).
+fn check_header(
+    file: &str,
+    header: &[String],
+    header_line: u64,
+    raw_header: &csv::StringRecord,
+) -> Result<(), TableError> {
+    if header.iter().all(String::is_empty) {
+        return Err(TableError::NoHeader {
+            file: file.to_string(),
+        });
+    }
+    // A hash map of the names seen: a header may have very many columns.
+    let mut seen = std::collections::HashMap::new();
+    for (j, name) in header.iter().enumerate() {
+        if name.is_empty() {
+            continue;
+        }
+        if let Some(first) = seen.insert(name.as_str(), j) {
+            return Err(TableError::DuplicateColumn {
+                file: file.to_string(),
+                line: header_line,
+                column: name.clone(),
+                first: first + 1,
+                second: j + 1,
+            });
+        }
+    }
+    if let [only] = header {
+        let delimiter = if only.contains(';') {
+            Some("`;`")
+        } else if only.contains('\t') {
+            Some("tabs")
+        } else {
+            None
+        };
+        if let Some(delimiter) = delimiter {
+            return Err(TableError::Delimiter {
+                file: file.to_string(),
+                line: header_line,
+                header: raw_header.get(0).unwrap_or("").to_string(),
+                delimiter,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// A parsed CSV: lower-cased, trimmed header and records with their line numbers.
 pub(crate) struct Table {
     pub(crate) file: String,
@@ -202,55 +314,7 @@ impl Table {
     pub(crate) fn read(mut reader: impl Read, file: &str) -> Result<Self, TableError> {
         let mut bytes = Vec::new();
         reader.read_to_end(&mut bytes).map_err(io_err(file))?;
-        let utf16 = match bytes.get(..2) {
-            Some([0xff, 0xfe]) => Some(true),
-            Some([0xfe, 0xff]) => Some(false),
-            _ => None,
-        };
-        let text: Cow<[u8]> = match std::str::from_utf8(&bytes) {
-            _ if utf16.is_some() => {
-                // UTF-16 with a byte-order mark (spreadsheets' "Unicode text").
-                let units: Vec<u16> = bytes[2..]
-                    .chunks(2)
-                    .map(|c| {
-                        let pair = [c[0], *c.get(1).unwrap_or(&0)];
-                        if utf16 == Some(true) {
-                            u16::from_le_bytes(pair)
-                        } else {
-                            u16::from_be_bytes(pair)
-                        }
-                    })
-                    .collect();
-                Cow::Owned(String::from_utf16_lossy(&units).into_bytes())
-            }
-            Ok(_) => Cow::Borrowed(&bytes),
-            // Latin-1: every byte is the code point of the same number.
-            Err(_) => Cow::Owned(
-                bytes
-                    .iter()
-                    .map(|&b| char::from(b))
-                    .collect::<String>()
-                    .into_bytes(),
-            ),
-        };
-        let text: &[u8] = text.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&text);
-        // The csv reader ends comment lines only at `\n`: a lone `\r` (old Mac files)
-        // becomes `\n`, which keeps every byte offset.
-        let text: Cow<[u8]> = if text
-            .iter()
-            .enumerate()
-            .any(|(i, &b)| b == b'\r' && text.get(i + 1) != Some(&b'\n'))
-        {
-            let mut owned = text.to_vec();
-            for i in 0..owned.len() {
-                if owned[i] == b'\r' && owned.get(i + 1) != Some(&b'\n') {
-                    owned[i] = b'\n';
-                }
-            }
-            Cow::Owned(owned)
-        } else {
-            Cow::Borrowed(text)
-        };
+        let text = decode(&bytes);
         let text: &[u8] = &text;
         let lines = Lines::new(text);
         let mut r = csv::ReaderBuilder::new()
@@ -285,44 +349,7 @@ impl Table {
             .iter()
             .map(|h| h.trim().to_ascii_lowercase())
             .collect();
-        if header.iter().all(String::is_empty) {
-            return Err(TableError::NoHeader {
-                file: file.to_string(),
-            });
-        }
-        // A hash map of the names seen: a header may have very many columns.
-        let mut seen = std::collections::HashMap::new();
-        for (j, name) in header.iter().enumerate() {
-            if name.is_empty() {
-                continue;
-            }
-            if let Some(first) = seen.insert(name.as_str(), j) {
-                return Err(TableError::DuplicateColumn {
-                    file: file.to_string(),
-                    line: header_line,
-                    column: name.clone(),
-                    first: first + 1,
-                    second: j + 1,
-                });
-            }
-        }
-        if let [only] = header.as_slice() {
-            let delimiter = if only.contains(';') {
-                Some("`;`")
-            } else if only.contains('\t') {
-                Some("tabs")
-            } else {
-                None
-            };
-            if let Some(delimiter) = delimiter {
-                return Err(TableError::Delimiter {
-                    file: file.to_string(),
-                    line: header_line,
-                    header: raw_header.get(0).unwrap_or("").to_string(),
-                    delimiter,
-                });
-            }
-        }
+        check_header(file, &header, header_line, &raw_header)?;
         let mut rows = Vec::new();
         for rec in r.records() {
             let rec = match rec {

@@ -6,6 +6,7 @@
 //! present but unusable comes back as `Err(reason)` so that the reader can report it
 //! unless an option overrides that quantity.
 
+use crate::bytes::{f64_le, i32_le, u32_le};
 use std::collections::BTreeMap;
 
 /// A declared value with a description of its origin, or why it is unusable.
@@ -297,9 +298,9 @@ pub(crate) fn lsm(bytes: &[u8]) -> Result<Declared, String> {
             bytes.len()
         ));
     }
-    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().unwrap_or([0; 4]));
-    let i32_at = |o: usize| i32::from_le_bytes(bytes[o..o + 4].try_into().unwrap_or([0; 4]));
-    let f64_at = |o: usize| f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap_or([0; 8]));
+    let u32_at = |o: usize| u32_le(bytes, o);
+    let i32_at = |o: usize| i32_le(bytes, o);
+    let f64_at = |o: usize| f64_le(bytes, o);
     let magic = u32_at(0);
     if !LSM_MAGIC.contains(&magic) {
         return Err(format!(

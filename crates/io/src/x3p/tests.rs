@@ -8,7 +8,8 @@ use std::io::Write;
 use md5::{Digest, Md5};
 use rand::{RngExt, SeedableRng};
 
-use super::{Path, X3pError, read_with};
+use super::X3pError;
+use super::reader::{Path, read_with};
 use crate::reader::{ReadOptions, ValueKind};
 
 const DATA: &str = "bindata/data.bin";
@@ -452,14 +453,14 @@ fn partly_random(len: usize, r: f64, zeros_first: usize) -> Vec<u8> {
 fn deflate_pays_at_ninety_per_cent_of_a_spread_sample() {
     for len in [8 << 20, 1 << 20] {
         assert!(
-            super::deflate_pays(&partly_random(len, 0.8, 0)).unwrap(),
+            super::writer::deflate_pays(&partly_random(len, 0.8, 0)).unwrap(),
             "{len}, r = 0.8"
         );
         assert!(
-            !super::deflate_pays(&partly_random(len, 0.9, 0)).unwrap(),
+            !super::writer::deflate_pays(&partly_random(len, 0.9, 0)).unwrap(),
             "{len}, r = 0.9"
         );
     }
-    assert!(!super::deflate_pays(&partly_random(8 << 20, 1.0, 1 << 20)).unwrap());
-    assert!(super::deflate_pays(&[0u8; 100]).unwrap());
+    assert!(!super::writer::deflate_pays(&partly_random(8 << 20, 1.0, 1 << 20)).unwrap());
+    assert!(super::writer::deflate_pays(&[0u8; 100]).unwrap());
 }
