@@ -21,6 +21,9 @@ pub fn split(data: &[u8]) -> Option<(ReadOptions, ValueKind, &[u8])> {
             _ => DecimalMark::Comma,
         },
         channel: (b & 64 != 0).then_some(0),
+        // Every bit of the first byte is taken: the length of the rest picks whether the
+        // map is read as the quantity its file declares (`convert`, `info`) or as asked.
+        as_stored: rest.len() % 2 == 1,
     };
     let kind = if b & 128 != 0 {
         ValueKind::Intensity
