@@ -11,7 +11,10 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions, curve};
 use flakescatter_optics::Vec3;
 use flakescatter_optics::detector::{Cone, in_plane_direction};
+use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::mueller::Mueller;
+use flakescatter_optics::nalgebra::Complex;
+use flakescatter_optics::thinfilm::{FilmStack, Layer};
 use flakescatter_stats::{GaussianWidth, Orientation};
 
 fn model() -> DistributionModel {
@@ -69,5 +72,45 @@ fn point_brdf(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, default_set, point_brdf);
+/// A metal flake against an interference flake of three layers (issue 47: a stack flake
+/// costs at most 3× a metal flake per point BRDF evaluation).
+fn stack_flake(c: &mut Criterion) {
+    let o = Orientation::gaussian(GaussianWidth::Hwhm(6f64.to_radians())).unwrap();
+    let layer = |n: f64, d: f64| Layer::new(Complex::new(n, 0.0), d).unwrap();
+    let stack = FilmStack::new(vec![
+        layer(2.6, 120.0),
+        layer(1.6, 400.0),
+        layer(2.6, 120.0),
+    ])
+    .unwrap();
+    let models = [
+        (
+            "point_brdf_metal_x1000",
+            FlakeReflectance::complex(0.96, 6.69).unwrap(),
+        ),
+        (
+            "point_brdf_stack3_x1000",
+            FlakeReflectance::stack(stack, 550.0, None).unwrap(),
+        ),
+    ];
+    let dirs: Vec<Vec3> = (0..1000)
+        .map(|k| in_plane_direction((-70.0 + 0.14 * f64::from(k)).to_radians()).into_inner())
+        .collect();
+    let mut g = c.benchmark_group("gaussian");
+    g.throughput(Throughput::Elements(dirs.len() as u64));
+    for (id, flake) in models {
+        let options = ModelOptions {
+            flake,
+            ..ModelOptions::default()
+        };
+        let m = DistributionModel::new(o.clone(), 1.5, options).unwrap();
+        let inc = m.incidence(45f64.to_radians()).unwrap();
+        g.bench_function(id, |b| {
+            b.iter(|| dirs.iter().map(|r| m.brdf(&inc, black_box(r))).sum::<f64>());
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, default_set, point_brdf, stack_flake);
 criterion_main!(benches);
