@@ -49,7 +49,8 @@ use flakescatter_optics::flake::FlakeReflectance;
 use crate::VolumeError;
 use crate::grid::FlakeGrid;
 use crate::layer::Layer;
-use ray::{ConeCells, Run, ray_key};
+use flakescatter_numerics::cone_grid::{self, ConeGrid};
+use ray::{Run, ray_key, spec};
 
 /// Number of batches the rays of one incidence are cut into for the standard errors.
 pub const BATCHES: u64 = 64;
@@ -414,7 +415,12 @@ impl<'a> Tracer<'a> {
             flakes: self.layer.flakes(),
             grid: &self.grid,
             options: &self.options,
-            cones: ConeCells::new(&all),
+            cones: ConeGrid::new(
+                &all.iter().map(spec).collect::<Vec<_>>(),
+                0.0,
+                cone_grid::FINE,
+                1.0,
+            ),
             ndet: all.len(),
             film: self.layer.film_um(),
             tile: self.layer.tile_um(),

@@ -2,6 +2,7 @@
 //! flake faces and rims, the substrate, the top interface from inside, and the tally
 //! of each escape into the detector cones and the energy balance; the ray's generator.
 
+use flakescatter_numerics::cone_grid::{ConeGrid, ConeSpec};
 use flakescatter_optics::detector::{self, Cone, orthonormal_frame};
 use flakescatter_optics::fresnel::{self, FresnelPower};
 use flakescatter_optics::{UnitVec3, Vec3, refraction};
@@ -57,65 +58,13 @@ impl Partial {
     }
 }
 
-/// One cone as the escape test needs it.
-#[derive(Debug, Clone, Copy)]
-struct ConeEntry {
-    axis: [f64; 3],
-    cos_alpha: f64,
-    index: u32,
-}
-
-/// Cones listed by cells of `(k.x, k.y) ∈ [−1, 1]²`: a direction inside a cone of
-/// half-angle `α` about `r` is within the chord `2 sin(α/2)` of `r`, so its `(x, y)`
-/// lies within that distance of `(r.x, r.y)` in each component.
-pub(super) struct ConeCells {
-    side: usize,
-    inv_cell: f64,
-    offsets: Vec<u32>,
-    entries: Vec<ConeEntry>,
-}
-
-impl ConeCells {
-    pub(super) fn new(cones: &[Cone]) -> Self {
-        let chord = |c: &Cone| 2.0 * (0.5 * c.half_angle()).sin();
-        let min_chord = cones.iter().map(chord).fold(f64::INFINITY, f64::min);
-        let side = ((2.0 / min_chord.max(2.0 / 512.0)).ceil() as usize).clamp(4, 512);
-        let inv_cell = side as f64 / 2.0;
-        let to_cell = |v: f64| (((v + 1.0) * inv_cell).floor().max(0.0) as usize).min(side - 1);
-        let mut lists: Vec<Vec<ConeEntry>> = vec![Vec::new(); side * side];
-        for (j, c) in cones.iter().enumerate() {
-            let a = c.axis();
-            let half = chord(c) * (1.0 + 1e-9) + 1e-12;
-            let e = ConeEntry {
-                axis: [a.x, a.y, a.z],
-                cos_alpha: c.cos_half_angle(),
-                index: j as u32,
-            };
-            for iy in to_cell(a.y - half)..=to_cell(a.y + half) {
-                for ix in to_cell(a.x - half)..=to_cell(a.x + half) {
-                    lists[iy * side + ix].push(e);
-                }
-            }
-        }
-        let mut offsets = vec![0u32];
-        let mut entries = Vec::new();
-        for l in lists {
-            entries.extend(l);
-            offsets.push(entries.len() as u32);
-        }
-        Self {
-            side,
-            inv_cell,
-            offsets,
-            entries,
-        }
-    }
-
-    fn candidates(&self, x: f64, y: f64) -> &[ConeEntry] {
-        let ix = (((x + 1.0) * self.inv_cell) as usize).min(self.side - 1);
-        let iy = (((y + 1.0) * self.inv_cell) as usize).min(self.side - 1);
-        let c = iy * self.side + ix;
-        &self.entries[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+/// A cone as [`ConeGrid`] takes it.
+pub(super) fn spec(c: &Cone) -> ConeSpec {
+    let a = c.axis();
+    ConeSpec {
+        axis: [a.x, a.y, a.z],
+        half_angle: c.half_angle(),
+        cos_half_angle: c.cos_half_angle(),
     }
 }
 
@@ -124,7 +73,7 @@ pub(super) struct Run<'r> {
     pub(super) flakes: &'r [Flake],
     pub(super) grid: &'r FlakeGrid,
     pub(super) options: &'r TraceOptions,
-    pub(super) cones: ConeCells,
+    pub(super) cones: ConeGrid,
     pub(super) ndet: usize,
     pub(super) film: f64,
     pub(super) tile: f64,
@@ -412,7 +361,7 @@ impl Run<'_> {
             p.energy[E_VIA_SUB] += w;
         }
         for e in self.cones.candidates(out.x, out.y) {
-            if e.axis[0] * out.x + e.axis[1] * out.y + e.axis[2] * out.z > e.cos_alpha {
+            if e.contains(out.x, out.y, out.z) {
                 let d = e.index as usize;
                 p.cones[d][cat] += w;
                 p.counts[d] += 1;

@@ -2,77 +2,63 @@
 //! batches) and the rows, energy balances and standard errors formed from it (module
 //! docs, "Estimators").
 
+use flakescatter_numerics::welford::Welford;
 use flakescatter_optics::detector::{self, Cone};
 use flakescatter_optics::fresnel;
 
 use super::ray::{E_CUT, E_FLAKES, E_MULTI, E_RIMS, E_SINGLE, E_SLOTS, E_SUB, E_VIA_SUB, Partial};
 use super::{BATCHES, EnergyBalance, VolumePoint};
 
-/// Ordered accumulation over batches: sums and Welford `M2` of the batch sums.
+/// Ordered accumulation over batches: sums and Welford `M2` of the batch sums, in
+/// the slots `[single, multiple, total]` per internal detector, then the energy slots
+/// of [`Partial::energy`], then `absorbed_other` (rims plus cut off).
 pub(super) struct Acc {
-    seen: f64,
-    sum: Vec<[f64; 2]>,
-    /// `[single, multiple, total]`.
-    mean: Vec<[f64; 3]>,
-    m2: Vec<[f64; 3]>,
+    stats: Welford,
+    /// The batch's values, slot by slot (kept to avoid an allocation per batch).
+    values: Vec<f64>,
     counts: Vec<u64>,
-    energy: [f64; E_SLOTS],
-    energy_mean: [f64; E_SLOTS],
-    energy_m2: [f64; E_SLOTS],
-    other_mean: f64,
-    other_m2: f64,
-}
-
-fn welford(mean: &mut f64, m2: &mut f64, v: f64, inv_seen: f64) {
-    let delta = v - *mean;
-    *mean += delta * inv_seen;
-    *m2 += delta * (v - *mean);
 }
 
 impl Acc {
     pub(super) fn new(nd: usize) -> Self {
+        let slots = 3 * nd + E_SLOTS + 1;
         Self {
-            seen: 0.0,
-            sum: vec![[0.0; 2]; nd],
-            mean: vec![[0.0; 3]; nd],
-            m2: vec![[0.0; 3]; nd],
+            stats: Welford::new(slots),
+            values: vec![0.0; slots],
             counts: vec![0; nd],
-            energy: [0.0; E_SLOTS],
-            energy_mean: [0.0; E_SLOTS],
-            energy_m2: [0.0; E_SLOTS],
-            other_mean: 0.0,
-            other_m2: 0.0,
         }
     }
 
     pub(super) fn add(&mut self, p: &Partial) {
-        self.seen += 1.0;
-        let inv = 1.0 / self.seen;
-        for d in 0..self.sum.len() {
+        let nd = self.counts.len();
+        for d in 0..nd {
             let [s, m] = p.cones[d];
-            self.sum[d][0] += s;
-            self.sum[d][1] += m;
-            let (mean, m2) = (&mut self.mean[d], &mut self.m2[d]);
-            for (k, v) in [s, m, s + m].into_iter().enumerate() {
-                welford(&mut mean[k], &mut m2[k], v, inv);
-            }
+            self.values[3 * d..3 * d + 3].copy_from_slice(&[s, m, s + m]);
             self.counts[d] += p.counts[d];
         }
-        for k in 0..E_SLOTS {
-            self.energy[k] += p.energy[k];
-            welford(
-                &mut self.energy_mean[k],
-                &mut self.energy_m2[k],
-                p.energy[k],
-                inv,
-            );
-        }
-        welford(
-            &mut self.other_mean,
-            &mut self.other_m2,
-            p.energy[E_RIMS] + p.energy[E_CUT],
-            inv,
-        );
+        self.values[3 * nd..3 * nd + E_SLOTS].copy_from_slice(&p.energy);
+        self.values[3 * nd + E_SLOTS] = p.energy[E_RIMS] + p.energy[E_CUT];
+        self.stats.add(&self.values);
+    }
+
+    /// Σ over batches of detector `d`'s single (`k = 0`) or multiple (`k = 1`) part.
+    fn sum(&self, d: usize, k: usize) -> f64 {
+        self.stats.sum()[3 * d + k]
+    }
+
+    /// `M2` of detector `d`'s single (`k = 0`), multiple (1) or total (2) batch sums.
+    fn m2(&self, d: usize, k: usize) -> f64 {
+        self.stats.m2()[3 * d + k]
+    }
+
+    /// Σ over batches of energy slot `k`.
+    fn energy(&self, k: usize) -> f64 {
+        self.stats.sum()[3 * self.counts.len() + k]
+    }
+
+    /// `M2` of energy slot `k`; `k = E_SLOTS` for `absorbed_other`.
+    fn energy_m2(&self, k: usize) -> f64 {
+        self.stats.m2()[3 * self.counts.len() + k]
     }
 }
 
@@ -108,20 +94,20 @@ pub(super) fn results(
             } else {
                 0.0
             };
-            coat_seen + (a.sum[d][0] + a.sum[d][1]) / nf
+            coat_seen + (a.sum(d, 0) + a.sum(d, 1)) / nf
         };
         for (j, cone) in cones.iter().enumerate() {
             let proj = cone.projected_solid_angle();
             let coat_seen = if cone.contains(&specular) { coat } else { 0.0 };
-            let single = a.sum[j][0] / nf;
-            let multiple = a.sum[j][1] / nf;
+            let single = a.sum(j, 0) / nf;
+            let multiple = a.sum(j, 1) / nf;
             let total = coat_seen + single + multiple;
             let ap = apertures
                 .iter()
                 .position(|&x| x == cone.half_angle())
                 .unwrap_or(0);
             let spec = value(cones.len() + ii * apertures.len() + ap);
-            let total_se = se(a.m2[j][2]);
+            let total_se = se(a.m2(j, 2));
             points.push(VolumePoint {
                 theta_i: ti,
                 cone: *cone,
@@ -129,9 +115,9 @@ pub(super) fn results(
                 brdf_std_err: total_se / proj,
                 coat_brdf: coat_seen / proj,
                 single_brdf: single / proj,
-                single_std_err: se(a.m2[j][0]) / proj,
+                single_std_err: se(a.m2(j, 0)) / proj,
                 multiple_brdf: multiple / proj,
-                multiple_std_err: se(a.m2[j][1]) / proj,
+                multiple_std_err: se(a.m2(j, 1)) / proj,
                 reflectance: total,
                 reflectance_std_err: total_se,
                 relative: if spec > 0.0 { total / spec } else { f64::NAN },
@@ -139,8 +125,8 @@ pub(super) fn results(
                 rays: a.counts[j],
             });
         }
-        let e = |k: usize| a.energy[k] / nf;
-        let es = |k: usize| se(a.energy_m2[k]);
+        let e = |k: usize| a.energy(k) / nf;
+        let es = |k: usize| se(a.energy_m2(k));
         energy.push(EnergyBalance {
             coat_reflected: coat,
             escaped_single: e(E_SINGLE),
@@ -158,7 +144,7 @@ pub(super) fn results(
             escaped_multiple: es(E_MULTI),
             absorbed_substrate: es(E_SUB),
             absorbed_flakes: es(E_FLAKES),
-            absorbed_other: se(a.other_m2),
+            absorbed_other: se(a.energy_m2(E_SLOTS)),
             absorbed_rims: es(E_RIMS),
             cut_off: es(E_CUT),
             escaped_via_substrate: es(E_VIA_SUB),
