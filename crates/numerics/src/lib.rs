@@ -10,6 +10,8 @@
 //!   errors);
 //! * [`cone_grid`]: a grid index from exit directions to the detector cones that may
 //!   contain them (the topographic and the volume model's detector test);
+//! * [`simd`]: the portable switch (`FLAKESCATTER_SIMD`) and the one instruction-set
+//!   choice and dispatch of every SIMD kernel;
 //! * [`lm`]: bounded Levenberg–Marquardt least squares with central-difference
 //!   Jacobians (every fit of the project);
 //! * [`nnls`]: non-negative least squares (Lawson & Hanson), for the non-parametric
@@ -47,6 +49,7 @@ pub mod legendre;
 pub mod lm;
 pub mod nnls;
 pub mod quad;
+pub mod simd;
 pub mod welford;
 
 /// A 3-vector of `f64` (the math type every flakescatter layer shares; units are the

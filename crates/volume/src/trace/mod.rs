@@ -29,8 +29,10 @@
 //! its own batch's sums within its chunk, and the chunks are added into the batches in
 //! chunk order, so results are bit-identical for any number of threads. A chunk's
 //! rays run in the instruction-set build (SSE2, AVX2 or AVX-512 encodings) that
-//! `pulp` picks for the processor; the arithmetic is the same operations in the same
-//! order (no fused multiply–add), so the results do not depend on it.
+//! `flakescatter_numerics::simd` picks for the processor, or the portable build alone
+//! with `FLAKESCATTER_SIMD=portable` ([`Tracer::with_kernels`]); the arithmetic is the
+//! same operations in the same order (no fused multiply–add), so the results do not
+//! depend on it.
 
 //!
 //! # Where things are
@@ -50,6 +52,7 @@ use crate::VolumeError;
 use crate::grid::FlakeGrid;
 use crate::layer::Layer;
 use flakescatter_numerics::cone_grid::{self, ConeGrid};
+use flakescatter_numerics::simd::Kernels;
 use ray::{Run, ray_key, spec};
 
 /// Number of batches the rays of one incidence are cut into for the standard errors.
@@ -242,6 +245,8 @@ pub struct Tracer<'a> {
     options: TraceOptions,
     /// Which realisation's rays (module `layers`; 0 for a single layer).
     realisation: u64,
+    /// The kernels the rays run with.
+    kernels: Kernels,
 }
 
 impl<'a> Tracer<'a> {
@@ -252,7 +257,9 @@ impl<'a> Tracer<'a> {
     /// [`VolumeError::Parameter`] naming the invalid option (`n`,
     /// `substrate_reflectance`, `rays`, `max_events`, `min_weight`);
     /// [`VolumeError::FlakeIndex`] for an invalid complex flake index;
-    /// [`VolumeError::TooManyFlakes`] for a layer of `2²⁴` flakes or more.
+    /// [`VolumeError::TooManyFlakes`] for a layer of `2²⁴` flakes or more;
+    /// [`VolumeError::SimdSwitch`] when the environment variable `FLAKESCATTER_SIMD`
+    /// holds a value other than `auto` or `portable` ([`Kernels::from_env`]).
     pub fn new(layer: &'a Layer, options: TraceOptions) -> Result<Self, VolumeError> {
         let cell = if layer.mean_diameter_um() > 0.0 {
             layer.mean_diameter_um()
@@ -294,6 +301,7 @@ impl<'a> Tracer<'a> {
             grid: FlakeGrid::new(layer.flakes(), layer.tile_um(), cell_um),
             options,
             realisation: 0,
+            kernels: Kernels::from_env().map_err(|e| VolumeError::SimdSwitch(e.0))?,
         })
     }
 
@@ -363,6 +371,21 @@ impl<'a> Tracer<'a> {
         self.grid.side()
     }
 
+    /// The same tracer running `kernels`: [`Kernels::Portable`] forces the portable
+    /// code, whatever `FLAKESCATTER_SIMD` says (the results are the same bits either
+    /// way; module docs, "Order of work").
+    #[must_use]
+    pub fn with_kernels(mut self, kernels: Kernels) -> Self {
+        self.kernels = kernels;
+        self
+    }
+
+    /// The kernels the rays run with.
+    #[must_use]
+    pub fn kernels(&self) -> Kernels {
+        self.kernels
+    }
+
     /// The options.
     #[must_use]
     pub fn options(&self) -> &TraceOptions {
@@ -429,6 +452,7 @@ impl<'a> Tracer<'a> {
             // A segment may wrap around the tile a few times; longer ones are cut.
             max_cells: 8 * g + 64,
             key: ray_key(self.options.seed, self.realisation),
+            kernels: self.kernels,
         };
         let (acc, segments) = run.trace(theta_i, progress);
         let (points, energy, energy_std_err) =

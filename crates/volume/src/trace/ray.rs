@@ -3,6 +3,7 @@
 //! of each escape into the detector cones and the energy balance; the ray's generator.
 
 use flakescatter_numerics::cone_grid::{ConeGrid, ConeSpec};
+use flakescatter_numerics::simd::{Kernels, dispatch};
 use flakescatter_optics::detector::{self, Cone, orthonormal_frame};
 use flakescatter_optics::fresnel::{self, FresnelPower};
 use flakescatter_optics::{UnitVec3, Vec3, refraction};
@@ -82,9 +83,11 @@ pub(super) struct Run<'r> {
     pub(super) max_cells: u64,
     /// The rays' key, from the seed (see [`ray_rng`]).
     pub(super) key: [u64; 2],
+    /// The kernels the rays run with.
+    pub(super) kernels: Kernels,
 }
 
-/// One chunk's rays, handed to [`pulp::Arch::dispatch`] (a closure would be kept out of
+/// One chunk's rays, handed to [`dispatch`] (a closure would be kept out of
 /// line, without the target features).
 struct ChunkRays<'a, 'r> {
     run: &'a Run<'r>,
@@ -185,20 +188,23 @@ impl Run<'_> {
         let k1 = refraction::into_coating(&k_in, n).into_inner();
         let entry = fresnel::air_to_coating(theta_i, n);
         let mut parts: Vec<Partial> = (0..BATCHES).map(|_| Partial::new(self.ndet)).collect();
-        pulp::Arch::new().dispatch(ChunkRays {
-            run: self,
-            ii,
-            first,
-            order,
-            k1: &k1,
-            entry: &entry,
-            parts: &mut parts,
-        });
+        dispatch(
+            self.kernels,
+            ChunkRays {
+                run: self,
+                ii,
+                first,
+                order,
+                k1: &k1,
+                entry: &entry,
+                parts: &mut parts,
+            },
+        );
         parts
     }
 
     /// The loop of [`Run::chunk`], inlined into the instruction-set build that
-    /// [`pulp::Arch::dispatch`] chose (with what is inlined into it: the ray loop and
+    /// [`dispatch`] chose (with what is inlined into it: the ray loop and
     /// the grid walk; a few small helpers of other crates stay out of line).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
