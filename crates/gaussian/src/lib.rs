@@ -59,6 +59,7 @@ use flakescatter_optics::detector::{Cone, in_plane_angle};
 use rayon::prelude::*;
 
 pub use cone::{Collected, ConeMethod};
+pub use flakescatter_numerics::simd::Kernels;
 pub use model::{DistributionModel, Incidence, ModelOptions, RayKernel};
 pub use montecarlo::{McEstimate, monte_carlo};
 pub use mueller::{CollectedMueller, MuellerCurvePoint, curve_mueller};
@@ -100,6 +101,12 @@ pub enum ModelError {
         "all flakes flat (a delta distribution): the reflectance is a delta at the specular direction; use a Gaussian of small width instead"
     )]
     Delta,
+    /// The environment variable `FLAKESCATTER_SIMD` holds a value other than `auto` or
+    /// `portable` ([`Kernels::from_env`]); the value, lossily decoded.
+    #[error(
+        "environment variable FLAKESCATTER_SIMD={0:?} is not valid: expected `auto` (or unset) for the processor's best instruction set, or `portable` for the portable code"
+    )]
+    SimdSwitch(String),
 }
 
 /// One row of a reflectance curve: one incidence × one detector.

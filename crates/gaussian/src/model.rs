@@ -26,6 +26,7 @@
 //! [`PathAbsorption::factor`]`(cos θt, cos θ2)` of its path inside the film; without it
 //! nothing is multiplied (the default path is unchanged to the bit).
 
+use flakescatter_numerics::simd::Kernels;
 use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel::{self, FresnelPower};
@@ -77,6 +78,8 @@ pub struct DistributionModel {
     options: ModelOptions,
     inv_mean_cos: f64,
     absorption: Option<PathAbsorption>,
+    /// The kernels of [`DistributionModel::brdf_batch`].
+    kernels: Kernels,
 }
 
 /// The point BRDF of one exit direction without its density
@@ -120,7 +123,10 @@ impl DistributionModel {
     /// # Errors
     /// [`ModelError::Index`] when `n` is not a finite real ≥ 1;
     /// [`ModelError::FlakeIndex`] for an invalid complex flake index;
-    /// [`ModelError::Delta`] for [`Orientation::flat`], which has no density.
+    /// [`ModelError::Delta`] for [`Orientation::flat`], which has no density;
+    /// [`ModelError::SimdSwitch`] when the environment variable `FLAKESCATTER_SIMD` holds
+    /// a value other than `auto` or `portable` ([`Kernels::from_env`]), which sets the
+    /// kernels of [`DistributionModel::brdf_batch`].
     pub fn new(
         orientation: Orientation,
         n: f64,
@@ -136,13 +142,31 @@ impl DistributionModel {
             FlakeReflectance::complex(fn_, k).map_err(ModelError::FlakeIndex)?;
         }
         let inv_mean_cos = 1.0 / orientation.mean_cos();
+        let kernels = Kernels::from_env().map_err(|e| ModelError::SimdSwitch(e.0))?;
         Ok(Self {
             orientation,
             n,
             options,
             inv_mean_cos,
             absorption: None,
+            kernels,
         })
+    }
+
+    /// The same model running `kernels` in [`DistributionModel::brdf_batch`]:
+    /// [`Kernels::Portable`] forces the portable code, whatever `FLAKESCATTER_SIMD` says
+    /// (the results are the same bits either way; `crate::batch`, "Vector
+    /// instructions").
+    #[must_use]
+    pub fn with_kernels(mut self, kernels: Kernels) -> Self {
+        self.kernels = kernels;
+        self
+    }
+
+    /// The kernels [`DistributionModel::brdf_batch`] runs.
+    #[must_use]
+    pub fn kernels(&self) -> Kernels {
+        self.kernels
     }
 
     /// The same model with the binder absorbing along each ray's path inside the film

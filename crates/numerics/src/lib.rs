@@ -5,6 +5,13 @@
 //! * [`quad`]: Gauss–Kronrod 7 and 15 rules with their embedded Gauss rules, and an
 //!   adaptive integrator with an error estimate, for numbers or vectors of numbers
 //!   integrated on the same nodes (detector cones, conservation integrals);
+//! * [`welford`]: Welford's running mean and sum of squared deviations, slot by slot
+//!   (the ordered reductions of tile and batch sums behind the ray models' standard
+//!   errors);
+//! * [`cone_grid`]: a grid index from exit directions to the detector cones that may
+//!   contain them (the topographic and the volume model's detector test);
+//! * [`simd`]: the portable switch (`FLAKESCATTER_SIMD`) and the one instruction-set
+//!   choice and dispatch of every SIMD kernel;
 //! * [`lm`]: bounded Levenberg–Marquardt least squares with central-difference
 //!   Jacobians (every fit of the project);
 //! * [`nnls`]: non-negative least squares (Lawson & Hanson), for the non-parametric
@@ -36,11 +43,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod cone_grid;
 pub mod decimal;
 pub mod legendre;
 pub mod lm;
 pub mod nnls;
 pub mod quad;
+pub mod simd;
+pub mod welford;
 
 /// A 3-vector of `f64` (the math type every flakescatter layer shares; units are the
 /// caller's).

@@ -320,6 +320,82 @@ fn log_m2(a: f64, s: f64, a2: f64) -> Option<(f64, f64)> {
     Some(((s / a).ln() - digamma(n) + n.ln(), trigamma(n)))
 }
 
+/// The map-level interval (module docs): the ratio estimator of the mean square tilt
+/// `m2` with the maps of `with_flakes` as units, from each map's sums `(A, S, Σa²)`;
+/// `None` (and a warning) for fewer than two maps with flakes.
+fn map_level(
+    sums: &[(f64, f64, f64)],
+    with_flakes: &[usize],
+    m2: f64,
+    warnings: &mut Vec<PoolWarning>,
+) -> Option<MapLevelInterval> {
+    let m = with_flakes.len();
+    if m >= 2 {
+        let total: f64 = with_flakes.iter().map(|&j| sums[j].0).sum();
+        let ss: f64 = with_flakes
+            .iter()
+            .map(|&j| (sums[j].1 - m2 * sums[j].0).powi(2))
+            .sum();
+        let v = m as f64 / (m as f64 - 1.0) * ss / (total * total);
+        let se = v.sqrt();
+        let dof = m - 1;
+        let t = StudentsT::new(0.0, 1.0, dof as f64)
+            .map(|d| d.inverse_cdf(0.975))
+            .unwrap_or(f64::INFINITY);
+        let half = t * se / m2;
+        let lo = sigma_for_mean_square(m2 * (-half).exp()).unwrap_or(0.0);
+        let hi_m2 = m2 * half.exp();
+        let hi = if hi_m2 >= PI - 2.0 {
+            f64::INFINITY
+        } else {
+            sigma_for_mean_square(hi_m2).unwrap_or(f64::INFINITY)
+        };
+        if m <= 3 {
+            warnings.push(PoolWarning::FewMaps { maps: m, t });
+        }
+        Some(MapLevelInterval {
+            sigma_ci95: (lo, hi),
+            mean_square_tilt_std_err: se,
+            maps: m,
+            dof,
+            t_quantile: t,
+        })
+    } else {
+        warnings.push(PoolWarning::OneMap);
+        None
+    }
+}
+
+/// Cochran's `Q` and `I²` of the maps' log mean square tilts `logs` (value, variance)
+/// over the `testable` maps (module docs); `None` for fewer than two.
+fn heterogeneity(logs: &[Option<(f64, f64)>], testable: &[usize]) -> Option<Heterogeneity> {
+    (testable.len() >= 2).then(|| {
+        let w: Vec<f64> = testable
+            .iter()
+            .map(|&j| 1.0 / logs[j].map_or(1.0, |l| l.1))
+            .collect();
+        let y: Vec<f64> = testable
+            .iter()
+            .map(|&j| logs[j].map_or(0.0, |l| l.0))
+            .collect();
+        let sw: f64 = w.iter().sum();
+        let ybar = w.iter().zip(&y).map(|(w, y)| w * y).sum::<f64>() / sw;
+        let q: f64 = w.iter().zip(&y).map(|(w, y)| w * (y - ybar).powi(2)).sum();
+        let dof = testable.len() - 1;
+        let p = ChiSquared::new(dof as f64).map_or(f64::NAN, |d| 1.0 - d.cdf(q));
+        Heterogeneity {
+            q,
+            dof,
+            p,
+            i2: if q > 0.0 {
+                ((q - dof as f64) / q).max(0.0)
+            } else {
+                0.0
+            },
+        }
+    })
+}
+
 /// Pools the flakes of several maps of one sample: the pooled width with its
 /// flake-level and map-level intervals, each map's own width and whether it is
 /// consistent with the others (module docs). `maps[j]` holds the `(θn, area)` of map
@@ -366,41 +442,7 @@ pub fn pool_maps(maps: &[&[(f64, f64)]]) -> Result<PooledWidth, PoolError> {
     }
 
     // Map level: the ratio estimator with maps as units.
-    let m = with_flakes.len();
-    let map_level = if m >= 2 {
-        let total: f64 = with_flakes.iter().map(|&j| sums[j].0).sum();
-        let ss: f64 = with_flakes
-            .iter()
-            .map(|&j| (sums[j].1 - m2 * sums[j].0).powi(2))
-            .sum();
-        let v = m as f64 / (m as f64 - 1.0) * ss / (total * total);
-        let se = v.sqrt();
-        let dof = m - 1;
-        let t = StudentsT::new(0.0, 1.0, dof as f64)
-            .map(|d| d.inverse_cdf(0.975))
-            .unwrap_or(f64::INFINITY);
-        let half = t * se / m2;
-        let lo = sigma_for_mean_square(m2 * (-half).exp()).unwrap_or(0.0);
-        let hi_m2 = m2 * half.exp();
-        let hi = if hi_m2 >= PI - 2.0 {
-            f64::INFINITY
-        } else {
-            sigma_for_mean_square(hi_m2).unwrap_or(f64::INFINITY)
-        };
-        if m <= 3 {
-            warnings.push(PoolWarning::FewMaps { maps: m, t });
-        }
-        Some(MapLevelInterval {
-            sigma_ci95: (lo, hi),
-            mean_square_tilt_std_err: se,
-            maps: m,
-            dof,
-            t_quantile: t,
-        })
-    } else {
-        warnings.push(PoolWarning::OneMap);
-        None
-    };
+    let map_level = map_level(&sums, &with_flakes, m2, &mut warnings);
 
     // Per map: own width, and z against the other accepted maps.
     let logs: Vec<Option<(f64, f64)>> = sums.iter().map(|&(a, s, a2)| log_m2(a, s, a2)).collect();
@@ -457,31 +499,7 @@ pub fn pool_maps(maps: &[&[(f64, f64)]]) -> Result<PooledWidth, PoolError> {
         warnings.push(PoolWarning::Inconsistent { maps: flagged_maps });
     }
 
-    let heterogeneity = (testable.len() >= 2).then(|| {
-        let w: Vec<f64> = testable
-            .iter()
-            .map(|&j| 1.0 / logs[j].map_or(1.0, |l| l.1))
-            .collect();
-        let y: Vec<f64> = testable
-            .iter()
-            .map(|&j| logs[j].map_or(0.0, |l| l.0))
-            .collect();
-        let sw: f64 = w.iter().sum();
-        let ybar = w.iter().zip(&y).map(|(w, y)| w * y).sum::<f64>() / sw;
-        let q: f64 = w.iter().zip(&y).map(|(w, y)| w * (y - ybar).powi(2)).sum();
-        let dof = testable.len() - 1;
-        let p = ChiSquared::new(dof as f64).map_or(f64::NAN, |d| 1.0 - d.cdf(q));
-        Heterogeneity {
-            q,
-            dof,
-            p,
-            i2: if q > 0.0 {
-                ((q - dof as f64) / q).max(0.0)
-            } else {
-                0.0
-            },
-        }
-    });
+    let heterogeneity = heterogeneity(&logs, &testable);
     if let Some(h) = heterogeneity
         && h.p < 0.05
     {

@@ -408,6 +408,66 @@ fn check(param: Param, value: f64, ok: bool, expected: &'static str) -> Result<(
     }
 }
 
+/// The checks of [`LayerParams::new`] on the flakes' sizes and amount, in the order
+/// it reports them: the diameter distribution, then the coverage (at most
+/// [`MAX_FLAKES`] flakes of this size on this map) or the count.
+fn check_flakes(s: &LayerSpec) -> Result<(), SynthError> {
+    match s.diameter {
+        DiameterDistribution::Fixed(d) => check(Param::DiameterUm, d, d > 0.0, "finite and > 0")?,
+        DiameterDistribution::LogNormal { mean_um, rel_sd } => {
+            check(
+                Param::DiameterMeanUm,
+                mean_um,
+                mean_um > 0.0,
+                "finite and > 0",
+            )?;
+            check(
+                Param::DiameterRelSd,
+                rel_sd,
+                (0.0..=2.0).contains(&rel_sd),
+                "finite, in [0, 2]",
+            )?;
+        }
+    }
+    match s.amount {
+        FlakeAmount::Coverage(c) => {
+            check(
+                Param::Coverage,
+                c,
+                c > 0.0 && c <= 100.0,
+                "finite, in (0, 100]",
+            )?;
+            // The number of flakes that coverage takes, as for a count: c · A over the
+            // mean true area π E[d²]/4 (E[d²] = m²(1 + rel_sd²) for the log-normal).
+            let margin = s.diameter.max_um();
+            let region = (s.nx as f64 * s.dx_um + margin) * (s.ny as f64 * s.dy_um + margin);
+            let mean_d2 = match s.diameter {
+                DiameterDistribution::Fixed(d) => d * d,
+                DiameterDistribution::LogNormal { mean_um, rel_sd } => {
+                    mean_um * mean_um * (1.0 + rel_sd * rel_sd)
+                }
+            };
+            let expected = c * region / (std::f64::consts::PI * mean_d2 / 4.0);
+            check(
+                Param::Coverage,
+                c,
+                expected <= MAX_FLAKES as f64,
+                "a coverage that takes at most 10^7 flakes of this size on this map",
+            )?;
+        }
+        FlakeAmount::Count(n) => {
+            if n == 0 || n > MAX_FLAKES {
+                return Err(SynthError::InvalidParameter {
+                    param: Param::Count,
+                    value: n as f64,
+                    expected: "in [1, 10^7]",
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 impl LayerParams {
     /// Validates `spec`.
     ///
@@ -438,61 +498,7 @@ impl LayerParams {
             s.thickness_um >= 0.0,
             "finite and >= 0",
         )?;
-        match s.diameter {
-            DiameterDistribution::Fixed(d) => {
-                check(Param::DiameterUm, d, d > 0.0, "finite and > 0")?
-            }
-            DiameterDistribution::LogNormal { mean_um, rel_sd } => {
-                check(
-                    Param::DiameterMeanUm,
-                    mean_um,
-                    mean_um > 0.0,
-                    "finite and > 0",
-                )?;
-                check(
-                    Param::DiameterRelSd,
-                    rel_sd,
-                    (0.0..=2.0).contains(&rel_sd),
-                    "finite, in [0, 2]",
-                )?;
-            }
-        }
-        match s.amount {
-            FlakeAmount::Coverage(c) => {
-                check(
-                    Param::Coverage,
-                    c,
-                    c > 0.0 && c <= 100.0,
-                    "finite, in (0, 100]",
-                )?;
-                // The number of flakes that coverage takes, as for a count: c · A over the
-                // mean true area π E[d²]/4 (E[d²] = m²(1 + rel_sd²) for the log-normal).
-                let margin = s.diameter.max_um();
-                let region = (s.nx as f64 * s.dx_um + margin) * (s.ny as f64 * s.dy_um + margin);
-                let mean_d2 = match s.diameter {
-                    DiameterDistribution::Fixed(d) => d * d,
-                    DiameterDistribution::LogNormal { mean_um, rel_sd } => {
-                        mean_um * mean_um * (1.0 + rel_sd * rel_sd)
-                    }
-                };
-                let expected = c * region / (std::f64::consts::PI * mean_d2 / 4.0);
-                check(
-                    Param::Coverage,
-                    c,
-                    expected <= MAX_FLAKES as f64,
-                    "a coverage that takes at most 10^7 flakes of this size on this map",
-                )?;
-            }
-            FlakeAmount::Count(n) => {
-                if n == 0 || n > MAX_FLAKES {
-                    return Err(SynthError::InvalidParameter {
-                        param: Param::Count,
-                        value: n as f64,
-                        expected: "in [1, 10^7]",
-                    });
-                }
-            }
-        }
+        check_flakes(s)?;
         let r = s.roughness;
         check(
             Param::RoughnessRmsUm,

@@ -19,7 +19,10 @@
 //! default) and the portable code alone ([`Kernels::Portable`]: no run-time selection,
 //! no vector kernel, the build's baseline instruction set), per model
 //! ([`crate::TopoModel::with_kernels`]). [`crate::TopoModel::new`] takes it from the
-//! environment variable `FLAKESCATTER_SIMD`, read once per process:
+//! environment variable `FLAKESCATTER_SIMD`, read once per process
+//! ([`flakescatter_numerics::simd`]: the one switch and instruction-set choice of the
+//! project's kernels, which the distribution model's batch BRDF and the volume model's
+//! rays follow too):
 //! * unset, empty or `auto`: [`Kernels::Auto`];
 //! * `portable`: [`Kernels::Portable`], to check that a result does not depend on the
 //!   processor (`.ci/run` runs the topo tests so);
@@ -27,48 +30,12 @@
 //!   [`crate::TopoModel::new`] refuses with [`crate::TopoError::SimdSwitch`] naming the
 //!   value, rather than silently running the other path.
 
-use std::sync::OnceLock;
-
-use crate::TopoError;
-
-/// Which kernels a model runs (module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Kernels {
-    /// The processor's best instruction set (AVX-512, AVX2, else the portable code),
-    /// chosen at run time.
-    #[default]
-    Auto,
-    /// The portable code only.
-    Portable,
-}
-
-impl Kernels {
-    /// The environment variable that sets the kernels of [`crate::TopoModel::new`].
-    pub const ENV: &'static str = "FLAKESCATTER_SIMD";
-
-    /// The kernels `FLAKESCATTER_SIMD` asks for (module docs), read once per process.
-    ///
-    /// # Errors
-    /// [`TopoError::SimdSwitch`] for a value other than unset, empty, `auto` or
-    /// `portable`.
-    pub fn from_env() -> Result<Self, TopoError> {
-        static FROM_ENV: OnceLock<Result<Kernels, TopoError>> = OnceLock::new();
-        FROM_ENV
-            .get_or_init(|| Self::parse(std::env::var_os(Self::ENV).as_deref()))
-            .clone()
-    }
-
-    /// The kernels a value of `FLAKESCATTER_SIMD` asks for (`None`: unset).
-    fn parse(value: Option<&std::ffi::OsStr>) -> Result<Self, TopoError> {
-        match value.map(|v| v.to_str()) {
-            None | Some(Some("" | "auto")) => Ok(Self::Auto),
-            Some(Some("portable")) => Ok(Self::Portable),
-            Some(_) => Err(TopoError::SimdSwitch(
-                value.unwrap_or_default().to_string_lossy().into_owned(),
-            )),
-        }
-    }
-}
+/// The instruction set [`dispatch!`] runs a body under
+/// ([`flakescatter_numerics::simd::Isa`]).
+pub(crate) use flakescatter_numerics::simd::Isa;
+/// Which kernels a model runs: the one switch of the project's kernels
+/// ([`flakescatter_numerics::simd`], module docs).
+pub use flakescatter_numerics::simd::Kernels;
 
 /// Lanes of a [`Block`] and of the eight-lane kernels: one AVX-512 register of `f64`,
 /// two of AVX2.
@@ -240,51 +207,6 @@ impl Lanes for pulp::x86::V4 {
     }
 }
 
-/// The instruction set [`dispatch!`] runs a body under.
-#[derive(Debug, Clone, Copy)]
-pub(crate) enum Isa {
-    /// AVX-512 (x86-64-v4).
-    #[cfg(target_arch = "x86_64")]
-    V4(pulp::x86::V4),
-    /// AVX2 (x86-64-v3).
-    #[cfg(target_arch = "x86_64")]
-    V3(pulp::x86::V3),
-    /// The portable code.
-    Portable,
-}
-
-impl Isa {
-    /// The instruction set for `kernels` on this processor.
-    #[inline]
-    pub fn of(kernels: Kernels) -> Self {
-        if kernels == Kernels::Portable {
-            return Self::Portable;
-        }
-        #[cfg(target_arch = "x86_64")]
-        {
-            if let Some(v4) = pulp::x86::V4::try_new() {
-                return Self::V4(v4);
-            }
-            if let Some(v3) = pulp::x86::V3::try_new() {
-                return Self::V3(v3);
-            }
-        }
-        Self::Portable
-    }
-
-    /// Its name, for test messages.
-    #[cfg(test)]
-    pub fn name(self) -> &'static str {
-        match self {
-            #[cfg(target_arch = "x86_64")]
-            Self::V4(_) => "AVX-512",
-            #[cfg(target_arch = "x86_64")]
-            Self::V3(_) => "AVX2",
-            Self::Portable => "portable",
-        }
-    }
-}
-
 /// The one dispatch helper: `dispatch!(kernels, |lanes| body)` evaluates `body` with
 /// `lanes` bound to the [`Lanes`] value of the instruction set [`Isa::of`]`(kernels)`
 /// chooses, compiled for that instruction set (inside [`pulp::Simd::vectorize`], with
@@ -343,30 +265,6 @@ pub(crate) mod testing {
 mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
-
-    /// The switch's values: unset, empty and `auto` are the run-time choice,
-    /// `portable` the portable code, anything else an error naming the value.
-    #[test]
-    fn the_switch_accepts_three_values_and_names_any_other() {
-        use std::ffi::OsStr;
-        assert_eq!(Kernels::parse(None), Ok(Kernels::Auto));
-        assert_eq!(Kernels::parse(Some(OsStr::new(""))), Ok(Kernels::Auto));
-        assert_eq!(Kernels::parse(Some(OsStr::new("auto"))), Ok(Kernels::Auto));
-        assert_eq!(
-            Kernels::parse(Some(OsStr::new("portable"))),
-            Ok(Kernels::Portable)
-        );
-        for bad in ["avx2", "Portable", "scalar", " portable"] {
-            let err = Kernels::parse(Some(OsStr::new(bad))).unwrap_err();
-            assert_eq!(err, TopoError::SimdSwitch(bad.to_owned()));
-            let text = err.to_string();
-            assert!(
-                text.contains("FLAKESCATTER_SIMD") && text.contains(bad),
-                "{text}"
-            );
-        }
-        assert_eq!(Isa::of(Kernels::Portable).name(), "portable");
-    }
 
     /// Eight sums for the lane tests: a quarter −0.0, a quarter +0.0, the rest in ±1000.
     fn test_sums(rng: &mut rand_chacha::ChaCha8Rng) -> [f64; LANES] {

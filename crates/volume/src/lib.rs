@@ -108,6 +108,7 @@ pub mod layers;
 pub mod params;
 pub mod trace;
 
+pub use flakescatter_numerics::simd::Kernels;
 pub use layer::{Flake, Layer, LayerStats};
 pub use layers::{LayeredError, LayeredPoint, LayeredResult, MAX_LAYERS, run_layers};
 pub use params::{
@@ -228,4 +229,10 @@ pub enum VolumeError {
     /// A geometric query failed (should not happen).
     #[error("geometry: {0}")]
     Geometry(String),
+    /// The environment variable `FLAKESCATTER_SIMD` holds a value other than `auto` or
+    /// `portable` ([`Kernels::from_env`]); the value, lossily decoded.
+    #[error(
+        "environment variable FLAKESCATTER_SIMD={0:?} is not valid: expected `auto` (or unset) for the processor's best instruction set, or `portable` for the portable code"
+    )]
+    SimdSwitch(String),
 }

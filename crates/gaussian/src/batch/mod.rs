@@ -59,9 +59,11 @@
 //! block, the rest stays vectorised.
 //!
 //! # Vector instructions
-//! The block kernel runs under [`pulp::Arch`], which detects AVX-512 (x86-64-v4, eight
-//! `f64` per vector) or else AVX2 + FMA (x86-64-v3, four) at run time, and otherwise
-//! runs the same generic code with one lane per vector (the baseline build). Rust never
+//! The block kernel runs under the instruction set [`Isa::of`] chooses at run time
+//! (the one switch of `flakescatter_numerics::simd`): AVX-512 (x86-64-v4, eight `f64`
+//! per vector) or else AVX2 + FMA (x86-64-v3, four), and otherwise the same generic
+//! code with one lane per vector ([`pulp::Scalar`], the baseline build), which is also
+//! what `FLAKESCATTER_SIMD=portable` ([`DistributionModel::with_kernels`]) forces. Rust never
 //! contracts `a * b + c`; the fused multiply-adds are explicit (pulp's `mul_add_f64s`,
 //! correctly rounded in every build: an instruction with FMA, software without) and
 //! only where no cancellation can occur: the arctangent's and the exponential's
@@ -94,6 +96,7 @@ mod block;
 mod lanes;
 mod setup;
 
+use flakescatter_numerics::simd::{Isa, dispatch_on};
 use flakescatter_optics::Vec3;
 
 use crate::model::{DistributionModel, Incidence};
@@ -111,8 +114,8 @@ pub const MIN_VECTOR_EXPONENT: f64 = -400.0;
 /// are handed to the scalar path (module docs).
 const NEAR_HORIZON: f64 = 1e-8;
 
-/// One call of the kernel, handed to [`pulp::Arch::dispatch`]: its `with_simd` is
-/// inlined into the instruction-set build that `dispatch` chose, and so is everything
+/// One call of the kernel, handed to [`dispatch_on`]: its `with_simd` is
+/// inlined into the instruction-set build that was chosen, and so is everything
 /// below it (a closure would not be: the compiler keeps it out of line, without the
 /// target features).
 struct Batch<'a> {
@@ -145,6 +148,11 @@ impl DistributionModel {
     /// depend on how `dirs` is split into calls, nor on the instruction set the
     /// processor offers.
     pub fn brdf_batch(&self, inc: &Incidence, dirs: &[Vec3], out: &mut Vec<f64>) {
+        self.brdf_batch_on(Isa::of(self.kernels()), inc, dirs, out);
+    }
+
+    /// [`DistributionModel::brdf_batch`] on the instruction set `isa`.
+    fn brdf_batch_on(&self, isa: Isa, inc: &Incidence, dirs: &[Vec3], out: &mut Vec<f64>) {
         out.clear();
         out.reserve(dirs.len());
         let setup = self.batch_setup(inc);
@@ -160,14 +168,17 @@ impl DistributionModel {
                 fresh = Buffers::default();
                 &mut fresh
             };
-            pulp::Arch::new().dispatch(Batch {
-                model: self,
-                inc,
-                setup: &setup,
-                dirs,
-                out,
-                buf,
-            });
+            dispatch_on(
+                isa,
+                Batch {
+                    model: self,
+                    inc,
+                    setup: &setup,
+                    dirs,
+                    out,
+                    buf,
+                },
+            );
         });
     }
 }
@@ -226,5 +237,104 @@ impl Default for Buffers {
             x2: z,
             out: z,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ModelOptions;
+    use flakescatter_optics::flake::FlakeReflectance;
+    use flakescatter_optics::polarization::Transmission;
+    use flakescatter_stats::{GaussianWidth, Orientation};
+    use rand::{RngExt, SeedableRng};
+
+    /// Each instruction set the processor has (AVX-512, AVX2) gives the portable
+    /// code's bits (one lane per vector, [`pulp::Scalar`]: the reference) on every
+    /// flake branch of the kernel (perfect conductor, complex index, the `paper`
+    /// bookkeeping, a tabulated distribution), over the upper hemisphere and random
+    /// directions; an instruction set the processor lacks is named on stderr, so that
+    /// a skipped comparison is never silent.
+    #[test]
+    fn every_instruction_set_gives_the_portable_bits() {
+        let mut isas = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        {
+            match pulp::x86::V4::try_new() {
+                Some(v4) => isas.push(Isa::V4(v4)),
+                None => eprintln!(
+                    "note: every_instruction_set_gives_the_portable_bits: no AVX-512 on this processor; its kernel was not compared"
+                ),
+            }
+            match pulp::x86::V3::try_new() {
+                Some(v3) => isas.push(Isa::V3(v3)),
+                None => eprintln!(
+                    "note: every_instruction_set_gives_the_portable_bits: no AVX2 on this processor; its kernel was not compared"
+                ),
+            }
+        }
+        let gaussian =
+            |hwhm: f64| Orientation::gaussian(GaussianWidth::Hwhm(hwhm.to_radians())).unwrap();
+        let metal = FlakeReflectance::complex(1.2, 7.0).unwrap();
+        let models = [
+            (gaussian(6.0), ModelOptions::default()),
+            (gaussian(0.3), ModelOptions::default()),
+            (
+                gaussian(20.0),
+                ModelOptions {
+                    flake: metal,
+                    ..ModelOptions::default()
+                },
+            ),
+            (
+                gaussian(8.0),
+                ModelOptions {
+                    transmission: Transmission::Paper,
+                    ..ModelOptions::default()
+                },
+            ),
+            (
+                Orientation::tabulated(vec![0.0, 0.1, 0.3, 0.6], vec![0.5, 0.3, 0.2]).unwrap(),
+                ModelOptions::default(),
+            ),
+        ];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(22);
+        let mut dirs: Vec<Vec3> = (0..45)
+            .flat_map(|i| {
+                let t = (2.0 * f64::from(i) + 0.5).to_radians();
+                (0..90).map(move |j| {
+                    let p = f64::from(4 * j).to_radians();
+                    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+                })
+            })
+            .collect();
+        dirs.extend((0..1000).map(|_| {
+            let z: f64 = rng.random_range(-0.2..1.0);
+            let phi = rng.random_range(0.0..std::f64::consts::TAU);
+            let s = (1.0 - z * z).sqrt();
+            Vec3::new(s * phi.cos(), s * phi.sin(), z)
+        }));
+        let (mut want, mut got) = (Vec::new(), Vec::new());
+        let mut nonzero = 0;
+        for (orientation, options) in models {
+            let m = DistributionModel::new(orientation, 1.5, options).unwrap();
+            for ti in [0.0, 0.3, 0.8, 1.3] {
+                let inc = m.incidence(ti).unwrap();
+                m.brdf_batch_on(Isa::Portable, &inc, &dirs, &mut want);
+                nonzero += want.iter().filter(|&&v| v > 0.0).count();
+                for &isa in &isas {
+                    m.brdf_batch_on(isa, &inc, &dirs, &mut got);
+                    for ((r, g), w) in dirs.iter().zip(&got).zip(&want) {
+                        assert_eq!(
+                            g.to_bits(),
+                            w.to_bits(),
+                            "{} θi {ti} r {r:?}: {g:e} vs portable {w:e}",
+                            isa.name()
+                        );
+                    }
+                }
+            }
+        }
+        assert!(nonzero > 20_000, "only {nonzero} non-zero values");
     }
 }

@@ -68,7 +68,7 @@ use rayon::prelude::*;
 use crate::flake::{Flake, UnitVec3, polar_from_normal};
 use crate::heightmap::HeightMap;
 
-use links::{Grid, NONE, REGION, linked_regions, region_pixels};
+use links::{Grid, NONE, REGION, Region, linked_regions, region_pixels};
 use merge::merge_pieces;
 pub use params::{SegmentError, SegmentParams};
 
@@ -159,6 +159,41 @@ pub struct Segmentation {
     pub warning: Option<SegmentWarning>,
 }
 
+/// Step 3 of [`segment`]: the planar pieces of the linked `regions`, in parallel within
+/// batches of regions, numbered in region order; each batch's pieces are written into
+/// the label map as piece numbers, so only one batch's pixel lists are alive at a time.
+fn planar_pieces(
+    grid: &Grid<'_>,
+    labels: &mut [u32],
+    regions: &[Region],
+    params: &SegmentParams,
+) -> Vec<Piece> {
+    let nx = grid.nx;
+    let mut pieces: Vec<Piece> = Vec::new();
+    let mut start = 0;
+    while start < regions.len() {
+        let mut end = start + 1;
+        let mut batch = regions[start].size;
+        while end < regions.len() && batch + regions[end].size <= SPLIT_BATCH_PIXELS {
+            batch += regions[end].size;
+            end += 1;
+        }
+        let split: Vec<(Vec<u32>, Piece)> = region_pixels(nx, labels, &regions[start..end], start)
+            .into_par_iter()
+            .flat_map_iter(|pixels| split_region(grid, pixels, params))
+            .collect();
+        for (pixels, piece) in split {
+            let q = pieces.len() as u32;
+            for p in pixels {
+                labels[p as usize] = q;
+            }
+            pieces.push(piece);
+        }
+        start = end;
+    }
+    pieces
+}
+
 /// Finds the individual flakes of a height map (module docs).
 ///
 /// ```
@@ -225,31 +260,8 @@ pub fn segment(map: &HeightMap, params: &SegmentParams) -> Result<Segmentation, 
     // Step 2: the label map, `REGION | k` on linked region k (of at least `min_pixels`).
     let (mut labels, regions) = linked_regions(&grid, params);
 
-    // Step 3: planar pieces, in parallel within batches of regions, numbered in region
-    // order; each batch's pieces are written into the label map as piece numbers, so
-    // only one batch's pixel lists are alive at a time.
-    let mut pieces: Vec<Piece> = Vec::new();
-    let mut start = 0;
-    while start < regions.len() {
-        let mut end = start + 1;
-        let mut batch = regions[start].size;
-        while end < regions.len() && batch + regions[end].size <= SPLIT_BATCH_PIXELS {
-            batch += regions[end].size;
-            end += 1;
-        }
-        let split: Vec<(Vec<u32>, Piece)> = region_pixels(nx, &labels, &regions[start..end], start)
-            .into_par_iter()
-            .flat_map_iter(|pixels| split_region(&grid, pixels, params))
-            .collect();
-        for (pixels, piece) in split {
-            let q = pieces.len() as u32;
-            for p in pixels {
-                labels[p as usize] = q;
-            }
-            pieces.push(piece);
-        }
-        start = end;
-    }
+    // Step 3: planar pieces (`planar_pieces`).
+    let pieces = planar_pieces(&grid, &mut labels, &regions, params);
     drop(regions);
 
     // Step 4: merge pieces of one flake.

@@ -297,10 +297,10 @@ impl TopoModel {
             let value = |d: usize| {
                 let s = ii * ndet + d;
                 let seen_cc = opts.clearcoat && inc.cones[d].contains(&specular);
-                let rho = stats.sum[s] * inv_n + if seen_cc { cc } else { 0.0 };
+                let rho = stats.sum()[s] * inv_n + if seen_cc { cc } else { 0.0 };
                 let se = se_factor
                     .filter(|_| rays[s] > 0)
-                    .map(|f| (f * stats.m2[s]).sqrt() * inv_n);
+                    .map(|f| (f * stats.m2()[s]).sqrt() * inv_n);
                 (rho, se, seen_cc)
             };
             for (j, cone) in cones.iter().enumerate() {

@@ -252,7 +252,7 @@ pub(crate) fn accumulate(
                 sums.rays[s] += u64::from(p.counts[s]);
             }
         }
-        sums.stats.tiles
+        sums.stats.count()
     };
     let rule = DepositRule {
         h,

@@ -237,7 +237,7 @@ impl TopoModel {
             options,
             block_um: DEFAULT_BLOCK_UM,
             absorption: None,
-            kernels: Kernels::from_env()?,
+            kernels: Kernels::from_env().map_err(|e| TopoError::SimdSwitch(e.0))?,
         })
     }
 

@@ -208,7 +208,7 @@ impl TopoModel {
                     *r += u64::from(c);
                 }
             }
-            stats.tiles
+            stats.count()
         };
         let trace = |batch: &[(usize, Rect)]| -> Vec<Partial> {
             batch
@@ -239,12 +239,13 @@ impl TopoModel {
         // No spread to estimate from with one tile (module docs): None, not NaN.
         let se_factor = (total_tiles > 1).then(|| t / (t - 1.0));
         let incs = setup.incs;
+        let (sum, m2) = stats.into_sum_and_m2();
         Ok(Accumulated {
             all,
             apertures,
             ndet,
-            sum: stats.sum,
-            m2: stats.m2,
+            sum,
+            m2,
             rays,
             incs,
             inv_n: 1.0 / pixels as f64,
@@ -267,47 +268,8 @@ impl TopoModel {
 
 /// The ordered reduction of per-tile sums, slot by slot: their total, and Welford's
 /// running mean and `m2` (sum of squared deviations) of the tile sums, from which the
-/// standard errors come.
-pub(crate) struct TileStats {
-    /// Σ over tiles of each slot's tile sum.
-    pub sum: Vec<f64>,
-    mean: Vec<f64>,
-    /// Σ of squared deviations of the tile sums from their mean.
-    pub m2: Vec<f64>,
-    /// Tiles added so far.
-    pub tiles: u64,
-}
-
-impl TileStats {
-    /// No tiles yet, `slots` slots.
-    pub fn new(slots: usize) -> Self {
-        Self {
-            sum: vec![0.0; slots],
-            mean: vec![0.0; slots],
-            m2: vec![0.0; slots],
-            tiles: 0,
-        }
-    }
-
-    /// Adds one tile's sums `v`, one per slot.
-    #[inline]
-    pub fn add(&mut self, v: &[f64]) {
-        self.tiles += 1;
-        let inv_seen = 1.0 / self.tiles as f64;
-        for (((s, m), q), &v) in self
-            .sum
-            .iter_mut()
-            .zip(self.mean.iter_mut())
-            .zip(self.m2.iter_mut())
-            .zip(v)
-        {
-            *s += v;
-            let delta = v - *m;
-            *m += delta * inv_seen;
-            *q += delta * (v - *m);
-        }
-    }
-}
+/// standard errors come (one implementation, in `numerics`).
+pub(crate) type TileStats = flakescatter_numerics::welford::Welford;
 
 /// Reusable buffers of [`trace_tile`]: the normals' window sums, a chunk of slopes and
 /// what [`trace_chunk`] keeps per normal of a chunk.
