@@ -23,7 +23,8 @@
 
 use flakescatter_optics::catalogue::{Catalogue, CatalogueError, MaterialSpec};
 use flakescatter_optics::nalgebra::Complex;
-use flakescatter_optics::thinfilm::{Response, StackSpec, StackSpecError, ThinFilmError};
+use flakescatter_optics::stack_spec::{StackSpec, StackSpecError};
+use flakescatter_optics::thinfilm::{Response, ThinFilmError};
 
 /// Errors of a thin-film table.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -13,6 +13,7 @@
 //! * [`flake`]: flake reflectance (perfect conductor or complex index);
 //! * [`material`]: optical constants of flake metals versus wavelength (built-in
 //!   aluminium tables, user tables);
+//! * [`stack_spec`]: thin-film stacks written as text, `TiO2:120/mica:400/TiO2:120`;
 //! * [`catalogue`]: named layer materials (TiO2, Fe2O3, SiO2, Al2O3, mica, Al, Cr, Ag;
 //!   sources in `data/README.md`), constants `n+ki` and user tables;
 //! * [`dispersion`]: the clear coat's real index versus wavelength (constant, Cauchy,
@@ -71,6 +72,7 @@ pub mod mueller;
 pub mod polarization;
 pub mod reflection;
 pub mod refraction;
+pub mod stack_spec;
 pub mod stokes;
 pub mod thinfilm;
 

@@ -5,7 +5,7 @@
 use flakescatter_optics::catalogue::{Catalogue, CatalogueError, MaterialSpec, embedded_files};
 use flakescatter_optics::material::ComplexIndexTable;
 use flakescatter_optics::nalgebra::Complex;
-use flakescatter_optics::thinfilm::{StackSpec, StackSpecError};
+use flakescatter_optics::stack_spec::{StackSpec, StackSpecError};
 
 /// Every built-in name and alias resolves, and every embedded file is a valid table
 /// whose header names its source and licence.

@@ -14,7 +14,7 @@ use flakescatter::optics::absorption::FlakeDepth;
 use flakescatter::optics::catalogue::{Catalogue, MaterialSpec};
 use flakescatter::optics::dispersion::{Cauchy, CoatIndex, SpectralTable};
 use flakescatter::optics::material::ComplexIndexTable;
-use flakescatter::optics::thinfilm::StackSpec;
+use flakescatter::optics::stack_spec::StackSpec;
 use flakescatter::spectral::{BinderAbsorption, FlakeSpectrum, MAX_WAVELENGTHS, SpectralCoating};
 use serde_json::{Value, json};
 

@@ -64,7 +64,7 @@ use flakescatter_optics::catalogue::MaterialSpec;
 use flakescatter_optics::dispersion::{CoatIndex, SpectralTable};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::material::ComplexIndexTable;
-use flakescatter_optics::thinfilm::StackSpec;
+use flakescatter_optics::stack_spec::StackSpec;
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_topo::TopoResult;
 use rayon::prelude::*;

@@ -12,7 +12,8 @@
 //!   `q_j = N_j cos θ_j = sqrt(N_j² − s²)` on the principal branch, which is the
 //!   forward wave: `Im q ≥ 0` (decays forward in an absorbing or evanescent layer) and
 //!   `Re q ≥ 0`. This is the `tmm` package's (Byrnes) choice too.
-//! * Amplitude coefficients are those of [`crate::flake`] and [`crate::jones`]: for s,
+//! * Amplitude coefficients are those of the flake (module `flake`) and of the Jones
+//!   matrices (module `jones`): for s,
 //!   `r = (q_i − q_j)/(q_i + q_j)`, `t = 2 q_i/(q_i + q_j)`; for p (field amplitudes,
 //!   `p = k × s`), `r = (N_j² q_i − N_i² q_j)/(N_j² q_i + N_i² q_j)`,
 //!   `t = 2 N_i N_j q_i/(N_j² q_i + N_i² q_j)`. At normal incidence `r_p = −r_s`; a
@@ -48,13 +49,11 @@
 //! ```
 
 mod solve;
-mod spec;
 
 use nalgebra::Complex;
 
 pub(crate) use solve::response as solve_unchecked;
 pub use solve::{Polarization, Response};
-pub use spec::{StackSpec, StackSpecError};
 
 /// Most layers a stack may have (a spec with more is refused).
 pub const MAX_LAYERS: usize = 200;
@@ -106,8 +105,8 @@ pub enum ThinFilmError {
 /// One homogeneous layer: complex index relative to vacuum and thickness.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Layer {
-    index: Complex<f64>,
-    thickness_nm: f64,
+    pub(crate) index: Complex<f64>,
+    pub(crate) thickness_nm: f64,
 }
 
 impl Layer {
@@ -156,7 +155,7 @@ fn check_index(index: Complex<f64>) -> Result<(), (f64, f64)> {
 /// (an empty stack is a bare interface between the two media).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FilmStack {
-    layers: Vec<Layer>,
+    pub(crate) layers: Vec<Layer>,
 }
 
 impl FilmStack {

@@ -1,10 +1,10 @@
-//! A stack written as text, `"TiO2:120/mica:400/TiO2:120"`: layers from the incidence
+//! A thin-film stack written as text, `"TiO2:120/mica:400/TiO2:120"`: layers from the incidence
 //! side separated by `/`, each `material:thickness_nm`, a material being a name of the
 //! [`Catalogue`] or an index `n+ki`. Resolved to a [`FilmStack`] at each wavelength.
 
 use crate::catalogue::{Catalogue, CatalogueError, MaterialSpec};
 
-use super::{FilmStack, Layer, MAX_LAYERS};
+use crate::thinfilm::{FilmStack, Layer, MAX_LAYERS};
 
 /// Errors from a stack spec. Layers are numbered from 1, from the incidence side.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
