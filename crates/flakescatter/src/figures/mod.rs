@@ -31,7 +31,9 @@ use crate::chart::Chart;
 use crate::compare::MeasuredKind;
 use crate::instrument::{DetectorSet, Instrument};
 use crate::pipeline::{Coating, Settings};
-use crate::reproduce::{ReproduceError, SyntheticSample, synthetic_measurement};
+use crate::reproduce::{
+    ReproduceError, SyntheticMeasurement, SyntheticSample, synthetic_measurement,
+};
 
 /// The shipped fixtures the figures use: file stem, generating hwhm (degrees), label.
 pub const FIXTURES: [(&str, f64, &str); 2] = [
@@ -241,31 +243,11 @@ pub fn reproduce(
     spec: &FiguresSpec,
     progress: &dyn Fn(&str),
 ) -> Result<Report, FiguresError> {
-    let stems: Vec<&str> = fixtures.iter().map(|f| f.stem.as_str()).collect();
-    let want: Vec<&str> = FIXTURES.iter().map(|f| f.0).collect();
-    if stems != want {
-        return Err(FiguresError::Fixtures(format!(
-            "expected {} in this order, got {}",
-            want.join(", "),
-            stems.join(", ")
-        )));
-    }
+    let masked = masked_maps(fixtures)?;
     let ctx = Ctx {
         theta_s_deg: (-140..=140).map(|k| f64::from(k) * 0.5).collect(),
         weighting: spec.weighting,
     };
-    let masked = fixtures
-        .iter()
-        .map(|f| {
-            let mut map = f.height.clone();
-            map.apply_intensity_cutoff(&f.intensity, CUTOFF)
-                .map_err(|source| FiguresError::Mask {
-                    stem: f.stem.clone(),
-                    source,
-                })?;
-            Ok(map)
-        })
-        .collect::<Result<Vec<_>, FiguresError>>()?;
     let mut report = Report::default();
     let mut index = Index::default();
     let mut comparisons = serde_json::Map::new();
@@ -294,45 +276,7 @@ pub fn reproduce(
         progress,
     )?;
     report.text("measured.csv", comparisons::measured_csv(&m.curve));
-    // The measured curve's own sampling error near specular (median of se / value).
-    let mut rel: Vec<f64> = m
-        .clean
-        .rows
-        .iter()
-        .filter(|r| {
-            let ts = ctx.theta_s_deg[r.detector].to_radians();
-            crate::compare::Region::of(r.theta_i, ts) == crate::compare::Region::NearSpecular
-        })
-        .filter_map(|r| r.std_err.filter(|_| r.brdf > 0.0).map(|e| e / r.brdf))
-        .collect();
-    rel.sort_by(f64::total_cmp);
-    let median_se = rel.get(rel.len() / 2).copied().unwrap_or(f64::NAN);
-    index.measured = format!(
-        "the topographic model averaged over the sample's rotation (physics.md §5.1: \
-         every pixel's ring of rays at every azimuth, as a goniometer sees an isotropic \
-         sample; clear coat on, physical weighting, n = 1.5, α = {APERTURE_DEG}°) on the \
-         exact surfaces (no z quantisation, no height noise) of {maps} synthetic layers of \
-         {size}² pixels at {pitch} µm (flake hwhm {hwhm}°, roughness rms {rr} µm with \
-         correlation length {rc} µm, seeds {s0}–{s1}, intensity cutoff at the midpoint \
-         0.49): {flakes} visible flakes, {usable} usable pixels of {pixels}; then each BRDF \
-         × (1 + {NOISE} · N(0,1)), noise seed {NOISE_SEED}. The `uncertainty` column is \
-         that noise and the clean curve's own sampling error (the spread between its 32 µm \
-         tiles; median {se:.1} % 5°–40° from specular) in quadrature; {dropped} detectors \
-         that no ray reached left out",
-        maps = sample.maps,
-        size = sample.size,
-        pitch = sample.pitch_um,
-        hwhm = sample.hwhm.to_degrees().round(),
-        rr = sample.roughness_rms_um,
-        rc = sample.roughness_correlation_um,
-        s0 = sample.seed,
-        s1 = sample.seed + sample.maps as u64 - 1,
-        flakes = m.visible_flakes,
-        usable = m.topo.usable_pixels,
-        pixels = m.topo.pixels,
-        se = 100.0 * median_se,
-        dropped = m.dropped_points,
-    );
+    index.measured = describe_measurement(&ctx, &sample, &m);
 
     progress("Fig. 9: distribution model (hwhm 3° and 6°) against the synthetic measured curve");
     comparisons.insert(
@@ -392,6 +336,76 @@ pub fn reproduce(
     let index_text = index_md(&index, spec, &summary);
     report.text("index.md", index_text);
     Ok(report)
+}
+
+/// The fixtures' height maps with the intensity cutoff applied, after checking that
+/// they are [`FIXTURES`] in that order.
+fn masked_maps(fixtures: &[Fixture]) -> Result<Vec<HeightMap>, FiguresError> {
+    let stems: Vec<&str> = fixtures.iter().map(|f| f.stem.as_str()).collect();
+    let want: Vec<&str> = FIXTURES.iter().map(|f| f.0).collect();
+    if stems != want {
+        return Err(FiguresError::Fixtures(format!(
+            "expected {} in this order, got {}",
+            want.join(", "),
+            stems.join(", ")
+        )));
+    }
+    fixtures
+        .iter()
+        .map(|f| {
+            let mut map = f.height.clone();
+            map.apply_intensity_cutoff(&f.intensity, CUTOFF)
+                .map_err(|source| FiguresError::Mask {
+                    stem: f.stem.clone(),
+                    source,
+                })?;
+            Ok(map)
+        })
+        .collect::<Result<Vec<_>, FiguresError>>()
+}
+
+/// How the synthetic measured curve `m` of `sample` was made (`index.md`, and
+/// `comparison.json`'s `measured.description`).
+fn describe_measurement(ctx: &Ctx, sample: &SyntheticSample, m: &SyntheticMeasurement) -> String {
+    // The measured curve's own sampling error near specular (median of se / value).
+    let mut rel: Vec<f64> = m
+        .clean
+        .rows
+        .iter()
+        .filter(|r| {
+            let ts = ctx.theta_s_deg[r.detector].to_radians();
+            crate::compare::Region::of(r.theta_i, ts) == crate::compare::Region::NearSpecular
+        })
+        .filter_map(|r| r.std_err.filter(|_| r.brdf > 0.0).map(|e| e / r.brdf))
+        .collect();
+    rel.sort_by(f64::total_cmp);
+    let median_se = rel.get(rel.len() / 2).copied().unwrap_or(f64::NAN);
+    format!(
+        "the topographic model averaged over the sample's rotation (physics.md §5.1: \
+         every pixel's ring of rays at every azimuth, as a goniometer sees an isotropic \
+         sample; clear coat on, physical weighting, n = 1.5, α = {APERTURE_DEG}°) on the \
+         exact surfaces (no z quantisation, no height noise) of {maps} synthetic layers of \
+         {size}² pixels at {pitch} µm (flake hwhm {hwhm}°, roughness rms {rr} µm with \
+         correlation length {rc} µm, seeds {s0}–{s1}, intensity cutoff at the midpoint \
+         0.49): {flakes} visible flakes, {usable} usable pixels of {pixels}; then each BRDF \
+         × (1 + {NOISE} · N(0,1)), noise seed {NOISE_SEED}. The `uncertainty` column is \
+         that noise and the clean curve's own sampling error (the spread between its 32 µm \
+         tiles; median {se:.1} % 5°–40° from specular) in quadrature; {dropped} detectors \
+         that no ray reached left out",
+        maps = sample.maps,
+        size = sample.size,
+        pitch = sample.pitch_um,
+        hwhm = sample.hwhm.to_degrees().round(),
+        rr = sample.roughness_rms_um,
+        rc = sample.roughness_correlation_um,
+        s0 = sample.seed,
+        s1 = sample.seed + sample.maps as u64 - 1,
+        flakes = m.visible_flakes,
+        usable = m.topo.usable_pixels,
+        pixels = m.topo.pixels,
+        se = 100.0 * median_se,
+        dropped = m.dropped_points,
+    )
 }
 
 /// `x` rounded to `JSON_DIGITS` significant digits (non-finite values unchanged).

@@ -130,6 +130,90 @@ pub(super) fn multiple_scattering(
     index: &mut Index,
 ) -> Result<Value, FiguresError> {
     let sampling = Sampling::new(quick);
+    let traced = trace(&sampling)?;
+    let (flakes, segments, rays_per_incidence) =
+        (&traced.flakes, traced.segments, traced.rays_per_incidence);
+    let mut csv = String::from(
+        "theta_i_deg,theta_s_deg,aspecular_deg,region,single_bounce_brdf_per_sr,single_bounce_std_err_per_sr,multiple_bounce_brdf_per_sr,multiple_bounce_std_err_per_sr,multiple_share,multiple_share_std_err\n",
+    );
+    let mut share_series = Vec::new();
+    let mut brdf_series = Vec::new();
+    let mut per_incidence = Vec::new();
+    let mut far_text = Vec::new();
+    let mut beyond = Vec::new();
+    let mut near_max_text = Vec::new();
+    let mut far_first_text = Vec::new();
+    for (ii, &ti) in INCIDENCES.iter().enumerate() {
+        let found = incidence(&traced, sampling.layers, ii, ti, &mut csv);
+        near_max_text.push(found.near_max_text);
+        far_first_text.push(found.far_first_text);
+        beyond.push(found.beyond);
+        far_text.push(found.far_text);
+        per_incidence.push(found.json);
+        push_series(&mut share_series, &mut brdf_series, ii, ti, found.points);
+    }
+    // The region boundaries, ±40° from specular (unlabelled; the axis label says so).
+    for x in [-40.0, 40.0] {
+        share_series.push(Series {
+            label: String::new(),
+            points: vec![(x, 0.0), (x, 1.0)],
+            style: Style::Dashed,
+            colour: 5,
+        });
+    }
+    let mean_flakes = flakes.iter().sum::<f64>() / flakes.len() as f64;
+    let what = format!(
+        "volume model, {} layers of {:.0} flakes in {} µm tiles, {} rays per incidence each",
+        sampling.layers, mean_flakes, sampling.tile_um, rays_per_incidence
+    );
+    let short = format!(
+        "{} layers × {:.0} flakes, hwhm {HWHM_DEG}°",
+        sampling.layers, mean_flakes
+    );
+    draw(report, csv, share_series, brdf_series, &short, &far_text);
+    let texts = Texts {
+        what,
+        beyond,
+        near_max: near_max_text,
+        far_first: far_first_text,
+    };
+    describe(index, &sampling, &per_incidence, &texts);
+    Ok(json!({
+        "description": "volume model of the paper's coating: multiple-bounce share of the flake light a region's detectors collect (power-weighted), ratio of sums over independent layers with the ratio estimator's standard error",
+        "layers": sampling.layers,
+        "tile_um": sampling.tile_um,
+        "rays_per_incidence": rays_per_incidence,
+        "mean_flakes_per_layer": sig(mean_flakes),
+        "segments": segments,
+        "hwhm_deg": HWHM_DEG,
+        "aperture_deg": APERTURE_DEG,
+        "detector_step_deg": STEP_DEG,
+        "incidences": per_incidence,
+    }))
+}
+
+/// What the layers gave, rows incidence-major (`ii · detectors + j`).
+struct Traced {
+    /// The detectors' θs, degrees.
+    ts_deg: Vec<f64>,
+    /// The detectors' projected solid angles, sr.
+    proj: Vec<f64>,
+    /// Per row, the single-bounce BRDF of each layer, 1/sr.
+    single: Vec<Vec<f64>>,
+    /// Per row, the multiple-bounce BRDF of each layer, 1/sr.
+    multiple: Vec<Vec<f64>>,
+    /// Per incidence, the escaped single and multiple fractions of each layer.
+    escaped: Vec<(Vec<f64>, Vec<f64>)>,
+    /// Flakes of each layer.
+    flakes: Vec<f64>,
+    /// Ray segments traced over all layers.
+    segments: u64,
+    /// Rays per incidence and layer.
+    rays_per_incidence: u64,
+}
+
+/// Traces the layers of the paper's coating (module docs), one per seed.
+fn trace(sampling: &Sampling) -> Result<Traced, FiguresError> {
     let ts_deg: Vec<f64> = (-MAX_THETA_S_DEG / STEP_DEG..=MAX_THETA_S_DEG / STEP_DEG)
         .map(|k| f64::from(k * STEP_DEG))
         .collect();
@@ -192,181 +276,258 @@ pub(super) fn multiple_scattering(
         .iter()
         .map(flakescatter_optics::detector::Cone::projected_solid_angle)
         .collect();
+    Ok(Traced {
+        ts_deg,
+        proj,
+        single,
+        multiple,
+        escaped,
+        flakes,
+        segments,
+        rays_per_incidence,
+    })
+}
 
-    let mut csv = String::from(
-        "theta_i_deg,theta_s_deg,aspecular_deg,region,single_bounce_brdf_per_sr,single_bounce_std_err_per_sr,multiple_bounce_brdf_per_sr,multiple_bounce_std_err_per_sr,multiple_share,multiple_share_std_err\n",
-    );
-    let mut share_series = Vec::new();
-    let mut brdf_series = Vec::new();
-    let mut per_incidence = Vec::new();
-    let mut far_text = Vec::new();
-    let mut beyond = Vec::new();
-    let mut near_max_text = Vec::new();
-    let mut far_first_text = Vec::new();
-    for (ii, &ti) in INCIDENCES.iter().enumerate() {
-        let (mut share, mut hi, mut lo, mut s_pts, mut m_pts) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        for (j, &ts) in ts_deg.iter().enumerate() {
-            let k = ii * nd + j;
-            let a = ts + ti;
-            let region = Region::of(ti.to_radians(), ts.to_radians());
-            let (s, s_se) = mean_se(&single[k]);
-            let (m, m_se) = mean_se(&multiple[k]);
-            let total: Vec<f64> = single[k]
-                .iter()
-                .zip(&multiple[k])
-                .map(|(x, y)| x + y)
-                .collect();
-            let (r, r_se) = ratio(&multiple[k], &total);
-            let _ = writeln!(
-                csv,
-                "{ti},{ts},{a},{},{},{},{},{},{},{}",
-                region.name(),
-                cell(s),
-                cell(s_se),
-                cell(m),
-                cell(m_se),
-                cell(r),
-                cell(r_se)
-            );
-            share.push((a, r));
-            hi.push((a, r + r_se));
-            lo.push((a, r - r_se));
-            s_pts.push((a, s));
-            m_pts.push((a, m));
-        }
-        // The largest per-detector share 5°–40° from specular, and how much of the far
-        // region's flake light (layer means × projected solid angle) arrives within 15°
-        // of its boundary.
-        let near_max = (0..nd)
-            .filter(|&j| {
-                Region::of(ti.to_radians(), ts_deg[j].to_radians()) == Region::NearSpecular
-            })
-            .map(|j| share[j].1)
-            .filter(|r| r.is_finite())
-            .fold(f64::NAN, f64::max);
-        let far_power = |within: f64| -> f64 {
-            (0..nd)
-                .filter(|&j| {
-                    let a = (ts_deg[j] + ti).abs();
-                    Region::of(ti.to_radians(), ts_deg[j].to_radians()) == Region::Far
-                        && a <= within
-                })
-                .map(|j| (s_pts[j].1 + m_pts[j].1) * proj[j])
-                .sum()
-        };
-        near_max_text.push(format!("{:.0} % (θi = {ti}°)", 100.0 * near_max));
-        far_first_text.push(format!(
-            "{:.0} % (θi = {ti}°)",
-            100.0 * far_power(55.0) / far_power(f64::INFINITY)
-        ));
-        // From which angle on no layer sends a single reflection to any detector.
-        let only_multiple = s_pts
+/// One incidence's curves for the charts, `(aspecular°, value)`.
+struct Points {
+    /// Multiple-bounce share.
+    share: Vec<(f64, f64)>,
+    /// Share + 1 standard error.
+    hi: Vec<(f64, f64)>,
+    /// Share − 1 standard error.
+    lo: Vec<(f64, f64)>,
+    /// Single-bounce BRDF, 1/sr.
+    s_pts: Vec<(f64, f64)>,
+    /// Multiple-bounce BRDF, 1/sr.
+    m_pts: Vec<(f64, f64)>,
+}
+
+/// What one incidence found.
+struct Found {
+    points: Points,
+    /// Its `comparison.json` entry.
+    json: Value,
+    /// The far region's share, for text.
+    far_text: String,
+    /// From which angle on only multiple scattering arrives, for text.
+    beyond: String,
+    /// The largest per-detector share 5°–40° from specular, for text.
+    near_max_text: String,
+    /// The far region's flake light within 15° of its boundary, for text.
+    far_first_text: String,
+}
+
+/// Incidence `ii` (θi = `ti` degrees) of the traced layers: its CSV rows (appended to
+/// `csv`), its curves, its shares by region and its numbers for the text.
+fn incidence(t: &Traced, layers: u64, ii: usize, ti: f64, csv: &mut String) -> Found {
+    let Traced {
+        ts_deg,
+        proj,
+        single,
+        multiple,
+        escaped,
+        ..
+    } = t;
+    let nd = ts_deg.len();
+    let (mut share, mut hi, mut lo, mut s_pts, mut m_pts) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (j, &ts) in ts_deg.iter().enumerate() {
+        let k = ii * nd + j;
+        let a = ts + ti;
+        let region = Region::of(ti.to_radians(), ts.to_radians());
+        let (s, s_se) = mean_se(&single[k]);
+        let (m, m_se) = mean_se(&multiple[k]);
+        let total: Vec<f64> = single[k]
             .iter()
-            .rposition(|&(_, s)| s > 0.0)
-            .and_then(|j| s_pts.get(j + 1))
-            .map(|&(a, _)| a);
-        beyond.push(match only_multiple {
-            Some(a) => format!("{a}° (θi = {ti}°)"),
-            None => format!("nowhere (θi = {ti}°)"),
-        });
-        // Regions: the power the detectors of a region collect, per layer.
-        let mut regions = Vec::new();
-        for region in Region::ALL {
-            let js: Vec<usize> = (0..nd)
-                .filter(|&j| Region::of(ti.to_radians(), ts_deg[j].to_radians()) == region)
-                .collect();
-            let sum = |v: &[Vec<f64>], l: usize| -> f64 {
-                js.iter().map(|&j| v[ii * nd + j][l] * proj[j]).sum()
-            };
-            let layers = sampling.layers as usize;
-            let m: Vec<f64> = (0..layers).map(|l| sum(&multiple, l)).collect();
-            let t: Vec<f64> = (0..layers)
-                .map(|l| sum(&single, l) + sum(&multiple, l))
-                .collect();
-            let (r, se) = ratio(&m, &t);
-            if region == Region::Far {
-                far_text.push(format!("{} (θi = {ti}°)", percent((r, se))));
-            }
-            regions.push(json!({
-                "region": region.name(),
-                "detectors": js.len(),
-                "multiple_share": sig(r),
-                "std_err": sig(se),
-            }));
+            .zip(&multiple[k])
+            .map(|(x, y)| x + y)
+            .collect();
+        let (r, r_se) = ratio(&multiple[k], &total);
+        let _ = writeln!(
+            csv,
+            "{ti},{ts},{a},{},{},{},{},{},{},{}",
+            region.name(),
+            cell(s),
+            cell(s_se),
+            cell(m),
+            cell(m_se),
+            cell(r),
+            cell(r_se)
+        );
+        share.push((a, r));
+        hi.push((a, r + r_se));
+        lo.push((a, r - r_se));
+        s_pts.push((a, s));
+        m_pts.push((a, m));
+    }
+    // The largest per-detector share 5°–40° from specular, and how much of the far
+    // region's flake light (layer means × projected solid angle) arrives within 15°
+    // of its boundary.
+    let near_max = (0..nd)
+        .filter(|&j| Region::of(ti.to_radians(), ts_deg[j].to_radians()) == Region::NearSpecular)
+        .map(|j| share[j].1)
+        .filter(|r| r.is_finite())
+        .fold(f64::NAN, f64::max);
+    let far_power = |within: f64| -> f64 {
+        (0..nd)
+            .filter(|&j| {
+                let a = (ts_deg[j] + ti).abs();
+                Region::of(ti.to_radians(), ts_deg[j].to_radians()) == Region::Far && a <= within
+            })
+            .map(|j| (s_pts[j].1 + m_pts[j].1) * proj[j])
+            .sum()
+    };
+    let near_max_text = format!("{:.0} % (θi = {ti}°)", 100.0 * near_max);
+    let far_first_text = format!(
+        "{:.0} % (θi = {ti}°)",
+        100.0 * far_power(55.0) / far_power(f64::INFINITY)
+    );
+    // From which angle on no layer sends a single reflection to any detector.
+    let only_multiple = s_pts
+        .iter()
+        .rposition(|&(_, s)| s > 0.0)
+        .and_then(|j| s_pts.get(j + 1))
+        .map(|&(a, _)| a);
+    let beyond = match only_multiple {
+        Some(a) => format!("{a}° (θi = {ti}°)"),
+        None => format!("nowhere (θi = {ti}°)"),
+    };
+    let (regions, far_text) = regions(t, layers, ii, ti);
+    let (r_all, se_all) = ratio(&escaped[ii].1, &{
+        escaped[ii]
+            .0
+            .iter()
+            .zip(&escaped[ii].1)
+            .map(|(a, b)| a + b)
+            .collect::<Vec<_>>()
+    });
+    let (es, _) = mean_se(&escaped[ii].0);
+    let (em, _) = mean_se(&escaped[ii].1);
+    let json = json!({
+        "theta_i_deg": ti,
+        "regions": regions,
+        "escaped_single": sig(es),
+        "escaped_multiple": sig(em),
+        "hemisphere_multiple_share": sig(r_all),
+        "hemisphere_multiple_share_std_err": sig(se_all),
+    });
+    Found {
+        points: Points {
+            share,
+            hi,
+            lo,
+            s_pts,
+            m_pts,
+        },
+        json,
+        far_text,
+        beyond,
+        near_max_text,
+        far_first_text,
+    }
+}
+
+/// The multiple-bounce share of the power the detectors of each region collect at
+/// incidence `ii` (θi = `ti` degrees), ratio of sums over the layers; and the far
+/// region's share for text.
+fn regions(t: &Traced, layers: u64, ii: usize, ti: f64) -> (Vec<Value>, String) {
+    let Traced {
+        ts_deg,
+        proj,
+        single,
+        multiple,
+        ..
+    } = t;
+    let nd = ts_deg.len();
+    let mut far_text = String::new();
+    let mut regions = Vec::new();
+    for region in Region::ALL {
+        let js: Vec<usize> = (0..nd)
+            .filter(|&j| Region::of(ti.to_radians(), ts_deg[j].to_radians()) == region)
+            .collect();
+        let sum = |v: &[Vec<f64>], l: usize| -> f64 {
+            js.iter().map(|&j| v[ii * nd + j][l] * proj[j]).sum()
+        };
+        let layers = layers as usize;
+        let m: Vec<f64> = (0..layers).map(|l| sum(multiple, l)).collect();
+        let t: Vec<f64> = (0..layers)
+            .map(|l| sum(single, l) + sum(multiple, l))
+            .collect();
+        let (r, se) = ratio(&m, &t);
+        if region == Region::Far {
+            far_text = format!("{} (θi = {ti}°)", percent((r, se)));
         }
-        let (r_all, se_all) = ratio(&escaped[ii].1, &{
-            escaped[ii]
-                .0
-                .iter()
-                .zip(&escaped[ii].1)
-                .map(|(a, b)| a + b)
-                .collect::<Vec<_>>()
-        });
-        let (es, _) = mean_se(&escaped[ii].0);
-        let (em, _) = mean_se(&escaped[ii].1);
-        per_incidence.push(json!({
-            "theta_i_deg": ti,
-            "regions": regions,
-            "escaped_single": sig(es),
-            "escaped_multiple": sig(em),
-            "hemisphere_multiple_share": sig(r_all),
-            "hemisphere_multiple_share_std_err": sig(se_all),
+        regions.push(json!({
+            "region": region.name(),
+            "detectors": js.len(),
+            "multiple_share": sig(r),
+            "std_err": sig(se),
         }));
-        let label = format!("θi = {ti}°");
-        share_series.push(Series {
-            label: label.clone(),
-            points: share,
-            style: Style::Line,
-            colour: ii,
-        });
-        share_series.push(Series {
-            label: if ii == 0 {
-                "dashed: ± 1 standard error".into()
-            } else {
-                String::new()
-            },
-            points: hi,
-            style: Style::Dashed,
-            colour: ii,
-        });
-        share_series.push(Series {
-            label: String::new(),
-            points: lo,
-            style: Style::Dashed,
-            colour: ii,
-        });
-        brdf_series.push(Series {
-            label: format!("single bounce, {label}"),
-            points: s_pts,
-            style: Style::Line,
-            colour: ii,
-        });
-        brdf_series.push(Series {
-            label: format!("multiple bounces, {label}"),
-            points: m_pts,
-            style: Style::Dashed,
-            colour: ii,
-        });
     }
-    // The region boundaries, ±40° from specular (unlabelled; the axis label says so).
-    for x in [-40.0, 40.0] {
-        share_series.push(Series {
-            label: String::new(),
-            points: vec![(x, 0.0), (x, 1.0)],
-            style: Style::Dashed,
-            colour: 5,
-        });
-    }
-    let mean_flakes = flakes.iter().sum::<f64>() / flakes.len() as f64;
-    let what = format!(
-        "volume model, {} layers of {:.0} flakes in {} µm tiles, {} rays per incidence each",
-        sampling.layers, mean_flakes, sampling.tile_um, rays_per_incidence
-    );
-    let short = format!(
-        "{} layers × {:.0} flakes, hwhm {HWHM_DEG}°",
-        sampling.layers, mean_flakes
-    );
+    (regions, far_text)
+}
+
+/// Adds incidence `ii`'s curves to the share chart's and the BRDF chart's series.
+fn push_series(
+    share_series: &mut Vec<Series>,
+    brdf_series: &mut Vec<Series>,
+    ii: usize,
+    ti: f64,
+    points: Points,
+) {
+    let Points {
+        share,
+        hi,
+        lo,
+        s_pts,
+        m_pts,
+    } = points;
+    let label = format!("θi = {ti}°");
+    share_series.push(Series {
+        label: label.clone(),
+        points: share,
+        style: Style::Line,
+        colour: ii,
+    });
+    share_series.push(Series {
+        label: if ii == 0 {
+            "dashed: ± 1 standard error".into()
+        } else {
+            String::new()
+        },
+        points: hi,
+        style: Style::Dashed,
+        colour: ii,
+    });
+    share_series.push(Series {
+        label: String::new(),
+        points: lo,
+        style: Style::Dashed,
+        colour: ii,
+    });
+    brdf_series.push(Series {
+        label: format!("single bounce, {label}"),
+        points: s_pts,
+        style: Style::Line,
+        colour: ii,
+    });
+    brdf_series.push(Series {
+        label: format!("multiple bounces, {label}"),
+        points: m_pts,
+        style: Style::Dashed,
+        colour: ii,
+    });
+}
+
+/// Writes the CSV and draws the two charts.
+fn draw(
+    report: &mut Report,
+    csv: String,
+    share_series: Vec<Series>,
+    brdf_series: Vec<Series>,
+    short: &str,
+    far_text: &[String],
+) {
     report.text("multiple_scattering.csv", csv);
     report.chart(
         "multiple_scattering_share",
@@ -393,6 +554,28 @@ pub(super) fn multiple_scattering(
             series: brdf_series,
         },
     );
+}
+
+/// The numbers of the text besides the shares by region.
+struct Texts {
+    /// What was traced.
+    what: String,
+    /// Per incidence, from which angle on only multiple scattering arrives.
+    beyond: Vec<String>,
+    /// Per incidence, the largest per-detector share 5°–40° from specular.
+    near_max: Vec<String>,
+    /// Per incidence, the far region's flake light within 15° of its boundary.
+    far_first: Vec<String>,
+}
+
+/// The figure's `index.md` entry: the question, the method and the answer.
+fn describe(index: &mut Index, sampling: &Sampling, per_incidence: &[Value], texts: &Texts) {
+    let Texts {
+        what,
+        beyond,
+        near_max: near_max_text,
+        far_first: far_first_text,
+    } = texts;
     let region_text = |ii: usize, name: &str| -> String {
         let r = &per_incidence[ii]["regions"];
         r.as_array()
@@ -499,18 +682,6 @@ pub(super) fn multiple_scattering(
             far_first = far_first_text.join(" and "),
         ),
     );
-    Ok(json!({
-        "description": "volume model of the paper's coating: multiple-bounce share of the flake light a region's detectors collect (power-weighted), ratio of sums over independent layers with the ratio estimator's standard error",
-        "layers": sampling.layers,
-        "tile_um": sampling.tile_um,
-        "rays_per_incidence": rays_per_incidence,
-        "mean_flakes_per_layer": sig(mean_flakes),
-        "segments": segments,
-        "hwhm_deg": HWHM_DEG,
-        "aperture_deg": APERTURE_DEG,
-        "detector_step_deg": STEP_DEG,
-        "incidences": per_incidence,
-    }))
 }
 
 #[cfg(test)]

@@ -249,156 +249,167 @@ pub fn load_map(
     options: &LoadOptions,
     progress: &dyn Fn(u64, u64),
 ) -> Result<LoadedMap, LoadError> {
-    let path = &source.height;
     match source.kind {
-        SourceKind::Stack => {
-            for (what, c) in [
-                ("channel", &source.channel),
-                ("intensity channel", &source.intensity_channel),
-            ] {
-                if let Some(c) = c {
-                    return Err(LoadError::StackChannel {
-                        stack: path.clone(),
-                        what,
-                        channel: c.clone(),
-                    });
-                }
-            }
-            if let Some(i) = &source.intensity {
-                return Err(LoadError::StackWithIntensity {
-                    stack: path.clone(),
-                    intensity: i.clone(),
-                });
-            }
-            let maps = localise_stack(path, &options.stack, &options.peak, progress)
-                .map_err(|e| LoadError::Stack(Box::new(e)))?;
-            let mut map = maps.height;
-            let valid_before_cutoff = map.valid_count();
-            if let Some(cutoff) = options.cutoff {
-                map.apply_intensity_cutoff(&maps.intensity, cutoff)
-                    .map_err(cutoff_error(path, "its own intensity", cutoff))?;
-            }
-            Ok(LoadedMap {
-                map,
-                format: format!("stack ({})", maps.info.format.name()),
-                valid_before_cutoff,
-                stack: Some(StackSummary {
-                    info: maps.info,
-                    report: maps.report,
-                    peak: maps.peak,
-                    threshold: maps.threshold,
-                }),
-                channels: Vec::new(),
-                channel: None,
-                intensity_channel: None,
-            })
-        }
-        SourceKind::Map => {
-            if let (Some(i), Some(c)) = (&source.intensity, &source.intensity_channel) {
-                return Err(LoadError::TwoIntensities {
-                    map: path.clone(),
-                    intensity: i.clone(),
-                    channel: c.clone(),
-                });
-            }
-            if let Some(i) = &source.intensity
-                && let Some(why) = distinct::same_data(path, i)
-            {
-                return Err(LoadError::OwnIntensity {
-                    map: path.clone(),
-                    intensity: i.clone(),
-                    why,
-                });
-            }
-            if let (Some(c), None) = (&source.intensity_channel, options.cutoff) {
-                return Err(LoadError::ChannelWithoutCutoff {
-                    map: path.clone(),
-                    channel: c.clone(),
-                });
-            }
-            // A partner intensity file is read first and kept only as its keep-mask (one
-            // byte per point), so that the intensities and the heights are never held
-            // together; its errors are reported after the height file's own.
-            let partner_mask = match (&source.intensity, &source.intensity_channel, options.cutoff)
-            {
-                (Some(ipath), None, Some(cutoff)) => {
-                    // The channel choice is the height map's; the partner file's first.
-                    // An intensity is expected of it, whatever the map is read as.
-                    let partner = ReadOptions {
-                        channel: None,
-                        as_stored: false,
-                        ..options.read
-                    };
-                    Some(
-                        read_intensity(ipath, &partner)
-                            .map_err(|source| LoadError::Intensity {
-                                map: path.clone(),
-                                source: Box::new(source),
-                            })
-                            .and_then(|(intensity, _)| {
-                                intensity.intensity_mask(cutoff).map_err(cutoff_error(
-                                    path,
-                                    ipath.display().to_string(),
-                                    cutoff,
-                                ))
-                            }),
-                    )
-                }
-                _ => None,
-            };
-            let read = read_selected(
-                path,
-                &options.read,
-                source.channel.as_ref(),
-                source.intensity_channel.as_ref(),
-            )
-            .map_err(|e| LoadError::Height(Box::new(e)))?;
-            let mut map = read.map;
-            let valid_before_cutoff = map.valid_count();
-            match (&source.intensity, &read.intensity, options.cutoff) {
-                (_, Some((mask, i)), Some(cutoff)) => {
-                    let c = &read.channels[*i];
-                    let what = format!("channel {i} ({}) of the same file", c.name);
-                    map.apply_intensity_cutoff(mask, cutoff)
-                        .map_err(cutoff_error(path, what, cutoff))?;
-                }
-                (Some(ipath), None, Some(cutoff)) => {
-                    // Read above for this very case (a partner file and a cutoff).
-                    let keep = partner_mask.ok_or_else(|| LoadError::NoIntensity {
-                        map: path.clone(),
-                        cutoff,
-                    })??;
-                    map.apply_intensity_mask(&keep).map_err(cutoff_error(
-                        path,
-                        ipath.display().to_string(),
-                        cutoff,
-                    ))?;
-                }
-                (None, None, Some(cutoff)) => {
-                    return Err(LoadError::NoIntensity {
-                        map: path.clone(),
-                        cutoff,
-                    });
-                }
-                (Some(ipath), _, None) => {
-                    return Err(LoadError::NoCutoff {
-                        map: path.clone(),
-                        intensity: ipath.clone(),
-                    });
-                }
-                (None, _, None) => {}
-            }
-            Ok(LoadedMap {
-                map,
-                format: read.format.name().to_owned(),
-                valid_before_cutoff,
-                stack: None,
-                channels: read.channels,
-                channel: Some(read.channel),
-                intensity_channel: read.intensity.map(|(_, i)| i),
-            })
+        SourceKind::Stack => load_stack(source, options, progress),
+        SourceKind::Map => load_height_map(source, options),
+    }
+}
+
+/// A z-stack localised into a height map, masked with its own intensity.
+fn load_stack(
+    source: &MapSource,
+    options: &LoadOptions,
+    progress: &dyn Fn(u64, u64),
+) -> Result<LoadedMap, LoadError> {
+    let path = &source.height;
+    for (what, c) in [
+        ("channel", &source.channel),
+        ("intensity channel", &source.intensity_channel),
+    ] {
+        if let Some(c) = c {
+            return Err(LoadError::StackChannel {
+                stack: path.clone(),
+                what,
+                channel: c.clone(),
+            });
         }
     }
+    if let Some(i) = &source.intensity {
+        return Err(LoadError::StackWithIntensity {
+            stack: path.clone(),
+            intensity: i.clone(),
+        });
+    }
+    let maps = localise_stack(path, &options.stack, &options.peak, progress)
+        .map_err(|e| LoadError::Stack(Box::new(e)))?;
+    let mut map = maps.height;
+    let valid_before_cutoff = map.valid_count();
+    if let Some(cutoff) = options.cutoff {
+        map.apply_intensity_cutoff(&maps.intensity, cutoff)
+            .map_err(cutoff_error(path, "its own intensity", cutoff))?;
+    }
+    Ok(LoadedMap {
+        map,
+        format: format!("stack ({})", maps.info.format.name()),
+        valid_before_cutoff,
+        stack: Some(StackSummary {
+            info: maps.info,
+            report: maps.report,
+            peak: maps.peak,
+            threshold: maps.threshold,
+        }),
+        channels: Vec::new(),
+        channel: None,
+        intensity_channel: None,
+    })
+}
+
+/// A height map masked with the intensity of its partner file or of one of its own
+/// channels.
+fn load_height_map(source: &MapSource, options: &LoadOptions) -> Result<LoadedMap, LoadError> {
+    let path = &source.height;
+    if let (Some(i), Some(c)) = (&source.intensity, &source.intensity_channel) {
+        return Err(LoadError::TwoIntensities {
+            map: path.clone(),
+            intensity: i.clone(),
+            channel: c.clone(),
+        });
+    }
+    if let Some(i) = &source.intensity
+        && let Some(why) = distinct::same_data(path, i)
+    {
+        return Err(LoadError::OwnIntensity {
+            map: path.clone(),
+            intensity: i.clone(),
+            why,
+        });
+    }
+    if let (Some(c), None) = (&source.intensity_channel, options.cutoff) {
+        return Err(LoadError::ChannelWithoutCutoff {
+            map: path.clone(),
+            channel: c.clone(),
+        });
+    }
+    // A partner intensity file is read first and kept only as its keep-mask (one
+    // byte per point), so that the intensities and the heights are never held
+    // together; its errors are reported after the height file's own.
+    let partner_mask = match (&source.intensity, &source.intensity_channel, options.cutoff) {
+        (Some(ipath), None, Some(cutoff)) => {
+            // The channel choice is the height map's; the partner file's first.
+            // An intensity is expected of it, whatever the map is read as.
+            let partner = ReadOptions {
+                channel: None,
+                as_stored: false,
+                ..options.read
+            };
+            Some(
+                read_intensity(ipath, &partner)
+                    .map_err(|source| LoadError::Intensity {
+                        map: path.clone(),
+                        source: Box::new(source),
+                    })
+                    .and_then(|(intensity, _)| {
+                        intensity.intensity_mask(cutoff).map_err(cutoff_error(
+                            path,
+                            ipath.display().to_string(),
+                            cutoff,
+                        ))
+                    }),
+            )
+        }
+        _ => None,
+    };
+    let read = read_selected(
+        path,
+        &options.read,
+        source.channel.as_ref(),
+        source.intensity_channel.as_ref(),
+    )
+    .map_err(|e| LoadError::Height(Box::new(e)))?;
+    let mut map = read.map;
+    let valid_before_cutoff = map.valid_count();
+    match (&source.intensity, &read.intensity, options.cutoff) {
+        (_, Some((mask, i)), Some(cutoff)) => {
+            let c = &read.channels[*i];
+            let what = format!("channel {i} ({}) of the same file", c.name);
+            map.apply_intensity_cutoff(mask, cutoff)
+                .map_err(cutoff_error(path, what, cutoff))?;
+        }
+        (Some(ipath), None, Some(cutoff)) => {
+            // Read above for this very case (a partner file and a cutoff).
+            let keep = partner_mask.ok_or_else(|| LoadError::NoIntensity {
+                map: path.clone(),
+                cutoff,
+            })??;
+            map.apply_intensity_mask(&keep).map_err(cutoff_error(
+                path,
+                ipath.display().to_string(),
+                cutoff,
+            ))?;
+        }
+        (None, None, Some(cutoff)) => {
+            return Err(LoadError::NoIntensity {
+                map: path.clone(),
+                cutoff,
+            });
+        }
+        (Some(ipath), _, None) => {
+            return Err(LoadError::NoCutoff {
+                map: path.clone(),
+                intensity: ipath.clone(),
+            });
+        }
+        (None, _, None) => {}
+    }
+    Ok(LoadedMap {
+        map,
+        format: read.format.name().to_owned(),
+        valid_before_cutoff,
+        stack: None,
+        channels: read.channels,
+        channel: Some(read.channel),
+        intensity_channel: read.intensity.map(|(_, i)| i),
+    })
 }
 
 /// The error of an intensity cutoff on the map `map`, the intensity described by
