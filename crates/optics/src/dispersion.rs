@@ -188,6 +188,26 @@ impl SpectralTable {
         })
     }
 
+    /// The same value at every wavelength (a table of two rows spanning every positive
+    /// finite wavelength, so [`SpectralTable::value_at`] returns `value` exactly).
+    ///
+    /// # Errors
+    /// [`DispersionError::InvalidValue`] for a value that is not finite or below `min`.
+    pub fn constant(value: f64, name: &'static str, min: f64) -> Result<Self, DispersionError> {
+        Self::new(
+            vec![f64::MIN_POSITIVE, f64::MAX],
+            vec![value, value],
+            name,
+            min,
+        )
+    }
+
+    /// Whether every row holds the same value (e.g. a [`SpectralTable::constant`]).
+    #[must_use]
+    pub fn is_constant(&self) -> bool {
+        self.values.windows(2).all(|w| w[0] == w[1])
+    }
+
     /// The value at `wavelength_nm`, linearly interpolated between rows (exact at a row).
     ///
     /// # Errors

@@ -95,10 +95,11 @@ pub struct SpectralArgs {
     /// Clear-coat index from a CSV `wavelength_nm,n` (linear between rows). Replaces --n.
     #[arg(long, value_name = "FILE", conflicts_with = "n")]
     pub coat_index: Option<PathBuf>,
-    /// Absorption of the binder along each ray's path inside the film: CSV
-    /// `wavelength_nm,alpha_per_um` (Napierian, for intensity, 1/µm). Needs
+    /// Absorption of the binder along each ray's path inside the film (a tinted or
+    /// pigmented binder): a constant absorption coefficient in 1/µm (Napierian, for
+    /// intensity, e.g. 0.05), or a CSV `wavelength_nm,alpha_per_um`. Needs
     /// --flake-depth-um or --film-um.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "ALPHA|FILE", allow_negative_numbers = true)]
     pub binder_absorption: Option<PathBuf>,
     /// With --binder-absorption: every flake at this depth below the top surface, µm
     /// (path d/cos θt + d/cos θ2).
@@ -129,7 +130,9 @@ impl SpectralArgs {
             ("--coat-index", &self.coat_index),
             ("--binder-absorption", &self.binder_absorption),
         ] {
-            if let Some(p) = p {
+            if let Some(p) = p
+                && !(flag == "--binder-absorption" && constant_alpha(p).is_some())
+            {
                 plan.input(flag, p);
             }
         }
@@ -338,11 +341,7 @@ impl SpectralArgs {
         let (binder, binder_echo) = match &self.binder_absorption {
             None => (None, Value::Null),
             Some(path) => {
-                let f = read_absorption(path)
-                    .with_context(|| format!("reading --binder-absorption {}", path.display()))?;
-                let t =
-                    SpectralTable::new(f.wavelengths_nm, f.values, "absorption coefficient", 0.0)
-                        .with_context(|| format!("--binder-absorption {}", path.display()))?;
+                let (t, source) = binder_table(path)?;
                 let (depth, echo) = match (self.flake_depth_um, self.film_um) {
                     (Some(d), _) => (FlakeDepth::At { depth_um: d }, json!({"flake_depth_um": d})),
                     (None, Some(t)) => (
@@ -353,7 +352,8 @@ impl SpectralArgs {
                         bail!("--binder-absorption needs --flake-depth-um D or --film-um T")
                     }
                 };
-                let mut e = json!({"file": path.display().to_string(), "alpha": "Napierian, 1/um"});
+                let mut e = source;
+                e["alpha"] = json!("Napierian, 1/um");
                 e["depth"] = echo;
                 (
                     Some(BinderAbsorption {
@@ -373,6 +373,29 @@ impl SpectralArgs {
             json!({"clear_coat": coat_echo, "flake": flake_echo, "binder_absorption": binder_echo}),
         ))
     }
+}
+
+/// `--binder-absorption` as a number (a constant coefficient), if it is one.
+fn constant_alpha(p: &std::path::Path) -> Option<f64> {
+    p.to_str().and_then(|s| s.trim().parse::<f64>().ok())
+}
+
+/// `--binder-absorption ALPHA|FILE` as a table, with its JSON echo (`{"file": …}` or
+/// `{"constant_per_um": …}`).
+fn binder_table(path: &std::path::Path) -> anyhow::Result<(SpectralTable, Value)> {
+    if let Some(a) = constant_alpha(path) {
+        let t = SpectralTable::constant(a, "absorption coefficient", 0.0).map_err(|_| {
+            anyhow::anyhow!(
+                "--binder-absorption {a}: expected a finite absorption coefficient >= 0 (1/µm) or a CSV file"
+            )
+        })?;
+        return Ok((t, json!({"constant_per_um": a})));
+    }
+    let f = read_absorption(path)
+        .with_context(|| format!("reading --binder-absorption {}", path.display()))?;
+    let t = SpectralTable::new(f.wavelengths_nm, f.values, "absorption coefficient", 0.0)
+        .with_context(|| format!("--binder-absorption {}", path.display()))?;
+    Ok((t, json!({"file": path.display().to_string()})))
 }
 
 /// `A,B[,C]` of `--coat-cauchy`.
