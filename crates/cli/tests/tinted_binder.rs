@@ -15,7 +15,10 @@ fn brdf_rows(o: &std::process::Output) -> Vec<(f64, f64)> {
         .lines()
         .skip(1)
         .map(|l| {
-            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap_or(f64::NAN)).collect();
+            let v: Vec<f64> = l
+                .split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect();
             (v[2], v[5]) // theta_s_deg, brdf_per_sr
         })
         .collect()

@@ -22,6 +22,7 @@
 //! ```
 
 use flakescatter_optics::catalogue::{Catalogue, CatalogueError, MaterialSpec};
+use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::nalgebra::Complex;
 use flakescatter_optics::stack_spec::{StackSpec, StackSpecError};
 use flakescatter_optics::thinfilm::{Response, ThinFilmError};
@@ -123,6 +124,36 @@ impl FilmSetup {
         };
         Ok(stack.response(self.ambient, exit, cos, wavelength_nm)?)
     }
+}
+
+/// An interference flake at one wavelength from text: the stack spec (against the
+/// built-in catalogue) and an optional opaque core, as `--flake-stack` and
+/// `--flake-core` give them.
+///
+/// # Errors
+/// [`FilmError`] naming the bad layer, the core, or the wavelength.
+pub fn stack_flake(
+    stack: &str,
+    core: Option<&str>,
+    wavelength_nm: f64,
+) -> Result<FlakeReflectance, FilmError> {
+    if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
+        return Err(FilmError::Wavelength(wavelength_nm));
+    }
+    let catalogue = Catalogue::builtin();
+    let spec = StackSpec::parse(stack, &catalogue)?;
+    let core = core
+        .map(|c| catalogue.parse(c).and_then(|m| m.index_at(wavelength_nm)))
+        .transpose()
+        .map_err(FilmError::Substrate)?;
+    // The wavelength and the core's index are valid here; a layer outside its table
+    // was refused by `at`.
+    FlakeReflectance::stack(spec.at(wavelength_nm)?, wavelength_nm, core).map_err(|e| {
+        FilmError::Wavelength(match e {
+            flakescatter_optics::OpticsError::InvalidWavelength(w) => w,
+            _ => wavelength_nm,
+        })
+    })
 }
 
 /// One row of a film table.

@@ -218,6 +218,53 @@ fn detector_pairs(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<Vec<(f64, 
 /// The coating: clear-coat index `n` and the flake index `(N, K)` (perfect conductor
 /// when `None`).
 pub fn coating(py: Python<'_>, n: f64, flake_index: Option<(f64, f64)>) -> PyResult<Coating> {
+    coating_with_stack(py, n, flake_index, None, None, None)
+}
+
+/// The coating with, instead of `flake_index`, interference flakes: `flake_stack` (a
+/// stack spec, `"TiO2:120/mica:400/TiO2:120"`) at `wavelength_nm`, free in the binder
+/// or on `flake_core` (physics.md §13).
+pub fn coating_with_stack(
+    py: Python<'_>,
+    n: f64,
+    flake_index: Option<(f64, f64)>,
+    flake_stack: Option<&str>,
+    flake_core: Option<&str>,
+    wavelength_nm: Option<f64>,
+) -> PyResult<Coating> {
+    match (flake_stack, flake_index, wavelength_nm) {
+        (None, _, None) if flake_core.is_none() => {}
+        (None, _, _) => {
+            return Err(input(
+                py,
+                "flake_core and wavelength_nm apply to flake_stack only",
+            ));
+        }
+        (Some(_), Some(_), _) => {
+            return Err(input(
+                py,
+                "flake_stack and flake_index: give one of them (a stack flake or a metal flake)",
+            ));
+        }
+        (Some(_), None, None) => {
+            return Err(input(
+                py,
+                "flake_stack needs wavelength_nm (an interference flake has no single-wavelength meaning)",
+            ));
+        }
+        (Some(stack), None, Some(wl)) => {
+            let mut c = coating_with_stack(py, n, None, None, None, None)?;
+            c.flake = flakescatter::film::stack_flake(stack, flake_core, wl).map_err(|e| {
+                input(
+                    py,
+                    e.to_string()
+                        .replacen("--stack", "flake_stack", 1)
+                        .replacen("--substrate", "flake_core", 1),
+                )
+            })?;
+            return Ok(c);
+        }
+    }
     if !(n.is_finite() && n >= 1.0) {
         return Err(input(
             py,

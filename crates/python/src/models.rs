@@ -26,7 +26,9 @@ use numpy::ndarray::Array3;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{Columns, InstrumentArgs, coating, floats, nan, orientation, settings};
+use crate::convert::{
+    Columns, InstrumentArgs, coating, coating_with_stack, floats, nan, orientation, settings,
+};
 use crate::errors::{Kind, input, interruptible, released, to_py, warn};
 use crate::map::{Map, maps_of};
 
@@ -147,7 +149,7 @@ fn cone_method(py: Python<'_>, cone: &str) -> PyResult<ConeMethod> {
 /// The distribution model (physics.md §4): reflectance of mirror flakes under a clear
 /// coat from their orientation distribution, as `flakescatter model`.
 #[pyfunction]
-#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None, cone = "exact"))]
+#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None, cone = "exact", flake_stack = None, flake_core = None, wavelength_nm = None))]
 pub fn distribution_model<'py>(
     py: Python<'py>,
     n: f64,
@@ -164,9 +166,12 @@ pub fn distribution_model<'py>(
     clearcoat: bool,
     flake_index: Option<(f64, f64)>,
     cone: &str,
+    flake_stack: Option<&str>,
+    flake_core: Option<&str>,
+    wavelength_nm: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
-    let coat = coating(py, n, flake_index)?;
+    let coat = coating_with_stack(py, n, flake_index, flake_stack, flake_core, wavelength_nm)?;
     let mut set = settings(py, transmission, weighting, clearcoat)?;
     set.cone_method = cone_method(py, cone)?;
     let instrument = args.instrument(py)?;
@@ -220,7 +225,7 @@ fn topo_warnings(
 /// `flakescatter topo`: one ray per usable pixel reflected by the local least-squares
 /// plane. Interruptible with Ctrl-C.
 #[pyfunction]
-#[pyo3(signature = (maps, *, window = 5, tile_um = 32.0, n = 1.5, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None))]
+#[pyo3(signature = (maps, *, window = 5, tile_um = 32.0, n = 1.5, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None, flake_stack = None, flake_core = None, wavelength_nm = None))]
 pub fn topographic_model<'py>(
     py: Python<'py>,
     maps: &Bound<'py, PyAny>,
@@ -235,10 +240,13 @@ pub fn topographic_model<'py>(
     weighting: &str,
     clearcoat: bool,
     flake_index: Option<(f64, f64)>,
+    flake_stack: Option<&str>,
+    flake_core: Option<&str>,
+    wavelength_nm: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let maps = maps_of(py, maps)?;
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
-    let coat = coating(py, n, flake_index)?;
+    let coat = coating_with_stack(py, n, flake_index, flake_stack, flake_core, wavelength_nm)?;
     let set = settings(py, transmission, weighting, clearcoat)?;
     let topo = topo_settings(py, window, tile_um)?;
     let instrument = args.instrument(py)?;

@@ -74,3 +74,25 @@ def test_bad_arguments():
         fs.film("anatase:50", theta_deg=[0], wavelengths_nm=[850])
     with pytest.raises(fs.InputError, match="ambient"):
         fs.film("TiO2:50", theta_deg=[0], wavelengths_nm=[550], ambient=0.5)
+
+
+def test_stack_flakes_in_the_models():
+    # A 1 µm layer of index 0.96 + 6.69i is bulk metal: the distribution model with that
+    # stack equals the metal flake given by flake_index (the single-interface Fresnel
+    # formula, another code path) to 1e-9.
+    kw = dict(hwhm=6.0, theta_i=[30.0], theta_s=np.arange(-70.0, 31.0, 10.0))
+    metal = fs.distribution_model(flake_index=(0.96, 6.69), **kw)
+    stack = fs.distribution_model(flake_stack="0.96+6.69i:1000", wavelength_nm=550.0, **kw)
+    assert np.allclose(stack["brdf_per_sr"], metal["brdf_per_sr"], rtol=1e-9, atol=0)
+    # A lossless free stack reflects less than the perfect mirror, detector by detector.
+    mirror = fs.distribution_model(**kw)
+    film = fs.distribution_model(flake_stack="TiO2:120/mica:400/TiO2:120", wavelength_nm=550.0, **kw)
+    assert np.all(film["brdf_per_sr"] <= mirror["brdf_per_sr"])
+    with pytest.raises(fs.InputError, match="wavelength_nm"):
+        fs.distribution_model(flake_stack="TiO2:100", **kw)
+    with pytest.raises(fs.InputError, match="flake_index"):
+        fs.distribution_model(flake_stack="TiO2:100", wavelength_nm=550.0, flake_index=(1.0, 6.0), **kw)
+    with pytest.raises(fs.InputError, match="layer 1"):
+        fs.distribution_model(flake_stack="TiO2:-1", wavelength_nm=550.0, **kw)
+    with pytest.raises(fs.InputError, match="flake_stack only"):
+        fs.distribution_model(wavelength_nm=550.0, **kw)

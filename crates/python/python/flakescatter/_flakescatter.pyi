@@ -156,6 +156,9 @@ def distribution_model(
     clearcoat: bool = False,
     flake_index: Optional[Tuple[float, float]] = None,
     cone: Literal["exact", "constant"] = "exact",
+    flake_stack: Optional[str] = None,
+    flake_core: Optional[str] = None,
+    wavelength_nm: Optional[float] = None,
 ) -> dict[str, FloatArray]:
     """The distribution model (as ``flakescatter model``).
 
@@ -188,6 +191,9 @@ def topographic_model(
     weighting: Literal["physical", "paper-printed"] = "physical",
     clearcoat: bool = False,
     flake_index: Optional[Tuple[float, float]] = None,
+    flake_stack: Optional[str] = None,
+    flake_core: Optional[str] = None,
+    wavelength_nm: Optional[float] = None,
 ) -> dict[str, npt.NDArray[Any]]:
     """The topographic model over height maps, accumulated (as ``flakescatter topo``).
 
