@@ -14,6 +14,7 @@
 //! columns ending in `_deg`), as their headers say.
 
 mod comparisons;
+mod interference;
 mod paper;
 mod volume;
 
@@ -302,6 +303,9 @@ pub fn reproduce(
         "Multiple scattering: volume model of the paper's coating, share per angle from specular",
     );
     let multiple = volume::multiple_scattering(spec.quick, &mut report, &mut index)?;
+
+    progress("Beyond the paper: interference (TiO2-on-mica) pigments, colour travel");
+    interference::interference(&mut report, &mut index)?;
 
     let summary = json!({
         "version": env!("CARGO_PKG_VERSION"),
