@@ -71,6 +71,11 @@ pub enum AnalyzeError {
         /// What went wrong.
         source: PipelineError,
     },
+    /// The environment variable `FLAKESCATTER_SIMD` holds a value other than unset,
+    /// `auto` or `portable`: refused before any work, as the model commands refuse it,
+    /// rather than reporting every model as failed.
+    #[error(transparent)]
+    SimdSwitch(#[from] flakescatter_numerics::simd::SimdSwitchError),
 }
 
 /// One sample, its manifest resolved into files.

@@ -33,7 +33,8 @@ use crate::sample::{SampleSettings, SampleStatistics, segment_maps, statistics_o
 ///
 /// # Errors
 /// [`AnalyzeError::Input`] for an input that cannot be read (naming it),
-/// [`AnalyzeError::Pipeline`] for a statistics step that fails (no flake in any map).
+/// [`AnalyzeError::Pipeline`] for a statistics step that fails (no flake in any map),
+/// [`AnalyzeError::SimdSwitch`] for a bad `FLAKESCATTER_SIMD` (checked first).
 /// A model that fails is reported in the summary and the others still run.
 pub fn analyze_sample(
     input: &SampleInput,
@@ -41,6 +42,7 @@ pub fn analyze_sample(
     build: &str,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<SampleReport, AnalyzeError> {
+    flakescatter_numerics::simd::Kernels::from_env()?;
     let m = &input.manifest;
     let file = input.file.display().to_string();
     let options = load_options(m).map_err(|e| AnalyzeError::Input(format!("{file}: {e}")))?;
