@@ -97,7 +97,7 @@ impl StackFaces {
         let a_r = ws * rs + wp * rp;
         let a_t = ws * ts + wp * tp;
         let s = a_r + a_t;
-        if !(s > 0.0) {
+        if s.is_nan() || s <= 0.0 {
             return Split {
                 absorbed: ws + wp,
                 ws: 0.0,
