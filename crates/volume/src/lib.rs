@@ -46,12 +46,18 @@
 //! * Flake faces (both faces of every flake) reflect specularly with the perfect
 //!   conductor's `|r|² = 1` or the complex-index Fresnel reflectances of
 //!   `flakescatter_optics::flake` at the local angle; the rest is `absorbed_flakes`.
+//!   A free interference (thin-film stack) flake also transmits: its faces reflect `R`,
+//!   absorb `A` (`absorbed_flakes`) and pass `T` on through the flake along the same
+//!   line (lateral shift 0); reflection or transmission is chosen by one draw of the
+//!   ray's generator with weights that keep the estimate unbiased and the ray's weight
+//!   whole (`trace` module `stack`, physics.md §10). A stack on an opaque core reflects
+//!   like a metal: its transmitted share is absorbed by the core.
 //! * Rims: [`RimRule`] — absorb (the default), ignore (transparent), or diffuse.
 //! * At the top interface from inside, Fresnel splits each channel into an escaping part
 //!   (tallied into the detectors, then gone) and an internally reflected part that the
 //!   path continues with (all of it beyond the critical angle, total internal
 //!   reflection). No branching and no Russian roulette: one path per ray with exact
-//!   weights. A path ends when absorbed (black substrate, rim), when its weight falls
+//!   weights (the one random choice, at a free stack flake's face, is weighted). A path ends when absorbed (black substrate, rim), when its weight falls
 //!   below `min_weight`, or after `max_events` interactions; what is left then is
 //!   `cut_off`, part of `absorbed_other`, so the energy balance sums to 1.
 //!
@@ -122,12 +128,6 @@ pub use trace::{
 /// Errors of the volume model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum VolumeError {
-    /// Interference (thin-film) flakes: the light they transmit would have to go on
-    /// through the flake, which this model does not trace yet.
-    #[error(
-        "interference (thin-film stack) flakes are not in the volume model yet: it does not trace the light a flake transmits; use the distribution or topographic model"
-    )]
-    StackFlake,
     /// A parameter outside its range.
     #[error("{name} = {value}: expected {expected}")]
     Parameter {

@@ -39,11 +39,13 @@
 //! This file holds the public API (options, results, [`Tracer`]) and the checks of a
 //! run; `ray` the physics of one path and the tally of its escapes; `schedule` the
 //! sweeps, chunks and threads; `reduce` the ordered reduction of the batch sums and the
-//! values formed from it.
+//! values formed from it; `stack` the faces of interference flakes (reflection and
+//! transmission).
 
 mod ray;
 mod reduce;
 mod schedule;
+mod stack;
 
 use flakescatter_optics::detector::{Cone, distinct_apertures, with_specular_cones};
 use flakescatter_optics::flake::FlakeReflectance;
@@ -314,9 +316,6 @@ impl<'a> Tracer<'a> {
         if let FlakeReflectance::Complex { n, k } = options.flake {
             FlakeReflectance::complex(n, k).map_err(VolumeError::FlakeIndex)?;
         }
-        if matches!(options.flake, FlakeReflectance::Stack(_)) {
-            return Err(VolumeError::StackFlake);
-        }
         if let Substrate::Specular(r) | Substrate::Lambertian(r) = options.substrate
             && !(r.is_finite() && (0.0..=1.0).contains(&r))
         {
@@ -456,6 +455,7 @@ impl<'a> Tracer<'a> {
             max_cells: 8 * g + 64,
             key: ray_key(self.options.seed, self.realisation),
             kernels: self.kernels,
+            stack: stack::StackFaces::of(&self.options.flake),
         };
         let (acc, segments) = run.trace(theta_i, progress);
         let (points, energy, energy_std_err) =

@@ -1,6 +1,8 @@
 //! The physics of one path through the film (the crate docs' ray rules): entry,
 //! flake faces and rims, the substrate, the top interface from inside, and the tally
 //! of each escape into the detector cones and the energy balance; the ray's generator.
+//! A free stack flake's faces split the ray into reflection and transmission (module
+//! `stack`).
 
 use flakescatter_numerics::cone_grid::{ConeGrid, ConeSpec};
 use flakescatter_numerics::simd::{Kernels, dispatch};
@@ -10,6 +12,7 @@ use flakescatter_optics::{UnitVec3, Vec3, refraction};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::{SplitMix64, Xoshiro256PlusPlus};
 
+use super::stack::StackFaces;
 use super::{BATCHES, RimRule, Substrate, TraceOptions};
 use crate::grid::{FlakeGrid, Next, Surface};
 use crate::layer::Flake;
@@ -85,6 +88,8 @@ pub(super) struct Run<'r> {
     pub(super) key: [u64; 2],
     /// The kernels the rays run with.
     pub(super) kernels: Kernels,
+    /// The faces of a free stack flake (module `stack`); `None` for every other flake.
+    pub(super) stack: Option<StackFaces>,
 }
 
 /// One chunk's rays, handed to [`dispatch`] (a closure would be kept out of
@@ -326,14 +331,28 @@ impl Run<'_> {
                     match h.surface {
                         Surface::Top | Surface::Bottom => {
                             let cos_iota = -k.dot(&h.normal);
-                            let (rs, rp) = opts.flake.power(cos_iota, n);
-                            p.energy[E_FLAKES] += ws * (1.0 - rs) + wp * (1.0 - rp);
-                            ws *= rs;
-                            wp *= rp;
-                            k += 2.0 * cos_iota * h.normal;
-                            // Keep the direction a unit vector against rounding drift.
-                            k /= k.norm();
-                            flake_hits += 1;
+                            let reflect = if let Some(faces) = &self.stack {
+                                let top = h.surface == Surface::Top;
+                                let s = faces.split(top, cos_iota, n, ws, wp, rng.random());
+                                p.energy[E_FLAKES] += s.absorbed;
+                                (ws, wp) = (s.ws, s.wp);
+                                !s.transmitted
+                            } else {
+                                let (rs, rp) = opts.flake.power(cos_iota, n);
+                                p.energy[E_FLAKES] += ws * (1.0 - rs) + wp * (1.0 - rp);
+                                ws *= rs;
+                                wp *= rp;
+                                true
+                            };
+                            if reflect {
+                                k += 2.0 * cos_iota * h.normal;
+                                // Keep the direction a unit vector against rounding drift.
+                                k /= k.norm();
+                                flake_hits += 1;
+                            } else {
+                                // On through the flake along the same line (`stack`).
+                                other_events += 1;
+                            }
                         }
                         Surface::Rim => match opts.rims {
                             RimRule::Diffuse => {

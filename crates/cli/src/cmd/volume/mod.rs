@@ -76,6 +76,35 @@ pub struct Args {
     /// perfect conductor.
     #[arg(long, value_name = "N,K", allow_hyphen_values = true)]
     pub flake_index: Option<String>,
+    /// Interference flakes: each flake a thin-film stack, layers from the side light
+    /// arrives on, `material:thickness_nm` separated by `/` (e.g.
+    /// `TiO2:120/mica:400/TiO2:120`; materials as in `film`), in the binder (--n) on both
+    /// sides; the light it transmits goes on through the flake (physics.md §10, §13).
+    /// Needs --wavelength.
+    #[arg(
+        long,
+        value_name = "SPEC",
+        allow_hyphen_values = true,
+        conflicts_with = "flake_index"
+    )]
+    pub flake_stack: Option<String>,
+    /// With --flake-stack: an opaque core under the layers (e.g. aluminium), a material
+    /// name or `n+ki`; it absorbs what the layers transmit. Default: a free flake.
+    #[arg(
+        long,
+        value_name = "MATERIAL",
+        allow_hyphen_values = true,
+        requires = "flake_stack"
+    )]
+    pub flake_core: Option<String>,
+    /// With --flake-stack: the vacuum wavelength of the run, nm (one per run).
+    #[arg(
+        long,
+        value_name = "NM",
+        requires = "flake_stack",
+        allow_negative_numbers = true
+    )]
+    pub wavelength: Option<f64>,
     /// Mean flake diameter, µm.
     #[arg(
         long = "diameter-um",
@@ -205,7 +234,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     args.source.validate()?;
-    let coating = instrument_args.optics.coating()?;
+    let mut coating = instrument_args.optics.coating()?;
+    if let Some(flake) = args.stack_flake()? {
+        coating.flake = flake;
+    }
     if instrument_args.optics.aperture_rad()? <= 0.0 {
         bail!(
             "--aperture 0: the volume model counts rays into detector cones; give a half-angle > 0"
@@ -263,6 +295,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         let mut s = summary(&args, &instrument_args, &curves, orientation_echo);
         s["warnings"] = json!(warnings);
+        if let Some(stack) = &args.flake_stack {
+            s["inputs"]["flake_index"] = serde_json::Value::Null;
+            s["inputs"]["flake_stack"] = json!(stack);
+            s["inputs"]["flake_core"] = json!(args.flake_core);
+            s["inputs"]["wavelength_nm"] = json!(args.wavelength);
+        }
         if table.is_none() {
             s["rows"] = rows_json(&curves);
         } else {

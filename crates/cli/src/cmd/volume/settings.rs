@@ -2,7 +2,10 @@
 //! settings (instrument, orientation, layer), and the facade's errors explained in
 //! terms of the flags they are about.
 
-use anyhow::bail;
+use anyhow::{Context, bail};
+use flakescatter::optics::catalogue::Catalogue;
+use flakescatter::optics::flake::FlakeReflectance;
+use flakescatter::optics::stack_spec::StackSpec;
 use flakescatter::volume::{Amount, Depth, Diameter, RimRule, Substrate};
 use flakescatter::{PipelineError, VolumeSettings};
 
@@ -45,6 +48,40 @@ impl Args {
             detectors: self.detectors.clone(),
             clearcoat: false,
         }
+    }
+
+    /// `--flake-stack` (with `--flake-core`) at `--wavelength` as the flake's
+    /// reflectance, or `None` without `--flake-stack`.
+    pub(super) fn stack_flake(&self) -> anyhow::Result<Option<FlakeReflectance>> {
+        let Some(text) = self.flake_stack.as_deref() else {
+            return Ok(None);
+        };
+        let Some(wl) = self.wavelength else {
+            bail!(
+                "--flake-stack needs --wavelength NM: an interference flake reflects differently at each wavelength (one wavelength per volume run)"
+            );
+        };
+        if !(wl.is_finite() && wl > 0.0) {
+            bail!("--wavelength {wl}: expected a finite wavelength > 0 nm");
+        }
+        let catalogue = Catalogue::builtin();
+        let spec = StackSpec::parse(text, &catalogue).context("--flake-stack")?;
+        let stack = spec
+            .at(wl)
+            .with_context(|| format!("--flake-stack at --wavelength {wl}"))?;
+        let core = self
+            .flake_core
+            .as_deref()
+            .map(|c| {
+                catalogue
+                    .parse(c)
+                    .and_then(|m| m.index_at(wl))
+                    .with_context(|| format!("--flake-core {c} at --wavelength {wl}"))
+            })
+            .transpose()?;
+        let flake = FlakeReflectance::stack(stack, wl, core)
+            .with_context(|| format!("--flake-stack {text} --flake-core at --wavelength {wl}"))?;
+        Ok(Some(flake))
     }
 
     /// The layer and tracing settings; every error names its flag.
