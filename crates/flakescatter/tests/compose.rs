@@ -121,7 +121,9 @@ fn the_figures_are_composed_without_the_cli() {
             "fig10_theta60",
             "fig10_ratio",
             "multiple_scattering_share",
-            "multiple_scattering_brdf"
+            "multiple_scattering_brdf",
+            "interference_spectra",
+            "interference_travel"
         ]
     );
     for name in [
