@@ -177,17 +177,19 @@ fn titled_area<DB: DrawingBackend>(
     Ok(area)
 }
 
+/// A run of points drawn as one piece.
+type Run = Vec<(f64, f64)>;
+
 /// The runs of a line or marker series that can be drawn: `points` split where `keep`
 /// fails (a gap in the data stays a gap in the plot); the first run (possibly empty)
 /// and the further non-empty ones.
-fn point_runs(
-    points: &[(f64, f64)],
-    keep: impl Fn(&(f64, f64)) -> bool,
-) -> (Vec<(f64, f64)>, Vec<Vec<(f64, f64)>>) {
-    let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+fn point_runs(points: &[(f64, f64)], keep: impl Fn(&(f64, f64)) -> bool) -> (Run, Vec<Run>) {
+    let mut runs: Vec<Run> = vec![Vec::new()];
     for p in points {
         if keep(p) {
-            runs.last_mut().map(|r| r.push(*p));
+            if let Some(r) = runs.last_mut() {
+                r.push(*p);
+            }
         } else if runs.last().is_some_and(|r| !r.is_empty()) {
             runs.push(Vec::new());
         }

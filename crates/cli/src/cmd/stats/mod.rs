@@ -239,7 +239,7 @@ fn of_maps(
     params: SegmentParams,
     bin: f64,
 ) -> anyhow::Result<()> {
-    let inputs = load_all(&sources, &options)?;
+    let inputs = load_all(sources, options)?;
     let maps: Vec<&HeightMap> = inputs.iter().map(|i| &i.loaded.map).collect();
     let names: Vec<String> = sources
         .iter()
@@ -322,7 +322,7 @@ fn of_maps(
     }
     plan.finish()?;
     if args.json {
-        print_json(&summary(args, &names, &sources, &stats))?;
+        print_json(&summary(args, &names, sources, &stats))?;
     }
     Ok(())
 }
