@@ -98,37 +98,36 @@ pub fn encode(path: &Path, chart: &Chart) -> anyhow::Result<Vec<u8>> {
     }
 }
 
-/// Draw `fig` on `root` (any backend); `name` only names the file in errors.
-fn render<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    fig: &Chart,
-    name: &str,
-) -> anyhow::Result<()> {
-    let usable = |x: f64, y: f64| x.is_finite() && y.is_finite() && (!fig.log_y || y > 0.0);
+/// Whether `(x, y)` can be drawn on the chart's axes (finite, and positive on a log axis).
+fn usable(fig: &Chart, x: f64, y: f64) -> bool {
+    x.is_finite() && y.is_finite() && (!fig.log_y || y > 0.0)
+}
+
+/// The axis ranges `(x0, x1, y0, y1)` of `fig`, padded; an error when nothing can be drawn.
+fn axis_ranges(fig: &Chart, name: &str) -> anyhow::Result<(f64, f64, f64, f64)> {
     // The axes hold every point of the lines and markers and the bounds of the bands;
     // on a log axis only their upper bounds (a lower bound near zero would stretch it
     // for nothing).
-    let pts = || {
-        fig.series
-            .iter()
-            .filter(|s| s.style != Style::ErrorBars)
-            .flat_map(|s| match s.style {
-                Style::Band if fig.log_y => s
-                    .band_bounds()
-                    .into_iter()
-                    .map(|(x, _, hi)| (x, hi))
-                    .collect::<Vec<_>>(),
-                _ => s.points.clone(),
-            })
-            .filter(|&(x, y)| usable(x, y))
-    };
+    let pts = fig
+        .series
+        .iter()
+        .filter(|s| s.style != Style::ErrorBars)
+        .flat_map(|s| match s.style {
+            Style::Band if fig.log_y => s
+                .band_bounds()
+                .into_iter()
+                .map(|(x, _, hi)| (x, hi))
+                .collect::<Vec<_>>(),
+            _ => s.points.clone(),
+        })
+        .filter(|&(x, y)| usable(fig, x, y));
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
         f64::NEG_INFINITY,
         f64::INFINITY,
         f64::NEG_INFINITY,
     );
-    for (x, y) in pts() {
+    for (x, y) in pts {
         x0 = x0.min(x);
         x1 = x1.max(x);
         y0 = y0.min(y);
@@ -150,7 +149,16 @@ fn render<DB: DrawingBackend>(
         y0 -= pad;
         y1 += pad;
     }
-    let err = |e: String| anyhow::Error::new(Failure(format!("drawing {name}: {e}")));
+    Ok((x0, x1, y0, y1))
+}
+
+/// `root` filled white, with the title's first line as caption and its further lines
+/// as a grey note underneath: the area the chart is drawn in.
+fn titled_area<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    fig: &Chart,
+    err: impl Fn(String) -> anyhow::Error,
+) -> anyhow::Result<DrawingArea<DB, Shift>> {
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let mut lines = fig.title.lines();
     let caption = lines.next().unwrap_or("");
@@ -166,6 +174,65 @@ fn render<DB: DrawingBackend>(
             )
             .map_err(|e| err(e.to_string()))?;
     }
+    Ok(area)
+}
+
+/// A run of points drawn as one piece.
+type Run = Vec<(f64, f64)>;
+
+/// The runs of a line or marker series that can be drawn: `points` split where `keep`
+/// fails (a gap in the data stays a gap in the plot); the first run (possibly empty)
+/// and the further non-empty ones.
+fn point_runs(points: &[(f64, f64)], keep: impl Fn(&(f64, f64)) -> bool) -> (Run, Vec<Run>) {
+    let mut runs: Vec<Run> = vec![Vec::new()];
+    for p in points {
+        if keep(p) {
+            if let Some(r) = runs.last_mut() {
+                r.push(*p);
+            }
+        } else if runs.last().is_some_and(|r| !r.is_empty()) {
+            runs.push(Vec::new());
+        }
+    }
+    let first = std::mem::take(&mut runs[0]);
+    let rest = runs.into_iter().skip(1).filter(|r| !r.is_empty()).collect();
+    (first, rest)
+}
+
+/// The bars of an error-bar series: pairs (x, low), (x, high); a low end off a log axis
+/// is drawn from the bottom of the plot (`y0`), a high end is clipped at the top (`y1`).
+fn error_bars(
+    points: &[(f64, f64)],
+    log_y: bool,
+    (y0, y1): (f64, f64),
+    colour: RGBColor,
+) -> Vec<PathElement<(f64, f64)>> {
+    points
+        .chunks_exact(2)
+        .filter(|p| p[0].0.is_finite() && p[1].1.is_finite() && p[1].1 > 0.0)
+        .map(|p| {
+            let lo = if p[0].1.is_finite() && (!log_y || p[0].1 > y0) {
+                p[0].1
+            } else {
+                y0
+            };
+            PathElement::new(
+                vec![(p[0].0, lo), (p[1].0, p[1].1.min(y1))],
+                colour.stroke_width(1),
+            )
+        })
+        .collect()
+}
+
+/// Draw `fig` on `root` (any backend); `name` only names the file in errors.
+fn render<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    fig: &Chart,
+    name: &str,
+) -> anyhow::Result<()> {
+    let (x0, x1, y0, y1) = axis_ranges(fig, name)?;
+    let err = |e: String| anyhow::Error::new(Failure(format!("drawing {name}: {e}")));
+    let area = titled_area(root, fig, err)?;
     let mut builder = ChartBuilder::on(&area);
     builder
         .margin(12)
@@ -206,19 +273,9 @@ fn render<DB: DrawingBackend>(
             }
             for s in fig.series.iter().filter(|s| s.style != Style::Band) {
                 let colour = PALETTE[s.colour % PALETTE.len()];
-                let keep = |&(x, y): &(f64, f64)| usable(x, y) && (!fig.log_y || y >= y0);
-                // Lines break where a point cannot be drawn (NaN, or ≤ 0 on a log axis):
-                // a gap in the data stays a gap in the plot.
-                let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-                for p in &s.points {
-                    if keep(p) {
-                        runs.last_mut().map(|r| r.push(*p));
-                    } else if runs.last().is_some_and(|r| !r.is_empty()) {
-                        runs.push(Vec::new());
-                    }
-                }
-                let first = std::mem::take(&mut runs[0]);
-                let rest = runs.into_iter().skip(1).filter(|r| !r.is_empty());
+                let keep = |&(x, y): &(f64, f64)| usable(fig, x, y) && (!fig.log_y || y >= y0);
+                // Lines break where a point cannot be drawn (NaN, or ≤ 0 on a log axis).
+                let (first, rest) = point_runs(&s.points, keep);
                 let labelled = !s.label.is_empty();
                 match s.style {
                     Style::Line => {
@@ -257,26 +314,9 @@ fn render<DB: DrawingBackend>(
                     }
                     Style::Band => {}
                     Style::ErrorBars => {
-                        // Pairs (x, low), (x, high); a low end off a log axis is drawn
-                        // from the bottom of the plot.
-                        let bars: Vec<PathElement<(f64, f64)>> = s
-                            .points
-                            .chunks_exact(2)
-                            .filter(|p| p[0].0.is_finite() && p[1].1.is_finite() && p[1].1 > 0.0)
-                            .map(|p| {
-                                let lo = if p[0].1.is_finite() && (!fig.log_y || p[0].1 > y0) {
-                                    p[0].1
-                                } else {
-                                    y0
-                                };
-                                PathElement::new(
-                                    vec![(p[0].0, lo), (p[1].0, p[1].1.min(y1))],
-                                    colour.stroke_width(1),
-                                )
-                            })
-                            .collect();
+                        let bars = error_bars(&s.points, fig.log_y, (y0, y1), colour);
                         chart.draw_series(bars).map_err(|e| err(e.to_string()))?;
-                        let _ = (first, rest.count());
+                        let _ = (first, rest);
                     }
                     Style::Points => {
                         let data = std::iter::once(first).chain(rest).flatten();

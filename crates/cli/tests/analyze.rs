@@ -5,35 +5,12 @@
 //! does no model work and writes the same bytes, a changed model setting reruns the
 //! models but not the segmentation, and bad manifests are refused before any work.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
+use common::{fixtures, run, s, scratch};
 use serde_json::Value;
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "flakescatter-analyze-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn analyze(manifest: &Path, out: &Path) -> Value {
     let o = run(&["analyze", s(manifest), "--out", s(out)]);
@@ -63,7 +40,7 @@ fn manifest_copy(d: &Path, edit: impl Fn(String) -> String) -> PathBuf {
 
 #[test]
 fn fixture_manifest_writes_every_file_and_a_rerun_reuses_the_work() {
-    let d = dir("fixture");
+    let d = scratch("analyze", "fixture");
     let out = d.join("report");
     let manifest = fixtures().join("sample.toml");
     let first = analyze(&manifest, &out);
@@ -182,7 +159,7 @@ fn fixture_manifest_writes_every_file_and_a_rerun_reuses_the_work() {
 
 #[test]
 fn a_changed_model_setting_reruns_models_but_not_segmentation() {
-    let d = dir("changed");
+    let d = scratch("analyze", "changed");
     let out = d.join("report");
     let m1 = manifest_copy(&d, |t| {
         t.replace("topographic = \"isotropic\"", "topographic = \"none\"")
@@ -213,7 +190,7 @@ fn a_changed_model_setting_reruns_models_but_not_segmentation() {
 
 #[test]
 fn bad_manifests_are_refused_before_any_work() {
-    let d = dir("bad");
+    let d = scratch("analyze", "bad");
     // (what, text replaced, replacement, what the error must name)
     let cases = [
         (
@@ -260,7 +237,7 @@ fn bad_manifests_are_refused_before_any_work() {
 
 #[test]
 fn several_manifests_write_each_sample_and_a_comparison_table() {
-    let d = dir("batch");
+    let d = scratch("analyze", "batch");
     let (a, b) = (d.join("a"), d.join("b"));
     std::fs::create_dir_all(&a).unwrap();
     std::fs::create_dir_all(&b).unwrap();
@@ -324,7 +301,7 @@ fn several_manifests_write_each_sample_and_a_comparison_table() {
 /// reuses the cached fit, and bad paint keys are refused before any work.
 #[test]
 fn a_paint_section_reports_the_fitted_paint() {
-    let d = dir("paint");
+    let d = scratch("analyze", "paint");
     let table = fixtures()
         .canonicalize()
         .unwrap()

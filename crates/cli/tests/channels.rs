@@ -7,8 +7,10 @@
 //! values below the cutoff. Every height of these files is valid, so the points left
 //! are all points minus those below the cutoff.
 
+mod common;
+
+use common::run;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 fn data(name: &str) -> String {
     PathBuf::from(concat!(
@@ -18,13 +20,6 @@ fn data(name: &str) -> String {
     .join(name)
     .display()
     .to_string()
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 fn json(args: &[&str]) -> serde_json::Value {

@@ -3,33 +3,17 @@
 //! `crates/flakescatter/tests/data/spectral` (numpy + colour-science 0.4.7, outside the
 //! project; its README says how).
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
+use common::{run_text as run, scratch};
 use serde_json::Value;
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn json(args: &[&str]) -> Value {
     let (code, out, err) = run(args);
     assert_eq!(code, 0, "{args:?}: {err}");
     serde_json::from_str(&out).unwrap()
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-colour-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 const DATA: &str = concat!(
@@ -77,7 +61,7 @@ fn reference_lab(config: &str, aspecular: &str) -> [f64; 3] {
 
 #[test]
 fn colour_of_a_spectrum_matches_colour_science() {
-    let d = tmp("one");
+    let d = scratch("colour", "one");
     let s = reference_spectrum(&d, "rakic_n1.5_hwhm6", "45", false);
     let j = json(&["colour", "--reflectance", s.to_str().unwrap(), "--json"]);
     for key in ["X", "Y", "Z", "L", "a", "b", "C", "h"] {
@@ -118,7 +102,7 @@ fn colour_of_a_spectrum_matches_colour_science() {
 
 #[test]
 fn colour_differences_from_a_reference() {
-    let d = tmp("ref");
+    let d = scratch("colour", "ref");
     let sample = reference_spectrum(&d, "rakic_cauchy_film20", "45", false);
     let standard = reference_spectrum(&d, "rakic_n1.5_hwhm6", "45", false);
     let j = json(&[
@@ -157,7 +141,7 @@ fn colour_differences_from_a_reference() {
 
 #[test]
 fn colour_per_geometry_with_the_flop_index() {
-    let d = tmp("geo");
+    let d = scratch("colour", "geo");
     let sample = reference_spectrum(&d, "rakic_n1.5_hwhm6", "all", true);
     let standard = reference_spectrum(&d, "rakic_cauchy_film20", "all", true);
     let j = json(&[
@@ -292,7 +276,7 @@ fn topo_multi_angle_reports_colour_and_lightness_errors() {
 
 #[test]
 fn compare_and_fit_measured_multiangle() {
-    let d = tmp("cmp");
+    let d = scratch("colour", "cmp");
     // A "measured" CIELAB file: the model CLI's own --multi-angle table at hwhm 7°,
     // which holds theta_i_deg, aspecular_deg, L, a, b (a known truth for the plumbing).
     let lab = d.join("lab.csv");
@@ -355,7 +339,7 @@ fn compare_and_fit_measured_multiangle() {
 
 #[test]
 fn bad_spectral_input_names_file_line_and_column() {
-    let d = tmp("bad");
+    let d = scratch("colour", "bad");
     let write = |name: &str, text: &str| {
         let p = d.join(name);
         std::fs::write(&p, text).unwrap();
@@ -487,7 +471,7 @@ fn the_guide_colour_report_runs_as_written() {
     let guide =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/guide.md"))
             .unwrap();
-    let d = tmp("guide");
+    let d = scratch("colour", "guide");
     let o = |f: &str| d.join(f).to_str().unwrap().to_string();
     let lines: [(&str, Vec<String>); 5] = [
         (

@@ -4,27 +4,9 @@
 //! targets outside a surface colour's range and zero uncertainties are refused naming
 //! the file, line and column, by every command that reads them (item 12).
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
 
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-colour-edges-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use common::{run_text as run, scratch};
 
 /// A flat spectrum of `value`, 380–780 nm every 10 nm.
 fn flat(value: f64) -> String {
@@ -37,7 +19,7 @@ fn flat(value: f64) -> String {
 
 #[test]
 fn spectra_beyond_the_doubles_are_refused_and_huge_ones_are_numbers() {
-    let d = tmp("overflow");
+    let d = scratch("colour-edges", "overflow");
     let write = |name: &str, text: &str| {
         let p = d.join(name);
         std::fs::write(&p, text).unwrap();
@@ -120,7 +102,7 @@ fn spectra_beyond_the_doubles_are_refused_and_huge_ones_are_numbers() {
 
 #[test]
 fn colour_targets_outside_a_surface_colours_range_are_refused() {
-    let d = tmp("targets");
+    let d = scratch("colour-edges", "targets");
     let lab = |l: &str, a: &str, u: Option<&str>| {
         let mut s = String::from("theta_i_deg,aspecular_deg,L,a,b");
         s.push_str(if u.is_some() {

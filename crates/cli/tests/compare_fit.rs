@@ -1,25 +1,9 @@
 //! `compare`, `fit` and `model --multi-angle` end to end.
 
+mod common;
+
+use common::{run_text as run, scratch};
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-cf-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// A "measured" BRDF file: the model CLI's output at hwhm `w` (clear coat on), scaled
 /// by `scale` — a known truth for the plumbing of compare and fit.
@@ -48,7 +32,7 @@ fn measured_from_model(dir: &Path, w: &str, scale: f64) -> PathBuf {
 
 #[test]
 fn compare_recovers_the_scale_and_reports_three_regions() {
-    let dir = tmp("compare");
+    let dir = scratch("cf", "compare");
     let m = measured_from_model(&dir, "6", 0.25);
     let m = m.to_str().unwrap();
     let (code, out, err) = run(&["compare", "--measured", m, "--hwhm", "6", "--json"]);
@@ -118,7 +102,7 @@ fn compare_recovers_the_scale_and_reports_three_regions() {
 
 #[test]
 fn fit_returns_the_width_of_the_data() {
-    let dir = tmp("fit");
+    let dir = scratch("cf", "fit");
     let m = measured_from_model(&dir, "6", 3.0);
     let m = m.to_str().unwrap();
     let (code, out, err) = run(&["fit", "--measured", m, "--json"]);
@@ -158,7 +142,7 @@ fn fit_returns_the_width_of_the_data() {
 
 #[test]
 fn measurement_problems_are_reported() {
-    let dir = tmp("bad");
+    let dir = scratch("cf", "bad");
     let only_spec = dir.join("spec.csv");
     std::fs::write(
         &only_spec,
@@ -256,7 +240,7 @@ fn multi_angle_readout() {
 fn undefined_relative_is_an_empty_cell_with_a_warning() {
     // Flakes tilted 2°–3° only: the specular detector (1.5° cone) sees none of them, so
     // `relative` has no reference.
-    let dir = tmp("relative");
+    let dir = scratch("cf", "relative");
     let hist = dir.join("h.csv");
     std::fs::write(&hist, "theta_lo_deg,theta_hi_deg,area_fraction\n2,3,1\n").unwrap();
     let (code, out, err) = run(&[
@@ -301,7 +285,7 @@ fn a_poor_fit_warns_on_stderr_and_in_the_json() {
     // The model's curve with every other point off by a factor e (so the data scatter by
     // ±1 in ln) and 1 % stated uncertainties: chi2/dof is in the thousands. The fit
     // still runs, scales its uncertainty by sqrt(chi2/dof) and says why.
-    let dir = tmp("poor");
+    let dir = scratch("cf", "poor");
     let m = measured_from_model(&dir, "6", 1.0);
     let text = std::fs::read_to_string(&m).unwrap();
     let mut out = String::from("theta_i_deg,theta_s_deg,value,uncertainty\n");

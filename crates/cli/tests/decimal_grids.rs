@@ -5,19 +5,9 @@
 //! strings are made here from integers (`i × 15` tenths written out), not by the code
 //! under test.
 
-use std::process::Command;
+mod common;
 
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::run_text as run;
 
 /// The decimal text of `n / 10^places` (shortest form, no trailing zeros), from integers.
 fn decimal(n: i64, places: u32) -> String {

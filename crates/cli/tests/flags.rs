@@ -5,21 +5,13 @@
 //! uncertainty of 0 is refused naming its line and column, not read as "no
 //! uncertainties".
 
+mod common;
+
+use common::{root, run};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 fn s(p: &Path) -> String {
     p.to_str().unwrap().to_owned()

@@ -4,17 +4,12 @@
 //! Each case checks the exit status, that the message names the flag or file, and that
 //! nothing is left behind (no output file, no temporary file, input untouched).
 
+mod common;
+
+use common::{bin, fixtures, run, s, scratch};
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
+use std::path::Path;
+use std::process::{Output, Stdio};
 
 /// The binary run with `args` and its stdout on a full disk (`/dev/full`).
 fn run_to_full_stdout(args: &[&str]) -> Output {
@@ -25,27 +20,11 @@ fn run_to_full_stdout(args: &[&str]) -> Output {
     bin().args(args).stdout(Stdio::from(full)).output().unwrap()
 }
 
-fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
-}
-
 fn measured() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../docs/figures/measured.csv")
         .display()
         .to_string()
-}
-
-/// A fresh, empty scratch directory.
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-hostile-{name}-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn listing(d: &Path) -> Vec<String> {
@@ -69,7 +48,7 @@ fn expect(o: &Output, code: i32, needles: &[&str]) {
 
 #[test]
 fn an_output_that_is_an_input_is_refused_and_the_input_untouched() {
-    let d = scratch("inout");
+    let d = scratch("hostile", "inout");
     let map = d.join("map.x3p");
     fs::copy(fixtures().join("synth-hwhm6-rough.height.x3p"), &map).unwrap();
     let original = fs::read(&map).unwrap();
@@ -116,7 +95,7 @@ fn an_output_that_is_an_input_is_refused_and_the_input_untouched() {
 
 #[test]
 fn two_outputs_naming_one_file_are_refused_before_any_work() {
-    let d = scratch("twice");
+    let d = scratch("hostile", "twice");
     let a = d.join("a.x3p");
     let o = run(&[
         "synth",
@@ -142,7 +121,7 @@ fn two_outputs_naming_one_file_are_refused_before_any_work() {
 
 #[test]
 fn bad_targets_are_refused_before_anything_is_written() {
-    let d = scratch("targets");
+    let d = scratch("hostile", "targets");
     let x = d.join("x.csv");
     // A plot name with an unknown extension: x.csv must not be written first.
     let o = run(&[
@@ -197,7 +176,7 @@ fn bad_targets_are_refused_before_anything_is_written() {
 
 #[test]
 fn reproduce_without_fixtures_leaves_no_directory() {
-    let d = scratch("repro");
+    let d = scratch("hostile", "repro");
     let out = d.join("figs");
     let o = run(&[
         "reproduce",
@@ -294,7 +273,7 @@ fn a_closed_stdout_ends_quietly_and_a_full_one_is_exit_1() {
 
 #[test]
 fn successful_writes_say_what_they_wrote_and_json_is_the_summary() {
-    let d = scratch("wrote");
+    let d = scratch("hostile", "wrote");
     let out = d.join("t.csv");
     let plot = d.join("t.svg");
     let o = run(&[
@@ -466,7 +445,7 @@ fn compare_and_fit_select_measured_angles_or_refuse() {
 
 #[test]
 fn compare_with_a_model_file_refuses_model_flags_and_names_dark_detectors() {
-    let d = scratch("cmpmodel");
+    let d = scratch("hostile", "cmpmodel");
     let model = d.join("topo.csv");
     let o = run(&[
         "topo",
@@ -623,7 +602,7 @@ fn standard_errors_that_cannot_be_estimated_are_empty_cells_with_one_warning() {
 fn a_failure_after_the_work_leaves_no_output() {
     // No ray reaches detectors at 80° and 85°: the relative curve has nothing to draw on
     // a log axis, so the plot fails after the model ran; the CSV must not appear either.
-    let d = scratch("late");
+    let d = scratch("hostile", "late");
     let o = run(&[
         "topo",
         s(&fixtures().join("synth-hwhm6-rough.height.x3p")),
@@ -685,7 +664,7 @@ fn a_streamed_table_fails_cleanly_at_any_point() {
     // The constant-integrand approximation holds for a 0.7° hwhm in a 3° cone up to
     // about 50° of incidence, not at 60°: 50 incidences of rows (89,050, more than a
     // wave) would come before the error if the checks were not all made first.
-    let d = scratch("stream-late");
+    let d = scratch("hostile", "stream-late");
     let out = d.join("x.csv");
     let late = [
         "model",

@@ -1,21 +1,17 @@
 //! `flakescatter info` end to end on real instrument files: numbers checked against the
 //! files' own declarations, exit status 2 and the file named on bad input.
 
+mod common;
+
+use common::run;
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn data(name: &str) -> String {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/real"))
         .join(name)
         .display()
         .to_string()
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 fn close(a: f64, b: f64, rel: f64) -> bool {

@@ -1,20 +1,9 @@
 //! `flakescatter model` end to end: output format, numbers against closed forms, and
 //! bad input (exit status 2 with a message naming the flag).
 
-use std::process::Command;
+mod common;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = bin().args(args).output().unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::{bin, run_text as run};
 
 #[test]
 fn defaults_give_the_documented_table() {

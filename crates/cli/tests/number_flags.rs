@@ -3,19 +3,9 @@
 //! `-5`; `--wavelengths 0` speaks of nanometres, not degrees; `volume --rays` gives the
 //! same message for 0, −1, 1e20, 1.5 and text.
 
-use std::process::Command;
+mod common;
 
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::run_text as run;
 
 #[test]
 fn negative_and_zero_wavelengths_are_refused_in_nanometres() {

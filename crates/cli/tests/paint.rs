@@ -1,25 +1,9 @@
 //! `fit --paint`, `model --params`, `compare --params` end to end, and their bad input.
 
+mod common;
+
+use common::{run_text as run, scratch};
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-paint-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn paints() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/real/paints")
@@ -34,7 +18,7 @@ fn s(p: &Path) -> &str {
 /// the table's geometries (written with --detectors) is the fit's per-point model.
 #[test]
 fn fit_params_model_and_compare_agree() {
-    let dir = tmp("roundtrip");
+    let dir = scratch("paint", "roundtrip");
     let gold = paints().join("gold-metallic-paint2.csv");
     let params = dir.join("gold.json");
     let points = dir.join("points.csv");
@@ -136,7 +120,7 @@ fn fit_params_model_and_compare_agree() {
 /// Bad tables and flags: exit status 2, the file, line and column (or the flag) named.
 #[test]
 fn bad_input_is_named() {
-    let dir = tmp("bad");
+    let dir = scratch("paint", "bad");
     let head = "theta_i_deg,theta_r_deg,phi_r_deg,brdf_g_per_sr\n";
     let good_rows: String = (0..40)
         .map(|k| format!("30,{},{}\n", 2 * (k % 20) + 1, if k < 20 { 0 } else { 180 }))
@@ -221,7 +205,7 @@ fn bad_input_is_named() {
 /// A channel of the table that the paint does not have, and a malformed parameter file.
 #[test]
 fn params_must_match_the_table() {
-    let dir = tmp("params");
+    let dir = scratch("paint", "params");
     let head = "theta_i_deg,theta_r_deg,phi_r_deg,brdf_g_per_sr\n";
     let rows: String = (0..30)
         .map(|k| format!("45,{},0,{}\n", 2 * k + 1, 0.5 / f64::from(k + 1)))
@@ -276,7 +260,7 @@ fn params_must_match_the_table() {
 /// a parameter file gives the same numbers; and heavy-tailed orientations are flags.
 #[test]
 fn a_paint_from_flags_is_its_parameter_file() {
-    let dir = tmp("flags");
+    let dir = scratch("paint", "flags");
     let flags = [
         "model",
         "--paint",
@@ -363,7 +347,7 @@ fn a_paint_from_flags_is_its_parameter_file() {
 /// fitted flake tails and base carry the multiple scattering.
 #[test]
 fn multiple_scattering_is_carried_by_the_fitted_paint() {
-    let dir = tmp("volume");
+    let dir = scratch("paint", "volume");
     let mut det = String::from("theta_r_deg,phi_r_deg\n");
     let mut geo = Vec::new();
     for phi in [0, 180] {

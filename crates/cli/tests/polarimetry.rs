@@ -4,9 +4,11 @@
 //! scalar `--transmission s|p` curves are `m00 ± m01` of the Mueller columns, in-plane
 //! cones have the mirror-symmetric block form, and bad flags exit 2 naming the flag.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::{run_text as run, scratch};
 use flakescatter::io::{ReadOptions, read_intensity, read_map};
 use flakescatter::optics::flake::FlakeReflectance;
 use flakescatter::optics::mueller::{Analyzer, Stokes};
@@ -15,25 +17,6 @@ use flakescatter::{
     Coating, DetectorSet, Instrument, OrientationSource, Polarimetry, Settings, TopoSettings,
     distribution_mueller, topographic_mueller,
 };
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-pol-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
@@ -112,7 +95,7 @@ fn instrument(theta_i: &[f64], aperture_deg: f64) -> Instrument {
 
 #[test]
 fn model_writes_the_facades_mueller_curves_and_reads_them_as_a_m_s() {
-    let dir = tmp("model");
+    let dir = scratch("pol", "model");
     let det = detector_file(&dir);
     let (code, out, err) = run(&[
         "model",
@@ -215,7 +198,7 @@ fn scalar_s_and_p_curves_are_m00_plus_and_minus_m01() {
     // ones. The scalar path (--transmission s|p, no Mueller matrix) and the Mueller path
     // compute them separately; in and out of the plane they agree to the quadrature's
     // rounding.
-    let dir = tmp("sp");
+    let dir = scratch("pol", "sp");
     let det = detector_file(&dir);
     for geometry in [
         vec!["--theta-s", "-80:80:4"],
@@ -286,7 +269,7 @@ fn scalar_s_and_p_curves_are_m00_plus_and_minus_m01() {
 
 #[test]
 fn topo_writes_the_facades_mueller_curves_and_m00_is_the_scalar_curve() {
-    let dir = tmp("topo");
+    let dir = scratch("pol", "topo");
     let det = detector_file(&dir);
     let height = fixtures().join("synth-hwhm6-rough.height.x3p");
     let intensity = fixtures().join("synth-hwhm6-rough.intensity.x3p");
@@ -412,7 +395,7 @@ fn json_has_the_degree_of_polarisation_convention_and_units() {
 
 #[test]
 fn bad_polarisation_flags_exit_2_naming_the_flag_and_write_nothing() {
-    let dir = tmp("bad");
+    let dir = scratch("pol", "bad");
     let out = dir.join("out.csv");
     let o = out.to_str().unwrap();
     for (args, needle) in [

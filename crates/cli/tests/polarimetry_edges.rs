@@ -4,19 +4,9 @@
 //! detector at the pole θr = 0 takes the basis of its own azimuth φr, the limit
 //! θr → 0 at fixed φr (item 13).
 
-use std::process::Command;
+mod common;
 
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::run_text as run;
 
 /// The `brdf_per_sr` column of a model CSV.
 fn brdf(csv: &str) -> Vec<String> {

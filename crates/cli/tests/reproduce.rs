@@ -4,12 +4,11 @@
 //! rough-flake sample's topography agrees with the measurement near specular within the
 //! errors, the smooth-flake sample's does not).
 
+mod common;
+
+use common::fixtures;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
-}
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!(

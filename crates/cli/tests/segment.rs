@@ -1,28 +1,10 @@
 //! `flakescatter segment` and `stats --map` end to end: a synthetic layer written by
 //! `flakescatter synth` (its truth table is the reference), exit codes, bad input.
 
+mod common;
+
+use common::{run, s, scratch};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "flakescatter-segment-{}-{name}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// A 512 × 512 layer at 0.18 µm with the paper's 0.3 µm z step and 30 nm noise.
 fn synth(d: &Path) -> (PathBuf, PathBuf, PathBuf) {
@@ -57,7 +39,7 @@ fn rows(text: &str) -> Vec<Vec<String>> {
 
 #[test]
 fn segments_a_synthetic_layer_and_feeds_stats() {
-    let d = dir("ok");
+    let d = scratch("segment", "ok");
     let (map, int, truth) = synth(&d);
     let table = d.join("flakes.csv");
     let o = run(&[
@@ -138,7 +120,7 @@ fn segments_a_synthetic_layer_and_feeds_stats() {
 
 #[test]
 fn bad_input_is_reported() {
-    let d = dir("bad");
+    let d = scratch("segment", "bad");
     let (map, int, _) = synth(&d);
     // A cutoff above every intensity: a clear error, exit status 2.
     let o = run(&["segment", s(&map), "--intensity", s(&int), "--cutoff", "2"]);
@@ -171,7 +153,7 @@ fn bad_input_is_reported() {
 
 #[test]
 fn a_map_without_flakes_gives_an_empty_table_and_a_warning() {
-    let d = dir("empty");
+    let d = scratch("segment", "empty");
     // A 30 × 30 checkerboard of 0 / 5 µm: every neighbour is a height jump.
     let mut text = String::new();
     for r in 0..30 {
@@ -213,7 +195,7 @@ fn a_map_without_flakes_gives_an_empty_table_and_a_warning() {
 /// B − G = α (c_B − c_G) up to rounding (≤ 1 unit) whatever the height.
 #[test]
 fn overlay_pixels_carry_the_colour_of_the_true_tilt() {
-    let d = dir("overlay");
+    let d = scratch("segment", "overlay");
     let fx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
     let map = fx.join("synth-hwhm6-rough.height.x3p");
     let (flakes, overlays) = (d.join("flakes.csv"), d.join("overlays"));

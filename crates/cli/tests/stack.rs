@@ -3,25 +3,13 @@
 //! of a layer with known surface, page order, voxel sizes from the file or the flags,
 //! and bad stacks (exit status 2, the file or flag named, nothing left behind).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::{run, s, scratch, stderr};
 use flakescatter::io::{ReadOptions, read_intensity, read_map};
 use flakescatter::stats::heightmap::HeightMap;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "flakescatter-cli-stack-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// The stacks of `crates/io/tests/data/stack` (written by tifffile and by a byte-level
 /// LSM writer; README there).
@@ -29,18 +17,6 @@ fn other_software(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../io/tests/data/stack")
         .join(name)
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn read(p: &Path) -> HeightMap {
@@ -73,7 +49,7 @@ fn plane(col: usize, row: usize) -> f64 {
 /// (measured: 4.3e-6, 3.6e-6 and 5.3e-4 µm).
 #[test]
 fn stacks_from_other_software_give_their_plane() {
-    let d = dir("other");
+    let d = scratch("stack", "other");
     for (file, pixel, dz, order, bound) in [
         ("imagej-u16.tif", 0.2, 0.25, "bottom", 2e-5),
         ("ome-u16-topfirst.ome.tif", 0.18, 0.3, "top", 2e-5),
@@ -180,7 +156,7 @@ fn rms_error(
 /// (closed form), give or take the sampling of ~2·10⁴ correlated pixels.
 #[test]
 fn synthetic_stack_gives_back_the_surface() {
-    let d = dir("synth");
+    let d = scratch("stack", "synth");
     let stack = d.join("layer.tif");
     let j = synth(&d, &["--stack-out", s(&stack), "--z-step-um", "0.3"]);
     let z0 = j["stack"]["z_first_um"].as_f64().unwrap();
@@ -226,7 +202,7 @@ fn synthetic_stack_gives_back_the_surface() {
 fn page_order_from_the_flag() {
     // The same slices written top first: read with --first-page top they give the same
     // heights; read as bottom first the surface comes out upside down.
-    let d = dir("order");
+    let d = scratch("stack", "order");
     let (bottom, top) = (d.join("bottom.tif"), d.join("top.tif"));
     synth(&d, &["--stack-out", s(&bottom)]);
     synth(&d, &["--stack-out", s(&top), "--stack-first-page", "top"]);
@@ -294,7 +270,7 @@ fn plain_tiff(d: &Path) -> PathBuf {
 
 #[test]
 fn missing_voxel_sizes_name_their_flags() {
-    let d = dir("voxel");
+    let d = scratch("stack", "voxel");
     let plain = plain_tiff(&d);
     let out = d.join("out");
     std::fs::create_dir(&out).unwrap();
@@ -359,7 +335,7 @@ fn tiff_pages(path: &Path, sizes: &[(u32, u32)]) {
 
 #[test]
 fn bad_stacks_are_refused_naming_the_file() {
-    let d = dir("bad");
+    let d = scratch("stack", "bad");
     let good = d.join("good.tif");
     synth(&d, &["--stack-out", s(&good)]);
     let bytes = std::fs::read(&good).unwrap();
@@ -405,7 +381,7 @@ fn bad_stacks_are_refused_naming_the_file() {
 
 #[test]
 fn bad_flags_are_usage_errors() {
-    let d = dir("flags");
+    let d = scratch("stack", "flags");
     let stack = other_software("imagej-u16.tif");
     let h = d.join("h.x3p");
     for (flag, value) in [
@@ -447,7 +423,7 @@ fn bad_flags_are_usage_errors() {
 
 #[test]
 fn synth_stack_flags_are_checked() {
-    let d = dir("synth-flags");
+    let d = scratch("stack", "synth-flags");
     let stack = d.join("s.tif");
     for (extra, says) in [
         (&["--height-noise-um", "0.01"][..], "--height-noise-um"),
@@ -480,7 +456,7 @@ fn synth_stack_flags_are_checked() {
 fn synth_stack_is_reproducible_and_honours_its_range() {
     // The same seed gives the same bytes; --z-first-um/--slices set the slices, and the
     // file holds that many pages of that step (read back by `stack`).
-    let d = dir("repro");
+    let d = scratch("stack", "repro");
     let (a, b) = (d.join("a.tif"), d.join("b.tif"));
     synth(
         &d,

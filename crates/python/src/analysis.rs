@@ -8,7 +8,7 @@
 use flakescatter::compare::{
     IncidenceComparison, MeasuredKind, compare as facade_compare, distribution_points, select,
 };
-use flakescatter::fit::{FitSetup, fit_gaussian, fit_nonparametric};
+use flakescatter::fit::{FitSetup, GaussianFit, fit_gaussian, fit_nonparametric};
 use flakescatter::io::flakes::{FlakeTableError, read_flakes, read_flakes_from, write_histogram};
 use flakescatter::io::measured::MeasuredCurve;
 use flakescatter::stats::fit::fit_gaussian_ml;
@@ -423,30 +423,7 @@ pub fn fit<'py>(
                 format!("lambda_={lambda_}: expected a finite number >= 0"),
             ));
         }
-        let edges_deg = match bins {
-            Some(b) => floats(py, "bins", b)?,
-            None => (0..=15).map(|k| 2.0 * f64::from(k)).collect(),
-        };
-        if edges_deg.len() > 1001 {
-            return Err(input(
-                py,
-                format!(
-                    "bins: {} bins is more than the limit of 1000",
-                    edges_deg.len() - 1
-                ),
-            ));
-        }
-        if edges_deg.len() < 2
-            || edges_deg.windows(2).any(|w| !(w[1] > w[0]))
-            || !(edges_deg[0] >= 0.0)
-            || !(edges_deg[edges_deg.len() - 1] <= 90.0)
-        {
-            return Err(input(
-                py,
-                "bins: expected at least two increasing edges within [0, 90] degrees",
-            ));
-        }
-        let edges: Vec<f64> = edges_deg.iter().map(|d| d.to_radians()).collect();
+        let edges = bin_edges(py, bins)?;
         let curve = selected(py, measured, theta_i, theta_s)?;
         let est =
             released(py, || fit_nonparametric(&curve, &setup, &edges, lambda_))?.map_err(|e| {
@@ -499,6 +476,40 @@ pub fn fit<'py>(
     for w in &g.warnings {
         warn(py, &format!("{}: {w}", curve.file))?;
     }
+    gaussian_dict(py, &g)
+}
+
+/// The bin edges of a non-parametric fit, radians, from `bins` (degrees; default 0, 2,
+/// ..., 30): at most 1000 bins, increasing edges within [0, 90] degrees.
+fn bin_edges(py: Python<'_>, bins: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<f64>> {
+    let edges_deg = match bins {
+        Some(b) => floats(py, "bins", b)?,
+        None => (0..=15).map(|k| 2.0 * f64::from(k)).collect(),
+    };
+    if edges_deg.len() > 1001 {
+        return Err(input(
+            py,
+            format!(
+                "bins: {} bins is more than the limit of 1000",
+                edges_deg.len() - 1
+            ),
+        ));
+    }
+    if edges_deg.len() < 2
+        || edges_deg.windows(2).any(|w| !(w[1] > w[0]))
+        || !(edges_deg[0] >= 0.0)
+        || !(edges_deg[edges_deg.len() - 1] <= 90.0)
+    {
+        return Err(input(
+            py,
+            "bins: expected at least two increasing edges within [0, 90] degrees",
+        ));
+    }
+    Ok(edges_deg.iter().map(|d| d.to_radians()).collect())
+}
+
+/// The dict of a Gaussian fit (see [`fit`]).
+fn gaussian_dict<'py>(py: Python<'py>, g: &GaussianFit) -> PyResult<Bound<'py, PyDict>> {
     let scales = PyList::empty(py);
     for (t, s) in &g.scales {
         scales.append((

@@ -16,9 +16,9 @@ use flakescatter::optics::mueller::{Analyzer, Stokes};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::volume::{Amount, Depth, Diameter, RimRule, Substrate};
 use flakescatter::{
-    Curves, OrientationSource, Polarimetry, TopoSettings, VolumeSettings, distribution_curves,
-    distribution_mueller as facade_distribution_mueller, isotropic_curves, topographic_curves,
-    topographic_mueller as facade_topographic_mueller, volume_curves,
+    Curves, OrientationSource, Polarimetry, TopoSettings, VolumeCurves, VolumeSettings,
+    distribution_curves, distribution_mueller as facade_distribution_mueller, isotropic_curves,
+    topographic_curves, topographic_mueller as facade_topographic_mueller, volume_curves,
 };
 use numpy::PyArray1;
 use numpy::PyArray3;
@@ -530,50 +530,15 @@ pub fn volume_model<'py>(
     let instrument = args.instrument(py)?;
     let source =
         OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
-    let amount = match (mass_fraction, volume_fraction, flakes) {
-        (_, None, None) => Amount::MassLoading {
-            fraction: mass_fraction.unwrap_or(0.05),
-            binder_density_g_cm3,
-        },
-        (None, Some(f), None) => Amount::VolumeFraction(f),
-        (None, None, Some(c)) => Amount::Count(c),
-        _ => {
-            return Err(input(
-                py,
-                "mass_fraction, volume_fraction, flakes: give at most one amount",
-            ));
-        }
-    };
-    let substrate = match substrate {
-        "black" if substrate_albedo != 0.0 => {
-            return Err(input(
-                py,
-                format!(
-                    "substrate_albedo={substrate_albedo}: a black substrate has none; give substrate=\"specular\" or \"lambertian\""
-                ),
-            ));
-        }
-        "black" => Substrate::Black,
-        "specular" => Substrate::Specular(substrate_albedo),
-        "lambertian" => Substrate::Lambertian(substrate_albedo),
-        s => {
-            return Err(input(
-                py,
-                format!("substrate={s:?}: expected \"black\", \"specular\" or \"lambertian\""),
-            ));
-        }
-    };
-    let rims = match rims {
-        "absorb" => RimRule::Absorb,
-        "ignore" => RimRule::Ignore,
-        "diffuse" => RimRule::Diffuse,
-        r => {
-            return Err(input(
-                py,
-                format!("rims={r:?}: expected \"absorb\", \"ignore\" or \"diffuse\""),
-            ));
-        }
-    };
+    let amount = amount_of(
+        py,
+        mass_fraction,
+        volume_fraction,
+        flakes,
+        binder_density_g_cm3,
+    )?;
+    let substrate = substrate_of(py, substrate, substrate_albedo)?;
+    let rims = rim_rule(py, rims)?;
     let vs = VolumeSettings {
         film_um,
         diameter: Diameter::LogNormal {
@@ -646,6 +611,86 @@ pub fn volume_model<'py>(
             rows.iter().map(|r| r.multiple_bounce_std_err).collect(),
         )?
         .done();
+    d.set_item("energy", energy_dict(py, &args, &curves)?)?;
+    d.set_item("layer", layer_dict(py, &curves)?)?;
+    d.set_item("rays_per_incidence", curves.rays_per_incidence)?;
+    d.set_item("rays_per_layer", curves.rays_per_layer)?;
+    d.set_item("layers", layers)?;
+    d.set_item("seed", curves.seed)?;
+    Ok(d)
+}
+
+/// The flake amount of the volume model: a mass loading (the default, 5 %), a volume
+/// fraction or a count; at most one of them.
+fn amount_of(
+    py: Python<'_>,
+    mass_fraction: Option<f64>,
+    volume_fraction: Option<f64>,
+    flakes: Option<usize>,
+    binder_density_g_cm3: f64,
+) -> PyResult<Amount> {
+    Ok(match (mass_fraction, volume_fraction, flakes) {
+        (_, None, None) => Amount::MassLoading {
+            fraction: mass_fraction.unwrap_or(0.05),
+            binder_density_g_cm3,
+        },
+        (None, Some(f), None) => Amount::VolumeFraction(f),
+        (None, None, Some(c)) => Amount::Count(c),
+        _ => {
+            return Err(input(
+                py,
+                "mass_fraction, volume_fraction, flakes: give at most one amount",
+            ));
+        }
+    })
+}
+
+/// The substrate of the volume model by name (`black`, `specular`, `lambertian`) and
+/// albedo (none for a black one).
+fn substrate_of(py: Python<'_>, substrate: &str, substrate_albedo: f64) -> PyResult<Substrate> {
+    Ok(match substrate {
+        "black" if substrate_albedo != 0.0 => {
+            return Err(input(
+                py,
+                format!(
+                    "substrate_albedo={substrate_albedo}: a black substrate has none; give substrate=\"specular\" or \"lambertian\""
+                ),
+            ));
+        }
+        "black" => Substrate::Black,
+        "specular" => Substrate::Specular(substrate_albedo),
+        "lambertian" => Substrate::Lambertian(substrate_albedo),
+        s => {
+            return Err(input(
+                py,
+                format!("substrate={s:?}: expected \"black\", \"specular\" or \"lambertian\""),
+            ));
+        }
+    })
+}
+
+/// How the volume model treats flake rims, by name (`absorb`, `ignore`, `diffuse`).
+fn rim_rule(py: Python<'_>, rims: &str) -> PyResult<RimRule> {
+    Ok(match rims {
+        "absorb" => RimRule::Absorb,
+        "ignore" => RimRule::Ignore,
+        "diffuse" => RimRule::Diffuse,
+        r => {
+            return Err(input(
+                py,
+                format!("rims={r:?}: expected \"absorb\", \"ignore\" or \"diffuse\""),
+            ));
+        }
+    })
+}
+
+/// The `energy` dict of a volume run: per incidence, the shares of the beam reflected
+/// by the coat, escaped, absorbed and cut off.
+fn energy_dict<'py>(
+    py: Python<'py>,
+    args: &InstrumentArgs,
+    curves: &VolumeCurves,
+) -> PyResult<Bound<'py, PyDict>> {
     let energy = PyDict::new(py);
     let e = &curves.energy;
     let col = |f: fn(&flakescatter::volume::EnergyBalance) -> f64| -> Vec<f64> {
@@ -669,7 +714,12 @@ pub fn volume_model<'py>(
     ] {
         energy.set_item(name, PyArray1::from_vec(py, col(f)))?;
     }
-    d.set_item("energy", energy)?;
+    Ok(energy)
+}
+
+/// The `layer` dict of a volume run: what the layers realised (counts summed,
+/// fractions averaged).
+fn layer_dict<'py>(py: Python<'py>, curves: &VolumeCurves) -> PyResult<Bound<'py, PyDict>> {
     let l = &curves.layer;
     let layer = PyDict::new(py);
     layer.set_item("flakes", l.flakes)?;
@@ -681,10 +731,5 @@ pub fn volume_model<'py>(
     layer.set_item("flakes_resized", l.resized)?;
     layer.set_item("flakes_moved", l.moved)?;
     layer.set_item("resized_area_fraction", l.resized_area_fraction)?;
-    d.set_item("layer", layer)?;
-    d.set_item("rays_per_incidence", curves.rays_per_incidence)?;
-    d.set_item("rays_per_layer", curves.rays_per_layer)?;
-    d.set_item("layers", layers)?;
-    d.set_item("seed", curves.seed)?;
-    Ok(d)
+    Ok(layer)
 }

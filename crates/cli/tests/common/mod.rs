@@ -18,6 +18,17 @@ pub fn run<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
     bin().args(args).output().unwrap()
 }
 
+/// Runs the binary with `args`: its exit status (-1 when killed by a signal), standard
+/// output and standard error as text.
+pub fn run_text(args: &[&str]) -> (i32, String, String) {
+    let out = run(args);
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 /// Runs the binary with `args` in the directory `dir`.
 pub fn run_in<S: AsRef<std::ffi::OsStr>>(dir: &Path, args: &[S]) -> Output {
     bin().current_dir(dir).args(args).output().unwrap()
@@ -31,6 +42,11 @@ pub fn root() -> PathBuf {
 /// A file of `fixtures/`.
 pub fn fixture(name: &str) -> PathBuf {
     root().join("fixtures").join(name)
+}
+
+/// The repository's `fixtures/` directory.
+pub fn fixtures() -> PathBuf {
+    root().join("fixtures")
 }
 
 /// An empty scratch directory `fs-<tag>-<name>-<pid>` in the system's temporary

@@ -4,21 +4,23 @@
 
 mod report;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use flakescatter::TopoSettings;
+use flakescatter::inputs::{LoadOptions, MapSource};
 use flakescatter::io::flakes::{read_flakes, write_histogram, write_histogram_bins};
 use flakescatter::sample::{SampleSettings, sample_statistics};
 use flakescatter::stats::fit::fit_gaussian_ml;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::histogram::AreaHistogram;
+use flakescatter::stats::segment::SegmentParams;
 use flakescatter::topo::DEFAULT_BLOCK_UM;
 use serde_json::{Value, json};
 
 use crate::flags::SegmentArgs;
 use crate::maps::{MapInputArgs, Repeats, load_all};
-use crate::output::{Kind, Plan, print_json, warn};
+use crate::output::{Dest, Kind, Plan, print_json, warn};
 use crate::tables::write_flakes;
 use report::{ci_deg, summary, write_per_map, write_plot};
 
@@ -95,20 +97,54 @@ pub struct Args {
     pub json: bool,
 }
 
+/// The files (or stdout) the run writes, registered with the plan before any work.
+struct Outputs {
+    /// The histogram (--out, or stdout without --json).
+    table: Option<Dest>,
+    /// --flakes-out.
+    flakes: Option<Dest>,
+    /// --per-map.
+    per_map: Option<Dest>,
+    /// --plot.
+    plot: Option<Dest>,
+}
+
 /// Runs the subcommand.
-#[allow(clippy::too_many_lines)]
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
     if let Some(f) = &args.flakes {
         plan.input("--flakes", f);
     }
-    let table = plan.table("--out", args.out.as_deref(), args.json);
-    let flakes_out = plan.output("--flakes-out", args.flakes_out.as_deref(), Kind::Table);
-    let per_map_out = plan.output("--per-map", args.per_map.as_deref(), Kind::Table);
-    let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
+    let out = Outputs {
+        table: plan.table("--out", args.out.as_deref(), args.json),
+        flakes: plan.output("--flakes-out", args.flakes_out.as_deref(), Kind::Table),
+        per_map: plan.output("--per-map", args.per_map.as_deref(), Kind::Table),
+        plot: plan.output("--plot", args.plot.as_deref(), Kind::Plot),
+    };
     if args.json {
         plan.stdout("--json");
     }
+    check_numbers(&args)?;
+    let params = args.segment.params()?;
+    let options = args.input.load_options()?;
+    let sources = if args.map.is_empty() {
+        Vec::new()
+    } else {
+        args.input
+            .sources("--map", &args.map, &mut plan, Repeats::Refuse)?
+    };
+    plan.check()?;
+    let bin = args.bin.to_radians();
+
+    if let Some(path) = &args.flakes {
+        return of_flake_table(&args, plan, &out, path, bin);
+    }
+    of_maps(&args, plan, &out, &sources, &options, params, bin)
+}
+
+/// The numeric flags clap cannot check alone (bin width; window and tile side with
+/// --pixel-normals), in the order a user meets them.
+fn check_numbers(args: &Args) -> anyhow::Result<()> {
     // At least 0.001°: 90 000 bins over [0, 90°] at most.
     if !(args.bin.is_finite() && (0.001..=45.0).contains(&args.bin)) {
         bail!(
@@ -130,74 +166,80 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
-    let params = args.segment.params()?;
-    let options = args.input.load_options()?;
-    let sources = if args.map.is_empty() {
-        Vec::new()
-    } else {
-        args.input
-            .sources("--map", &args.map, &mut plan, Repeats::Refuse)?
-    };
-    plan.check()?;
-    let bin = args.bin.to_radians();
+    Ok(())
+}
 
-    // A flake table: one sample without maps.
-    if let Some(path) = &args.flakes {
-        let t =
-            read_flakes(path).with_context(|| format!("reading --flakes {}", path.display()))?;
-        let hist = AreaHistogram::from_flakes(&t.flakes, bin)
-            .with_context(|| format!("histogram of {}", path.display()))?;
-        let samples: Vec<(f64, f64)> = t.flakes.iter().map(|f| (f.theta_n(), f.area_um2)).collect();
-        let needs_fit = args.json || plot.is_some();
-        let fit = needs_fit
-            .then(|| {
-                fit_gaussian_ml(&samples)
-                    .with_context(|| format!("fitting a Gaussian to {}", path.display()))
-            })
-            .transpose()?;
-        write_plot(
-            &mut plan,
-            plot.as_ref(),
-            &hist,
-            fit.as_ref(),
-            None,
-            &path.display().to_string(),
+/// A flake table: one sample without maps.
+fn of_flake_table(
+    args: &Args,
+    mut plan: Plan,
+    out: &Outputs,
+    path: &Path,
+    bin: f64,
+) -> anyhow::Result<()> {
+    let t = read_flakes(path).with_context(|| format!("reading --flakes {}", path.display()))?;
+    let hist = AreaHistogram::from_flakes(&t.flakes, bin)
+        .with_context(|| format!("histogram of {}", path.display()))?;
+    let samples: Vec<(f64, f64)> = t.flakes.iter().map(|f| (f.theta_n(), f.area_um2)).collect();
+    let needs_fit = args.json || out.plot.is_some();
+    let fit = needs_fit
+        .then(|| {
+            fit_gaussian_ml(&samples)
+                .with_context(|| format!("fitting a Gaussian to {}", path.display()))
+        })
+        .transpose()?;
+    write_plot(
+        &mut plan,
+        out.plot.as_ref(),
+        &hist,
+        fit.as_ref(),
+        None,
+        &path.display().to_string(),
+    )?;
+    if let Some(dest) = &out.table {
+        let name = dest.name();
+        plan.write(
+            dest,
+            |w| Ok(write_histogram(w, &name, &hist)?),
+            Some(format!("{} bins", hist.bins().len())),
         )?;
-        if let Some(dest) = &table {
-            let name = dest.name();
-            plan.write(
-                dest,
-                |w| Ok(write_histogram(w, &name, &hist)?),
-                Some(format!("{} bins", hist.bins().len())),
-            )?;
-        }
-        plan.finish()?;
-        if let (true, Some(fit)) = (args.json, fit) {
-            print_json(&json!({
-                "version": env!("CARGO_PKG_VERSION"),
-                "input": {
-                    "flakes_file": path.display().to_string(),
-                    "map": Value::Null,
-                    "column_set": t.column_set.name(),
-                    "bin_deg": args.bin,
-                },
-                "flakes": t.flakes.len(),
-                "total_area_um2": hist.total_area_um2(),
-                "fit": "maximum likelihood, Gaussian p_tilde ∝ exp(-θ²/(2 sigma²)) on [0, 90°), area-weighted",
-                "hwhm_deg": fit.hwhm().to_degrees(),
-                "hwhm_ci95_deg": ci_deg(fit.hwhm_ci95()),
-                "hwhm_ci95_method": fit.ci_method.describe(),
-                "sigma_deg": fit.sigma.to_degrees(),
-                "effective_flakes": fit.effective_n,
-                "histogram_bins": hist.bins().len(),
-                "histogram_file": args.out.as_ref().map(|p| p.display().to_string()),
-            }))?;
-        }
-        return Ok(());
     }
+    plan.finish()?;
+    if let (true, Some(fit)) = (args.json, fit) {
+        print_json(&json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "input": {
+                "flakes_file": path.display().to_string(),
+                "map": Value::Null,
+                "column_set": t.column_set.name(),
+                "bin_deg": args.bin,
+            },
+            "flakes": t.flakes.len(),
+            "total_area_um2": hist.total_area_um2(),
+            "fit": "maximum likelihood, Gaussian p_tilde ∝ exp(-θ²/(2 sigma²)) on [0, 90°), area-weighted",
+            "hwhm_deg": fit.hwhm().to_degrees(),
+            "hwhm_ci95_deg": ci_deg(fit.hwhm_ci95()),
+            "hwhm_ci95_method": fit.ci_method.describe(),
+            "sigma_deg": fit.sigma.to_degrees(),
+            "effective_flakes": fit.effective_n,
+            "histogram_bins": hist.bins().len(),
+            "histogram_file": args.out.as_ref().map(|p| p.display().to_string()),
+        }))?;
+    }
+    Ok(())
+}
 
-    // Maps: one sample.
-    let inputs = load_all(&sources, &options)?;
+/// Height maps: segmented, pooled as one sample.
+fn of_maps(
+    args: &Args,
+    mut plan: Plan,
+    out: &Outputs,
+    sources: &[MapSource],
+    options: &LoadOptions,
+    params: SegmentParams,
+    bin: f64,
+) -> anyhow::Result<()> {
+    let inputs = load_all(sources, options)?;
     let maps: Vec<&HeightMap> = inputs.iter().map(|i| &i.loaded.map).collect();
     let names: Vec<String> = sources
         .iter()
@@ -226,7 +268,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--pixel-normals: the Gaussian fit to the pixel-level histogram failed (its width is null in the JSON; the histogram is written): {e}"
         ));
     }
-    if let Some(dest) = &flakes_out {
+    if let Some(dest) = &out.flakes {
         let rows: Vec<(String, &[_])> = names
             .iter()
             .zip(&stats.segmentations)
@@ -239,7 +281,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Some(format!("{total} flakes")),
         )?;
     }
-    if let Some(dest) = &per_map_out {
+    if let Some(dest) = &out.per_map {
         plan.write(
             dest,
             |w| write_per_map(w, &stats.pooled, &names),
@@ -253,13 +295,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     write_plot(
         &mut plan,
-        plot.as_ref(),
+        out.plot.as_ref(),
         &stats.histogram,
         Some(&stats.pooled.flake_level),
         Some(&stats.pooled),
         &title,
     )?;
-    if let Some(dest) = &table {
+    if let Some(dest) = &out.table {
         let name = dest.name();
         match &stats.pixel {
             Some(px) => {
@@ -280,7 +322,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     plan.finish()?;
     if args.json {
-        print_json(&summary(&args, &names, &sources, &stats))?;
+        print_json(&summary(args, &names, sources, &stats))?;
     }
     Ok(())
 }

@@ -3,24 +3,26 @@
 
 mod errors;
 mod stack;
+mod summary;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use flakescatter::io::stack::PageOrder;
 use flakescatter::io::{MapFormat, write_intensity, write_map};
 use flakescatter::stack::write_synthetic_stack_with;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::synth::{
-    BitDepth, DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, generate, truth_csv,
+    DiameterDistribution, FlakeAmount, LayerParams, LayerSpec, SyntheticStack, generate, truth_csv,
 };
-use serde_json::json;
 
 use crate::output::{Kind, Plan, print_json};
 use crate::parse::{pair, whole, whole_u64};
 use errors::invalid;
 pub use stack::{AxialKind, FirstPage, StackOutArgs};
+use summary::summary;
 
 /// Generate a synthetic layer of aluminium flakes (thin discs in a clear film) as a
 /// confocal microscope would see it: a height map, an intensity map and the exact table
@@ -256,31 +258,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write_out(&mut plan, &layer.intensity, p, true)?;
     }
     if let (Some(path), Some(stack)) = (&args.stack.stack_out, &stack) {
-        let (nx, ny, nz) = stack.size();
         let order = args.stack.stack_first_page.order();
-        let bar = (std::io::stderr().is_terminal() && (nx * ny * nz) as f64 > 2e7).then(|| {
-            let b = indicatif::ProgressBar::new(nz as u64);
-            b.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "rendering {bar:40} {pos}/{len} slices {eta}",
-                )
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
-            b
-        });
-        let progress = |done: u64, _: u64| {
-            if let Some(b) = &bar {
-                b.set_position(done);
-            }
-        };
-        plan.write_via_path(
-            path,
-            |tmp| Ok(write_synthetic_stack_with(tmp, stack, order, &progress)?),
-            Some(format!("{nx} x {ny} x {nz} slices")),
-        )?;
-        if let Some(b) = &bar {
-            b.finish_and_clear();
-        }
+        write_stack(&mut plan, path, stack, order)?;
     }
     if let Some(dest) = &truth_out {
         let text = truth_csv(&layer);
@@ -294,68 +273,40 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     plan.finish()?;
 
     if args.json {
-        let s = params.spec();
-        let show = |p: &Option<PathBuf>| p.as_ref().map(|p| p.display().to_string());
-        let stack_json = stack.as_ref().map(|st| {
-            let sp = st.spec();
-            let (_, _, nz) = st.size();
-            json!({
-                "file": show(&args.stack.stack_out),
-                "z_step_um": sp.z_step_um,
-                "slices": nz,
-                "z_first_um": sp.z_first_um,
-                "z_last_um": st.slice_z_um(nz - 1),
-                "axial": match args.stack.axial { AxialKind::Gaussian => "gaussian", AxialKind::Sinc2 => "sinc2" },
-                "axial_fwhm_um": sp.axial.fwhm_um(),
-                "photons": sp.photons,
-                "read_noise_electrons": sp.read_noise,
-                "bit_depth": if sp.bit_depth == BitDepth::Eight { 8 } else { 16 },
-                "aperture_sin": sp.aperture_sin,
-                "first_page": args.stack.stack_first_page.order().name(),
-                "heights": "the stack's heights (flakescatter stack) are above the lowest slice: add z_first_um for heights above the substrate; the map of --out is the exact surface",
-            })
-        });
-        print_json(&serde_json::json!({
-            "version": env!("CARGO_PKG_VERSION"),
-            "input": {
-                "orientation": "gaussian",
-                // Echo the value given exactly; derive the other one.
-                "hwhm_deg": args.sigma.map_or(args.hwhm.unwrap_or(6.0), |_| width.hwhm().to_degrees()),
-                "sigma_deg": args.sigma.unwrap_or(width.sigma().to_degrees()),
-                "nx": s.nx,
-                "ny": s.ny,
-                "dx_um": s.dx_um,
-                "dy_um": s.dy_um,
-                "seed": s.seed,
-                "film_um": s.film_um,
-                "diameter_mean_um": args.diameter_um,
-                "diameter_rel_sd": args.diameter_rel_sd,
-                "diameter_distribution": "log-normal, clipped to [mean/4, 3 mean]",
-                "thickness_um": s.thickness_um,
-                "coverage": args.count.is_none().then_some(args.coverage.unwrap_or(1.5)),
-                "count": args.count,
-                "roughness_rms_um": s.roughness.rms_um,
-                "roughness_correlation_um": s.roughness.correlation_um,
-                "psf_sd_um": s.confocal.psf_sd_um,
-                "z_step_um": args.z_step_um,
-                "map_z_quantisation_um": s.confocal.z_step_um,
-                "height_noise_sd_um": s.confocal.noise_sd_um,
-                "intensity_flake": s.intensity.flake,
-                "intensity_background": s.intensity.background,
-                "intensity_noise_sd": s.intensity.noise_sd,
-            },
-            "width_um": s.nx as f64 * s.dx_um,
-            "height_um": s.ny as f64 * s.dy_um,
-            "flakes_placed": layer.truth.len(),
-            "flakes_visible": layer.visible_flakes().count(),
-            "flakes_redrawn_to_fit_the_film": layer.redrawn_flakes,
-            "covered_fraction": layer.covered_fraction(),
-            "suggested_cutoff": s.intensity.midpoint(),
-            "height_file": show(&args.out),
-            "intensity_file": show(&args.intensity_out),
-            "truth_file": show(&args.truth_out),
-            "stack": stack_json,
-        }))?;
+        print_json(&summary(&args, width, &params, &layer, stack.as_ref()))?;
+    }
+    Ok(())
+}
+
+/// Write the synthetic z-stack to `path` through `plan` (page 0 at the end `order`
+/// names), with a progress bar on a terminal for large stacks.
+fn write_stack(
+    plan: &mut Plan,
+    path: &Path,
+    stack: &SyntheticStack,
+    order: PageOrder,
+) -> anyhow::Result<()> {
+    let (nx, ny, nz) = stack.size();
+    let bar = (std::io::stderr().is_terminal() && (nx * ny * nz) as f64 > 2e7).then(|| {
+        let b = indicatif::ProgressBar::new(nz as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("rendering {bar:40} {pos}/{len} slices {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let progress = |done: u64, _: u64| {
+        if let Some(b) = &bar {
+            b.set_position(done);
+        }
+    };
+    plan.write_via_path(
+        path,
+        |tmp| Ok(write_synthetic_stack_with(tmp, stack, order, &progress)?),
+        Some(format!("{nx} x {ny} x {nz} slices")),
+    )?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
     }
     Ok(())
 }

@@ -13,15 +13,16 @@ use flakescatter::chart::topographic_chart;
 use flakescatter::inputs::MapSource;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoWarning};
-use flakescatter::{TopoSettings, isotropic_curves, topographic_curves, topographic_mueller};
-use serde_json::json;
+use flakescatter::{
+    Curves, MuellerCurves, TopoSettings, isotropic_curves, topographic_curves, topographic_mueller,
+};
 
 use crate::flags::{ColourArgs, GeometryArgs, InstrumentArgs, PolarizationArgs, SpectralArgs};
 use crate::maps::{MapInputArgs, Repeats, load_all};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
-use crate::tables::{curve_warnings, rows_json, write_curves, write_curves_with};
+use crate::tables::{curve_warnings, write_curves, write_curves_with};
 use spectral::{multi_angle, spectral_curves};
-use summary::{Totals, summary};
+use summary::{Outcome, Totals, report};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
 /// local least-squares plane (paper eqs. 14–15 as corrected in docs/physics.md §5).
@@ -249,21 +250,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let mut warnings: Vec<String> = result
-        .warnings()
-        .iter()
-        .map(|w| format!("{w} (--tile-um {})", args.tile_um))
-        .collect();
-    // Rows without a standard error are counted unless the model already said that none
-    // can be estimated.
-    let all_missing = result
-        .warnings()
-        .iter()
-        .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
-    warnings.extend(curve_warnings(&curves, !all_missing));
-    if let Some(mu) = &mueller {
-        warnings.extend(crate::mueller::warnings(mu));
-    }
+    let warnings = run_warnings(&args, &result, &curves, mueller.as_ref());
     for w in &warnings {
         warn(w);
     }
@@ -294,33 +281,44 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     plan.finish()?;
     if args.json {
-        let mut s = summary(&args, &sources, &maps, &result, &curves);
-        s["warnings"] = json!(warnings);
-        if let Some(p) = &polarimetry {
-            s["inputs"]["polarimetry"] = args.polarization.echo(p);
-            s["polarimetry"] = json!({
-                "convention": crate::mueller::CONVENTION,
-                "units": crate::mueller::units(elements),
-                "std_err": "1/sr, standard error of the reading brdf_per_sr from the spread between map tiles (the elements' own errors are not written)",
-            });
-        }
-        if table.is_none() {
-            let mut rows = rows_json(&curves);
-            if let (Totals::Isotropic(r), Some(rows)) = (&result, rows.as_array_mut()) {
-                for (row, e) in rows.iter_mut().zip(&r.interpolation_error) {
-                    row["interpolation_error"] = json!(e.is_finite().then_some(*e));
-                }
-            }
-            if let Some(mu) = &mueller {
-                crate::mueller::add_to_rows(&mut rows, mu, elements);
-            }
-            s["rows"] = rows;
-        } else {
-            s["row_count"] = json!(curves.rows.len());
-        }
-        print_json(&s)?;
+        let outcome = Outcome {
+            sources: &sources,
+            maps: &maps,
+            totals: &result,
+            curves: &curves,
+            polarimetry: polarimetry.as_ref(),
+            mueller: mueller.as_ref(),
+            warnings: &warnings,
+        };
+        print_json(&report(&args, &outcome, table.is_none()))?;
     }
     Ok(())
+}
+
+/// The warnings of a single-angle run, in the order they are printed: the model's
+/// (with the tile side), rows without a standard error, the Mueller elements'.
+fn run_warnings(
+    args: &Args,
+    totals: &Totals,
+    curves: &Curves,
+    mueller: Option<&MuellerCurves>,
+) -> Vec<String> {
+    let mut warnings: Vec<String> = totals
+        .warnings()
+        .iter()
+        .map(|w| format!("{w} (--tile-um {})", args.tile_um))
+        .collect();
+    // Rows without a standard error are counted unless the model already said that none
+    // can be estimated.
+    let all_missing = totals
+        .warnings()
+        .iter()
+        .any(|w| matches!(w, TopoWarning::StdErrNotEstimable { .. }));
+    warnings.extend(curve_warnings(curves, !all_missing));
+    if let Some(mu) = mueller {
+        warnings.extend(crate::mueller::warnings(mu));
+    }
+    warnings
 }
 
 /// A progress bar on stderr when it is a terminal and `work` (pixels × runs) is large.

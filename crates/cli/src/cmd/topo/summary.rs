@@ -1,14 +1,14 @@
 //! The `topo --json` summary: the model run's totals (plain or isotropic), their
 //! counts and the interpolation error of an isotropic run.
 
-use flakescatter::Curves;
 use flakescatter::inputs::MapSource;
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::topo::{IsotropicResult, TopoResult, TopoWarning};
+use flakescatter::{Curves, MuellerCurves, Polarimetry};
 use serde_json::{Value, json};
 
 use super::Args;
-use crate::tables::units_json;
+use crate::tables::{rows_json, units_json};
 
 /// What the model run gives besides the curves: the plain model's or the isotropic
 /// model's totals.
@@ -137,6 +137,50 @@ pub(super) fn summary(
         units["rings"] = json!(
             "rings_traced: usable pixels x incidences; rings_lost_tir / rings_lost_down: summed azimuth fractions of the rings totally internally reflected / heading down (rays' worth)"
         );
+    }
+    s
+}
+
+/// What a single-angle run gives, as the `--json` report describes it.
+pub(super) struct Outcome<'a> {
+    pub sources: &'a [MapSource],
+    pub maps: &'a [HeightMap],
+    pub totals: &'a Totals,
+    pub curves: &'a Curves,
+    /// The incident and analyser states, with --polarization/--incident/--analyzer.
+    pub polarimetry: Option<&'a Polarimetry>,
+    /// The Mueller curves of a polarimetric run.
+    pub mueller: Option<&'a MuellerCurves>,
+    /// The warnings printed on stderr.
+    pub warnings: &'a [String],
+}
+
+/// The `--json` report of a single-angle run: the summary, its warnings and
+/// polarimetry, and the rows when they went nowhere else (`with_rows`) or their count.
+pub(super) fn report(args: &Args, o: &Outcome, with_rows: bool) -> Value {
+    let mut s = summary(args, o.sources, o.maps, o.totals, o.curves);
+    s["warnings"] = json!(o.warnings);
+    if let Some(p) = o.polarimetry {
+        s["inputs"]["polarimetry"] = args.polarization.echo(p);
+        s["polarimetry"] = json!({
+            "convention": crate::mueller::CONVENTION,
+            "units": crate::mueller::units(args.polarization.elements()),
+            "std_err": "1/sr, standard error of the reading brdf_per_sr from the spread between map tiles (the elements' own errors are not written)",
+        });
+    }
+    if with_rows {
+        let mut rows = rows_json(o.curves);
+        if let (Totals::Isotropic(r), Some(rows)) = (o.totals, rows.as_array_mut()) {
+            for (row, e) in rows.iter_mut().zip(&r.interpolation_error) {
+                row["interpolation_error"] = json!(e.is_finite().then_some(*e));
+            }
+        }
+        if let Some(mu) = o.mueller {
+            crate::mueller::add_to_rows(&mut rows, mu, args.polarization.elements());
+        }
+        s["rows"] = rows;
+    } else {
+        s["row_count"] = json!(o.curves.rows.len());
     }
     s
 }
