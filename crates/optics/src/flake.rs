@@ -25,15 +25,32 @@ use crate::thinfilm::{FilmStack, solve_unchecked};
 
 /// A thin-film flake at one wavelength: its layers (from the side light arrives on),
 /// the wavelength, and an opaque core under the layers (`None`: a free flake, the
-/// medium around it on both sides).
+/// medium around it on both sides). Built, and checked, by [`FlakeReflectance::stack`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct StackFlake {
+    stack: FilmStack,
+    wavelength_nm: f64,
+    core: Option<Complex<f64>>,
+}
+
+impl StackFlake {
     /// The layers.
-    pub stack: FilmStack,
+    #[must_use]
+    pub fn stack(&self) -> &FilmStack {
+        &self.stack
+    }
+
     /// Vacuum wavelength, nm (> 0, finite).
-    pub wavelength_nm: f64,
+    #[must_use]
+    pub fn wavelength_nm(&self) -> f64 {
+        self.wavelength_nm
+    }
+
     /// The core's complex index, or `None` for a free flake.
-    pub core: Option<Complex<f64>>,
+    #[must_use]
+    pub fn core(&self) -> Option<Complex<f64>> {
+        self.core
+    }
 }
 
 /// How a flake reflects.

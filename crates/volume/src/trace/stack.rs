@@ -66,9 +66,9 @@ impl StackFaces {
     /// core), which the ray rules treat as today.
     pub(super) fn of(flake: &FlakeReflectance) -> Option<Self> {
         match flake {
-            FlakeReflectance::Stack(f) if f.core.is_none() => {
+            FlakeReflectance::Stack(f) if f.core().is_none() => {
                 let bottom =
-                    FlakeReflectance::stack(f.stack.reversed(), f.wavelength_nm, None).ok()?;
+                    FlakeReflectance::stack(f.stack().reversed(), f.wavelength_nm(), None).ok()?;
                 Some(Self {
                     top: flake.clone(),
                     bottom,
@@ -157,7 +157,7 @@ mod tests {
                 } else {
                     FlakeReflectance::stack(
                         match &flake {
-                            FlakeReflectance::Stack(f) => f.stack.reversed(),
+                            FlakeReflectance::Stack(f) => f.stack().reversed(),
                             _ => unreachable!(),
                         },
                         550.0,
