@@ -172,7 +172,7 @@ pub(super) fn interference(
              {HWHM_DEG}°, seen at ASTM E2194's six geometries (45° incidence, −15° to 110° \
              aspecular) through {APERTURE_DEG}° cones, spectra at 380–780 nm in 10 nm steps, \
              CIELAB under D65 and the 10° observer. Three TiO2 thicknesses give the first-order \
-             interference colours sold as silver ({}), gold ({}) and blue ({}) pearls; at \
+             interference colours sold as silver ({} nm), gold ({} nm) and blue ({} nm) pearls; at \
              15° aspecular: {summary}. `interference_travel` shows how hue and chroma \
              travel with the aspecular angle; the light a flake transmits is not followed \
              (a black base).",
