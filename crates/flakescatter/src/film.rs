@@ -126,34 +126,52 @@ impl FilmSetup {
     }
 }
 
+/// Why [`stack_flake`] could not build a flake: which of its three inputs is at fault,
+/// so that each caller names its own flag or keyword.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StackFlakeError {
+    /// The wavelength is not finite and positive.
+    #[error("wavelength {0} nm is not valid: expected a finite number > 0")]
+    Wavelength(f64),
+    /// The stack spec does not parse.
+    #[error("{0}")]
+    Spec(StackSpecError),
+    /// A layer's table does not cover the wavelength.
+    #[error("{0}")]
+    AtWavelength(StackSpecError),
+    /// The core is not a known material or has no index at the wavelength.
+    #[error("{0}")]
+    Core(CatalogueError),
+}
+
 /// An interference flake at one wavelength from text: the stack spec (against the
 /// built-in catalogue) and an optional opaque core, as `--flake-stack` and
-/// `--flake-core` give them.
+/// `--flake-core` give them. Checked in this order: the wavelength, the spec, the
+/// layers' tables at the wavelength, the core.
 ///
 /// # Errors
-/// [`FilmError`] naming the bad layer, the core, or the wavelength.
+/// [`StackFlakeError`] saying which input is at fault.
 pub fn stack_flake(
     stack: &str,
     core: Option<&str>,
     wavelength_nm: f64,
-) -> Result<FlakeReflectance, FilmError> {
+) -> Result<FlakeReflectance, StackFlakeError> {
     if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
-        return Err(FilmError::Wavelength(wavelength_nm));
+        return Err(StackFlakeError::Wavelength(wavelength_nm));
     }
     let catalogue = Catalogue::builtin();
-    let spec = StackSpec::parse(stack, &catalogue)?;
+    let spec = StackSpec::parse(stack, &catalogue).map_err(StackFlakeError::Spec)?;
+    let layers = spec
+        .at(wavelength_nm)
+        .map_err(StackFlakeError::AtWavelength)?;
     let core = core
         .map(|c| catalogue.parse(c).and_then(|m| m.index_at(wavelength_nm)))
         .transpose()
-        .map_err(FilmError::Substrate)?;
-    // The wavelength and the core's index are valid here; a layer outside its table
-    // was refused by `at`.
-    FlakeReflectance::stack(spec.at(wavelength_nm)?, wavelength_nm, core).map_err(|e| {
-        FilmError::Wavelength(match e {
-            flakescatter_optics::OpticsError::InvalidWavelength(w) => w,
-            _ => wavelength_nm,
-        })
-    })
+        .map_err(StackFlakeError::Core)?;
+    // The wavelength was checked above and the catalogue gives only valid indices, so
+    // the constructor's own checks cannot fail here.
+    FlakeReflectance::stack(layers, wavelength_nm, core)
+        .map_err(|_| StackFlakeError::Wavelength(wavelength_nm))
 }
 
 /// One row of a film table.

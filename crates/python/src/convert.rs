@@ -255,11 +255,14 @@ pub fn coating_with_stack(
         (Some(stack), None, Some(wl)) => {
             let mut c = coating_with_stack(py, n, None, None, None, None)?;
             c.flake = flakescatter::film::stack_flake(stack, flake_core, wl).map_err(|e| {
+                use flakescatter::film::StackFlakeError as E;
                 input(
                     py,
-                    e.to_string()
-                        .replacen("--stack", "flake_stack", 1)
-                        .replacen("--substrate", "flake_core", 1),
+                    match e {
+                        E::Spec(_) | E::AtWavelength(_) => format!("flake_stack: {e}"),
+                        E::Core(_) => format!("flake_core: {e}"),
+                        E::Wavelength(_) => e.to_string(),
+                    },
                 )
             })?;
             return Ok(c);

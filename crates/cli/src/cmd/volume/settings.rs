@@ -2,10 +2,9 @@
 //! settings (instrument, orientation, layer), and the facade's errors explained in
 //! terms of the flags they are about.
 
-use anyhow::{Context, bail};
-use flakescatter::optics::catalogue::Catalogue;
+use anyhow::bail;
+use flakescatter::film::{StackFlakeError, stack_flake};
 use flakescatter::optics::flake::FlakeReflectance;
-use flakescatter::optics::stack_spec::StackSpec;
 use flakescatter::volume::{Amount, Depth, Diameter, RimRule, Substrate};
 use flakescatter::{PipelineError, VolumeSettings};
 
@@ -61,26 +60,25 @@ impl Args {
                 "--flake-stack needs --wavelength NM: an interference flake reflects differently at each wavelength (one wavelength per volume run)"
             );
         };
-        if !(wl.is_finite() && wl > 0.0) {
-            bail!("--wavelength {wl}: expected a finite wavelength > 0 nm");
-        }
-        let catalogue = Catalogue::builtin();
-        let spec = StackSpec::parse(text, &catalogue).context("--flake-stack")?;
-        let stack = spec
-            .at(wl)
-            .with_context(|| format!("--flake-stack at --wavelength {wl}"))?;
-        let core = self
-            .flake_core
-            .as_deref()
-            .map(|c| {
-                catalogue
-                    .parse(c)
-                    .and_then(|m| m.index_at(wl))
-                    .with_context(|| format!("--flake-core {c} at --wavelength {wl}"))
-            })
-            .transpose()?;
-        let flake = FlakeReflectance::stack(stack, wl, core)
-            .with_context(|| format!("--flake-stack {text} --flake-core at --wavelength {wl}"))?;
+        let c = self.flake_core.as_deref();
+        let flake = stack_flake(text, c, wl).map_err(|e| {
+            let flag = match &e {
+                StackFlakeError::Wavelength(_) => {
+                    return anyhow::anyhow!(
+                        "--wavelength {wl}: expected a finite wavelength > 0 nm"
+                    );
+                }
+                StackFlakeError::Spec(_) => "--flake-stack".to_string(),
+                StackFlakeError::AtWavelength(_) => format!("--flake-stack at --wavelength {wl}"),
+                StackFlakeError::Core(_) => {
+                    format!(
+                        "--flake-core {} at --wavelength {wl}",
+                        c.unwrap_or_default()
+                    )
+                }
+            };
+            anyhow::Error::new(e).context(flag)
+        })?;
         Ok(Some(flake))
     }
 
