@@ -27,17 +27,19 @@ use flakescatter_optics::nalgebra::Complex;
 use flakescatter_optics::stack_spec::{StackSpec, StackSpecError};
 use flakescatter_optics::thinfilm::{Response, ThinFilmError};
 
-/// Errors of a thin-film table.
+/// Errors of a thin-film table. The messages name the inputs as [`FilmSetup::parse`]
+/// does (`stack`, `substrate`, `ambient`); a caller with other names for them (the
+/// command line's flags) matches on the variant.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FilmError {
-    /// The stack spec.
-    #[error("--stack: {0}")]
+    /// The stack spec, or a layer's table at a wavelength.
+    #[error("stack: {0}")]
     Stack(#[from] StackSpecError),
     /// The substrate.
-    #[error("--substrate: {0}")]
+    #[error("substrate: {0}")]
     Substrate(CatalogueError),
     /// The ambient index.
-    #[error("--ambient {0}: expected a finite real index >= 1")]
+    #[error("ambient {0}: expected a finite real index >= 1")]
     Ambient(f64),
     /// An angle outside `[0, π/2]`.
     #[error("angle {0} rad is out of range: expected 0 to pi/2 (0 to 90 degrees) in the ambient")]

@@ -50,7 +50,7 @@ pub fn film<'py>(
         ));
     }
     let setup = FilmSetup::parse(stack, ambient, substrate, &Catalogue::builtin())
-        .map_err(|e| input(py, e.to_string().replacen("--", "", 1)))?;
+        .map_err(|e| input(py, e.to_string()))?;
     let rad: Vec<f64> = thetas.iter().map(|d| d.to_radians()).collect();
     let rows = film_table(&setup, &rad, &wls).map_err(|e| input(py, e.to_string()))?;
     let shape = (wls.len(), thetas.len());

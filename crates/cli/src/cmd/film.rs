@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use flakescatter::film::{FilmRow, FilmSetup, film_table};
+use flakescatter::film::{FilmError, FilmRow, FilmSetup, film_table};
 use flakescatter::io::spectral::read_complex_index;
 use flakescatter::optics::catalogue::Catalogue;
 use flakescatter::optics::material::ComplexIndexTable;
@@ -136,9 +136,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.ambient,
         args.substrate.as_deref(),
         &catalogue,
-    )?;
+    )
+    .map_err(flagged)?;
     let thetas: Vec<f64> = thetas_deg.iter().map(|d| d.to_radians()).collect();
-    let rows = film_table(&setup, &thetas, &wavelengths)?;
+    let rows = film_table(&setup, &thetas, &wavelengths).map_err(flagged)?;
     if let Some(dest) = &out {
         let n = rows.len();
         plan.write(
@@ -154,6 +155,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print(&text(&setup, &rows, &thetas_deg))
     } else {
         Ok(())
+    }
+}
+
+/// A [`FilmError`] in terms of this command's flags.
+fn flagged(e: FilmError) -> anyhow::Error {
+    match e {
+        FilmError::Stack(x) => anyhow::anyhow!("--stack: {x}"),
+        FilmError::Substrate(x) => anyhow::anyhow!("--substrate: {x}"),
+        FilmError::Ambient(v) => {
+            anyhow::anyhow!("--ambient {v}: expected a finite real index >= 1")
+        }
+        other => other.into(),
     }
 }
 
