@@ -25,7 +25,7 @@ use flakescatter_optics::catalogue::{Catalogue, CatalogueError, MaterialSpec};
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::nalgebra::Complex;
 use flakescatter_optics::stack_spec::{StackSpec, StackSpecError};
-use flakescatter_optics::thinfilm::{Response, ThinFilmError};
+use flakescatter_optics::thinfilm::{FilmStack, Response, ThinFilmError};
 
 /// Errors of a thin-film table. The messages name the inputs as [`FilmSetup::parse`]
 /// does (`stack`, `substrate`, `ambient`); a caller with other names for them (the
@@ -107,25 +107,58 @@ impl FilmSetup {
     /// # Errors
     /// [`FilmError`] for a wavelength outside a table, or a bad angle or wavelength.
     pub fn response(&self, theta: f64, wavelength_nm: f64) -> Result<Response, FilmError> {
-        if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&theta) {
-            return Err(FilmError::Angle(theta));
-        }
-        if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
-            return Err(FilmError::Wavelength(wavelength_nm));
-        }
+        check_angle(theta)?;
+        check_wavelength(wavelength_nm)?;
+        let (stack, exit) = self.at(wavelength_nm)?;
+        solve(self.ambient, &stack, exit, theta, wavelength_nm)
+    }
+
+    /// The layers and the exit medium's index at `wavelength_nm`: a table that does not
+    /// cover it is refused first, then a wavelength that is not finite and positive.
+    fn at(&self, wavelength_nm: f64) -> Result<(FilmStack, Complex<f64>), FilmError> {
         let stack = self.stack.at(wavelength_nm)?;
         let exit = match &self.substrate {
             None => Complex::new(self.ambient, 0.0),
             Some(s) => s.index_at(wavelength_nm).map_err(FilmError::Substrate)?,
         };
-        // cos(π/2) is 6e-17, not 0: grazing incidence is exactly 0.
-        let cos = if theta == std::f64::consts::FRAC_PI_2 {
-            0.0
-        } else {
-            theta.cos()
-        };
-        Ok(stack.response(self.ambient, exit, cos, wavelength_nm)?)
+        check_wavelength(wavelength_nm)?;
+        Ok((stack, exit))
     }
+}
+
+/// `Ok` for a finite wavelength > 0 nm.
+fn check_wavelength(wavelength_nm: f64) -> Result<(), FilmError> {
+    if wavelength_nm.is_finite() && wavelength_nm > 0.0 {
+        Ok(())
+    } else {
+        Err(FilmError::Wavelength(wavelength_nm))
+    }
+}
+
+/// `Ok` for an angle in `[0, π/2]`.
+fn check_angle(theta: f64) -> Result<(), FilmError> {
+    if (0.0..=std::f64::consts::FRAC_PI_2).contains(&theta) {
+        Ok(())
+    } else {
+        Err(FilmError::Angle(theta))
+    }
+}
+
+/// The stack's response at a checked angle `theta` (radians, in the ambient).
+fn solve(
+    ambient: f64,
+    stack: &FilmStack,
+    exit: Complex<f64>,
+    theta: f64,
+    wavelength_nm: f64,
+) -> Result<Response, FilmError> {
+    // cos(π/2) is 6e-17, not 0: grazing incidence is exactly 0.
+    let cos = if theta == std::f64::consts::FRAC_PI_2 {
+        0.0
+    } else {
+        theta.cos()
+    };
+    Ok(stack.response(ambient, exit, cos, wavelength_nm)?)
 }
 
 /// Why [`stack_flake`] could not build a flake: which of its three inputs is at fault,
@@ -198,23 +231,21 @@ pub fn film_table(
     wavelengths_nm: &[f64],
 ) -> Result<Vec<FilmRow>, FilmError> {
     for &t in thetas {
-        if !(0.0..=std::f64::consts::FRAC_PI_2).contains(&t) {
-            return Err(FilmError::Angle(t));
-        }
+        check_angle(t)?;
     }
-    for &w in wavelengths_nm {
-        setup.stack.at(w)?;
-        if let Some(s) = &setup.substrate {
-            s.index_at(w).map_err(FilmError::Substrate)?;
-        }
-    }
+    // Every wavelength's layers and exit medium first, so that a wavelength outside a
+    // table is refused before any row is computed; then each is solved at every angle.
+    let media = wavelengths_nm
+        .iter()
+        .map(|&w| setup.at(w))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut rows = Vec::with_capacity(thetas.len() * wavelengths_nm.len());
-    for &w in wavelengths_nm {
+    for (&w, (stack, exit)) in wavelengths_nm.iter().zip(&media) {
         for &t in thetas {
             rows.push(FilmRow {
                 wavelength_nm: w,
                 theta: t,
-                response: setup.response(t, w)?,
+                response: solve(setup.ambient, stack, *exit, t, w)?,
             });
         }
     }
