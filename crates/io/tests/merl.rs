@@ -66,7 +66,11 @@ fn rotate(v: [f64; 3], axis: [f64; 3], angle: f64) -> [f64; 3] {
 }
 
 fn spherical(theta: f64, phi: f64) -> [f64; 3] {
-    [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()]
+    [
+        theta.sin() * phi.cos(),
+        theta.sin() * phi.sin(),
+        theta.cos(),
+    ]
 }
 
 /// The reference reader's bin for `(θin, φin, θout, φout)`, step by step.
@@ -113,7 +117,11 @@ fn an_independently_written_file_reads_as_the_reference_reader_looks_it_up() {
         }
         filled += 1;
         let want = [0, 1, 2].map(|c| encoded(c, i) * SCALES[c]);
-        assert_eq!(got, Some(want), "directions ({ti}, {pi}), ({to}, {po}): bin {i}");
+        assert_eq!(
+            got,
+            Some(want),
+            "directions ({ti}, {pi}), ({to}, {po}): bin {i}"
+        );
     }
     assert!(filled > 950, "{filled} of 1000 directions in filled bins");
 }
@@ -174,7 +182,10 @@ fn every_bin_centre_is_looked_up_in_its_own_bin() {
         assert!((dot - (2.0 * c.theta_d).cos()).abs() < 1e-12);
     }
     // Roughly half the table is above the horizon for both directions.
-    assert!(above > BINS / 3 && above < BINS, "{above} bins above the horizon");
+    assert!(
+        above > BINS / 3 && above < BINS,
+        "{above} bins above the horizon"
+    );
 }
 
 #[test]
@@ -191,20 +202,31 @@ fn set_stores_the_value_divided_by_the_channel_scale() {
 }
 
 fn err(bytes: &[u8]) -> String {
-    read_merl_bytes(bytes, "bad.binary").unwrap_err().to_string()
+    read_merl_bytes(bytes, "bad.binary")
+        .unwrap_err()
+        .to_string()
 }
 
 #[test]
 fn malformed_files_are_refused_with_the_file_and_what_was_expected() {
     let good = independent_file();
     let e = err(&good[..7]);
-    assert!(e.contains("bad.binary") && e.contains("7 bytes") && e.contains("header"), "{e}");
+    assert!(
+        e.contains("bad.binary") && e.contains("7 bytes") && e.contains("header"),
+        "{e}"
+    );
     let mut dims = good.clone();
     dims[8..12].copy_from_slice(&360i32.to_le_bytes());
     let e = err(&dims);
-    assert!(e.contains("[90, 90, 360]") && e.contains("expected [90, 90, 180]"), "{e}");
+    assert!(
+        e.contains("[90, 90, 360]") && e.contains("expected [90, 90, 180]"),
+        "{e}"
+    );
     let e = err(&good[..good.len() - 8]);
-    assert!(e.contains("truncated") && e.contains(&FILE_LEN.to_string()), "{e}");
+    assert!(
+        e.contains("truncated") && e.contains(&FILE_LEN.to_string()),
+        "{e}"
+    );
     let mut long = good.clone();
     long.push(0);
     let e = err(&long);
@@ -214,8 +236,15 @@ fn malformed_files_are_refused_with_the_file_and_what_was_expected() {
     let k = 12 + 8 * (BINS + 16200 * 2 + 180 * 3 + 4);
     nan[k..k + 8].copy_from_slice(&f64::NAN.to_le_bytes());
     let e = err(&nan);
-    assert!(e.contains("channel G bin (θh 2, θd 3, φd 4)") && e.contains("NaN"), "{e}");
+    assert!(
+        e.contains("channel G bin (θh 2, θd 3, φd 4)") && e.contains("NaN"),
+        "{e}"
+    );
     let missing = read_merl("/nonexistent/dir/paint.binary").unwrap_err();
     assert!(matches!(missing, MerlError::Io { .. }));
-    assert!(missing.to_string().contains("/nonexistent/dir/paint.binary"));
+    assert!(
+        missing
+            .to_string()
+            .contains("/nonexistent/dir/paint.binary")
+    );
 }
