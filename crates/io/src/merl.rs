@@ -438,7 +438,7 @@ pub fn read_merl_bytes(bytes: &[u8], file: &str) -> Result<MerlTable, MerlError>
 ///
 /// # Errors
 /// The writer's.
-pub fn write_merl(w: &mut impl Write, table: &MerlTable) -> std::io::Result<()> {
+pub fn write_merl(w: &mut (impl Write + ?Sized), table: &MerlTable) -> std::io::Result<()> {
     let mut buf = Vec::with_capacity(FILE_LEN);
     for d in [90i32, 90, 180] {
         buf.extend_from_slice(&d.to_le_bytes());
