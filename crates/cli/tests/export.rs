@@ -69,7 +69,9 @@ fn sample_bins(n: usize) -> Vec<usize> {
     let mut out = Vec::new();
     let mut x: u64 = 0x2003_1500;
     while out.len() < n {
-        x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         let h = ((x >> 33) % 90) as usize * ((x >> 20) % 2) as usize; // half of them h = 0
         let h = h.min(((x >> 40) % 90) as usize);
         let d = ((x >> 13) % 85) as usize;
@@ -158,7 +160,11 @@ fn a_grey_table_is_the_point_brdf_of_model_at_every_bin_centre() {
     let one = d.join("one.binary");
     let mut a1 = vec!["export", "--format", "merl", "--out", s(&one)];
     a1.extend(flags);
-    let o = bin().args(&a1).env("RAYON_NUM_THREADS", "1").output().unwrap();
+    let o = bin()
+        .args(&a1)
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(fs::read(&one).unwrap() == fs::read(&out).unwrap());
 }
@@ -195,7 +201,10 @@ fn bad_export_flags_exit_2_naming_the_flag_and_write_nothing() {
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["--out", "-"], "cannot go to stdout"),
         (vec!["--out", "x.csv"], "must end in .binary"),
-        (vec!["--out", s(&out), "--aperture", "1"], "--aperture does not apply"),
+        (
+            vec!["--out", s(&out), "--aperture", "1"],
+            "--aperture does not apply",
+        ),
         (
             vec!["--out", s(&out), "--paint", "--channels", "r,g"],
             "the paint's channels are r, g",
@@ -211,4 +220,76 @@ fn bad_export_flags_exit_2_naming_the_flag_and_write_nothing() {
         assert!(e.contains(want), "{args:?}: {e}");
         assert!(!out.exists(), "{args:?} wrote {}", out.display());
     }
+}
+
+/// A paint built from known parameters, exported, then fitted from its MERL table
+/// (`--measured FILE.binary`, looked up on the paint tables' grid): the fit must give
+/// back what went in. The BRDF fixes coverage × flake scale and (1 − coverage)² × base
+/// albedo (physics.md §12), so those products are checked: 0.5 × (0.9, 0.7, 0.5) and
+/// 0.25 × (0.02, 0.05, 0.2). The table's bins (about 1° in θd, φd) blur the peak a
+/// little, hence 2 % on the width and the flakes, 5 % on the base.
+#[test]
+fn a_fit_to_an_exported_table_gives_back_the_paint() {
+    let d = scratch("export", "fit");
+    let out = d.join("p.binary");
+    let o = run(&[
+        "export",
+        "--format",
+        "merl",
+        "--out",
+        s(&out),
+        "--paint",
+        "--channels",
+        "r,g,b",
+        "--hwhm",
+        "8",
+        "--flake-scale",
+        "0.9,0.7,0.5",
+        "--base-albedo",
+        "0.02,0.05,0.2",
+        "--coat-roughness",
+        "0.05",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "fit",
+        "--paint",
+        "--measured",
+        s(&out),
+        "--family",
+        "gaussian",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let physical = v["fit"]["physical"].as_array().unwrap();
+    let get = |name: &str| {
+        physical
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap_or_else(|| panic!("{name} in {physical:?}"))["value"]
+            .as_f64()
+            .unwrap()
+    };
+    let rel = |a: f64, b: f64| (a - b).abs() / b;
+    assert!(rel(get("hwhm (rad)").to_degrees(), 8.0) < 0.02);
+    for (c, flake, base) in [("r", 0.45, 0.005), ("g", 0.35, 0.0125), ("b", 0.25, 0.05)] {
+        let f = get(&format!("flake amplitude {c}"));
+        let b = get(&format!("base amplitude {c}"));
+        assert!(rel(f, flake) < 0.02, "flake amplitude {c} {f}");
+        assert!(rel(b, base) < 0.05, "base amplitude {c} {b}");
+    }
+    // A MERL table is not a curve: the distribution fit says where it belongs.
+    let o = run(&["fit", "--measured", s(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("a MERL BRDF table"), "{}", stderr(&o));
+    // A corrupt MERL file is refused naming it.
+    let bad = d.join("bad.binary");
+    let mut bytes = fs::read(&out).unwrap();
+    bytes.truncate(1000);
+    fs::write(&bad, bytes).unwrap();
+    let o = run(&["compare", "--paint", "--measured", s(&bad)]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("bad.binary") && e.contains("truncated"), "{e}");
 }

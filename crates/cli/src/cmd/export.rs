@@ -4,9 +4,9 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::pipeline::distribution_model;
 use flakescatter::export::{BrdfSource, merl_table, paint_rgb};
 use flakescatter::io::merl::write_merl;
+use flakescatter::pipeline::distribution_model;
 use serde_json::json;
 
 use crate::flags::{OpticsArgs, OrientationArgs, PaintFlags};
