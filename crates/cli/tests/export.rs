@@ -100,15 +100,20 @@ fn model_at(extra: &[&str], dir: &Path, g: (f64, f64, f64)) -> Vec<f64> {
     args.extend(extra.iter().map(|a| a.to_string()));
     let o = run(&args);
     assert!(o.status.success(), "{}", stderr(&o));
+    // Every row's brdf columns: one row, or one per wavelength of a spectral run.
     let text = String::from_utf8(o.stdout).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let row: Vec<&str> = lines.next().unwrap().split(',').collect();
-    header
-        .iter()
-        .zip(&row)
-        .filter(|(h, _)| h.starts_with("brdf_"))
-        .map(|(_, v)| v.parse().unwrap())
+    lines
+        .flat_map(|line| {
+            let row: Vec<String> = line.split(',').map(str::to_owned).collect();
+            header
+                .iter()
+                .zip(row)
+                .filter(|(h, _)| h.starts_with("brdf_"))
+                .map(|(_, v)| v.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
         .collect()
 }
 
@@ -292,4 +297,54 @@ fn a_fit_to_an_exported_table_gives_back_the_paint() {
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     assert!(e.contains("bad.binary") && e.contains("truncated"), "{e}");
+}
+
+/// Interference flakes exported as linear sRGB: at sampled bins, the table equals the
+/// spectrum `model --flake-stack … --aperture 0` gives at the bin's centre, weighted with
+/// colour-science's linear-sRGB weights of 380…780 nm (made independently;
+/// crates/flakescatter/tests/data/export/README.md). The two colour pipelines differ in
+/// the fourth decimal of their matrices and weights, hence 2e-3 relative to the
+/// brightest channel; a negative component (outside the gamut) must be written as 0.
+#[test]
+fn a_spectral_table_is_the_linear_srgb_of_the_models_spectrum() {
+    let weights: Vec<[f64; 3]> =
+        include_str!("../../flakescatter/tests/data/export/srgb_weights_380_780_10.csv")
+            .lines()
+            .filter(|l| !l.starts_with('#') && !l.starts_with("wavelength"))
+            .map(|l| {
+                let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+                [v[1], v[2], v[3]]
+            })
+            .collect();
+    let d = scratch("export", "spectral");
+    let out = d.join("s.binary");
+    let flags = ["--flake-stack", "TiO2:125/mica:400/TiO2:125", "--hwhm", "8"];
+    let mut args = vec!["export", "--format", "merl", "--out", s(&out)];
+    args.extend(flags);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("outside the sRGB gamut"),
+        "{}",
+        stderr(&o)
+    );
+    let table = parse(&out);
+    for i in sample_bins(12) {
+        let g = centre_geometry(i).unwrap();
+        let spectrum = model_at(&flags, &d, g);
+        assert_eq!(spectrum.len(), 41, "one BRDF per wavelength");
+        let rgb = spectrum
+            .iter()
+            .zip(&weights)
+            .fold([0.0f64; 3], |a, (f, w)| [0, 1, 2].map(|c| a[c] + f * w[c]));
+        let top = rgb.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for c in 0..3 {
+            let got = table[c * BINS + i] * SCALES[c];
+            assert!(got >= 0.0);
+            assert!(
+                (got - rgb[c].max(0.0)).abs() <= 2e-3 * top,
+                "bin {i} channel {c}: table {got}, colour-science {rgb:?}"
+            );
+        }
+    }
 }

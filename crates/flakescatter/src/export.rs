@@ -10,17 +10,21 @@
 //! the surface is left without a value (MERL's −1). Bins are independent, so the table
 //! is the same for any thread count.
 //!
+//! Sources: the distribution model (grey), a paint (its r, g, b channels), or the
+//! distribution model at many wavelengths turned into linear sRGB ([`SpectralSource`]).
+//!
 //! What a table cannot hold: the specular delta of a smooth clear coat (a fraction of
 //! the beam in one direction, not a BRDF) is left out; a paint's rough coat is in.
 //!
 //! ```
 //! use flakescatter::export::{BrdfSource, merl_table};
-//! use flakescatter::gaussian::{DistributionModel, GaussianWidth, ModelOptions, Orientation};
+//! use flakescatter::gaussian::{DistributionModel, ModelOptions};
+//! use flakescatter::stats::{GaussianWidth, Orientation};
 //! use flakescatter::io::merl::Bin;
 //!
 //! let o = Orientation::gaussian(GaussianWidth::Hwhm(6f64.to_radians()))?;
 //! let model = DistributionModel::new(o, 1.5, ModelOptions::default())?;
-//! let table = merl_table(&BrdfSource::Distribution(&model), &|_, _| {})?;
+//! let table = merl_table(&BrdfSource::Distribution(&model), &|_, _| {})?.table;
 //! // Near the mirror direction at a moderate angle: grey, positive.
 //! let bin = Bin::new(2, 30, 90).unwrap();
 //! let v = table.value(0, bin).unwrap();
@@ -50,6 +54,102 @@ pub enum BrdfSource<'a> {
         /// The paint channel of R, G and B.
         rgb: [usize; 3],
     },
+    /// The distribution model at several wavelengths ([`SpectralSource`]), its BRDF
+    /// spectrum turned into linear sRGB.
+    Spectral(&'a SpectralSource),
+}
+
+/// The IEC 61966-2-1 (sRGB) matrix from CIE XYZ (`Y = 1` for the white) to linear sRGB,
+/// rows R, G, B: the standard's four-decimal values.
+pub const XYZ_TO_LINEAR_SRGB: [[f64; 3]; 3] = [
+    [3.2406, -1.5372, -0.4986],
+    [-0.9689, 1.8758, 0.0415],
+    [0.0557, -0.2040, 1.0570],
+];
+
+/// A spectral model to tabulate: one distribution model per wavelength and the weights
+/// that turn its BRDF spectrum `f(λᵢ)` into linear sRGB, `RGB = Σᵢ wᵢ f(λᵢ)`, with
+/// `wᵢ = M · Wᵢ / 100`: `Wᵢ` the ASTM E308 tristimulus weights of the wavelength list
+/// for CIE illuminant D65 and the CIE 1931 2° observer (`flakescatter_colour`,
+/// `Σ W_ȳ = 100`), `M` [`XYZ_TO_LINEAR_SRGB`]. A BRDF spectrum that is the same at
+/// every wavelength gives R = G = B = that BRDF to the matrix's four decimals (the D65
+/// white is sRGB's white). A colour outside the sRGB gamut has a negative component,
+/// which is written as 0 (the table's negative numbers mean "no value") and counted.
+#[derive(Debug, Clone)]
+pub struct SpectralSource {
+    models: Vec<DistributionModel>,
+    weights: Vec<[f64; 3]>,
+    wavelengths_nm: Vec<f64>,
+}
+
+impl SpectralSource {
+    /// The spectral coating `coating` with the flakes of `orientation` at
+    /// `wavelengths_nm` (nm; strictly increasing, covering 400–700 nm as colorimetry
+    /// needs), `settings` as the distribution model's.
+    ///
+    /// # Errors
+    /// [`PipelineError::Spectral`] for a wavelength list colorimetry refuses or a
+    /// coating that has no value at a wavelength; the model's errors.
+    pub fn new(
+        coating: &crate::spectral::SpectralCoating,
+        orientation: &flakescatter_stats::Orientation,
+        settings: &crate::Settings,
+        wavelengths_nm: &[f64],
+    ) -> Result<Self, PipelineError> {
+        let tw = flakescatter_colour::TristimulusWeights::new(
+            wavelengths_nm,
+            flakescatter_colour::Illuminant::D65,
+            flakescatter_colour::Observer::Cie1931TwoDegree,
+        )
+        .map_err(|e| PipelineError::Spectral(format!("--wavelengths for sRGB: {e}")))?;
+        // The weights of wavelength i are the XYZ of the unit spectrum e_i (the sums are
+        // linear in the spectrum).
+        let mut weights = Vec::with_capacity(wavelengths_nm.len());
+        let mut unit = vec![0.0; wavelengths_nm.len()];
+        for i in 0..wavelengths_nm.len() {
+            unit[i] = 1.0;
+            let w = tw
+                .xyz(&unit)
+                .map_err(|e| PipelineError::Spectral(e.to_string()))?;
+            unit[i] = 0.0;
+            let xyz = [w.x / 100.0, w.y / 100.0, w.z / 100.0];
+            weights.push(
+                XYZ_TO_LINEAR_SRGB.map(|row| row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2]),
+            );
+        }
+        let models = coating
+            .at_all(wavelengths_nm)?
+            .into_iter()
+            .map(|at| {
+                let mut m = crate::pipeline::distribution_model(
+                    &at.coating,
+                    settings,
+                    orientation.clone(),
+                )?;
+                if let Some(a) = at.absorption {
+                    m = m.with_absorption(a);
+                }
+                Ok(m)
+            })
+            .collect::<Result<Vec<_>, PipelineError>>()?;
+        Ok(Self {
+            models,
+            weights,
+            wavelengths_nm: wavelengths_nm.to_vec(),
+        })
+    }
+
+    /// The wavelengths, nm.
+    #[must_use]
+    pub fn wavelengths_nm(&self) -> &[f64] {
+        &self.wavelengths_nm
+    }
+
+    /// The linear-sRGB weight `wᵢ` of each wavelength (R, G, B per sr⁻¹ of BRDF).
+    #[must_use]
+    pub fn weights(&self) -> &[[f64; 3]] {
+        &self.weights
+    }
 }
 
 /// Which of a paint's channels are R, G and B: its channels named `r`, `g` and `b`
@@ -96,7 +196,8 @@ pub fn bin_geometry(bin: Bin) -> Option<(f64, Vec3)> {
 }
 
 /// The R, G, B point BRDF (sr⁻¹) of `source` at `bin`'s centre; `None` below the
-/// horizon.
+/// horizon. A spectral source's components may be negative (outside the sRGB gamut);
+/// [`merl_table`] writes those as 0.
 ///
 /// # Errors
 /// The model's, for an incidence it refuses (not raised for a bin above the horizon).
@@ -118,18 +219,30 @@ pub fn bin_value(source: &BrdfSource<'_>, bin: Bin) -> Result<Option<[f64; 3]>, 
             }
             out
         }
+        BrdfSource::Spectral(s) => {
+            let mut out = [0.0; 3];
+            for (m, w) in s.models.iter().zip(&s.weights) {
+                let inc = m.incidence(theta_i)?;
+                let f = m.brdf(&inc, &r);
+                for c in 0..3 {
+                    out[c] += w[c] * f;
+                }
+            }
+            out
+        }
     }))
 }
 
-/// The whole MERL table of `source`, every bin at its centre. `progress(done, total)`
-/// is called as rows of `θh` are finished (from worker threads).
+/// The whole MERL table of `source`, every bin at its centre, with negative components
+/// (a spectral colour outside the sRGB gamut) written as 0 and counted.
+/// `progress(done, total)` is called as rows of `θh` are finished (from worker threads).
 ///
 /// # Errors
 /// The model's ([`bin_value`]).
 pub fn merl_table(
     source: &BrdfSource<'_>,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<MerlTable, PipelineError> {
+) -> Result<Tabulated, PipelineError> {
     let row = THETA_D_BINS * PHI_D_BINS;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let rows: Vec<Vec<Option<[f64; 3]>>> = (0..THETA_H_BINS)
@@ -147,12 +260,25 @@ pub fn merl_table(
         })
         .collect::<Result<_, PipelineError>>()?;
     let mut table = MerlTable::unfilled();
+    let mut clipped = 0;
     for (i, v) in rows.into_iter().flatten().enumerate() {
         let bin = Bin::from_index(i).expect("bin within the table");
+        if v.is_some_and(|v| v.iter().any(|x| *x < 0.0)) {
+            clipped += 1;
+        }
         for c in 0..3 {
-            table.set(c, bin, v.map(|v| v[c]));
+            table.set(c, bin, v.map(|v| v[c].max(0.0)));
         }
     }
     debug_assert_eq!(table.raw().len(), 3 * BINS);
-    Ok(table)
+    Ok(Tabulated { table, clipped })
+}
+
+/// A filled table and what had to be changed to fill it.
+#[derive(Debug, Clone)]
+pub struct Tabulated {
+    /// The table.
+    pub table: MerlTable,
+    /// Bins with a colour outside the sRGB gamut (a negative component written as 0).
+    pub clipped: usize,
 }

@@ -22,12 +22,14 @@
 //!
 //! let mut table = MerlTable::unfilled();
 //! let bin = Bin::new(10, 20, 30).unwrap();
-//! table.set(1, bin, Some(0.25)); // green channel, 0.25 sr⁻¹
+//! for (channel, value) in [0.5, 0.25, 0.125].into_iter().enumerate() {
+//!     table.set(channel, bin, Some(value)); // sr⁻¹
+//! }
 //! let mut bytes = Vec::new();
 //! write_merl(&mut bytes, &table)?;
 //! let back = read_merl_bytes(&bytes, "in memory")?;
 //! assert_eq!(back.raw(), table.raw());
-//! assert_eq!(back.value(0, bin), None); // red was left unfilled
+//! assert_eq!(back.value(0, Bin::new(0, 0, 0).unwrap()), None); // left unfilled
 //! // The bin's centre directions look it up again.
 //! let (wi, wo) = bin.centre_directions().unwrap();
 //! let v = back.lookup(wi, wo).unwrap();

@@ -4,12 +4,12 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use flakescatter::export::{BrdfSource, merl_table, paint_rgb};
+use flakescatter::export::{BrdfSource, SpectralSource, merl_table, paint_rgb};
 use flakescatter::io::merl::write_merl;
 use flakescatter::pipeline::distribution_model;
 use serde_json::json;
 
-use crate::flags::{OpticsArgs, OrientationArgs, PaintFlags};
+use crate::flags::{DEFAULT_WAVELENGTHS, OpticsArgs, OrientationArgs, PaintFlags, SpectralArgs};
 use crate::output::{Dest, Kind, Plan, print_json};
 
 /// The table formats.
@@ -24,7 +24,9 @@ pub enum Format {
 /// isotropic table (90 θh × 90 θd × 180 φd, R, G, B) filled with the BRDF at the bin's
 /// centre, sr⁻¹ (docs/formats.md). The model is the distribution model of the orientation
 /// and coating flags (grey: R = G = B), or a paint (--params P.json from `fit --paint`,
-/// or --paint with its flags; its channels r, g, b, or its one channel as grey). Bins
+/// or --paint with its flags; its channels r, g, b, or its one channel as grey), or, with
+/// the spectral flags (--wavelengths, --flake-material, --flake-nk, --flake-stack, ...),
+/// the distribution model's BRDF spectrum as linear sRGB (CIE 1931 observer, D65). Bins
 /// below the horizon are written as MERL does (−1); a smooth clear coat's specular delta
 /// cannot be tabulated and is left out.
 #[derive(Debug, clap::Args)]
@@ -39,6 +41,8 @@ pub struct Args {
     pub optics: OpticsArgs,
     #[command(flatten)]
     pub source: OrientationArgs,
+    #[command(flatten)]
+    pub spectral: SpectralArgs,
     /// A fitted paint (`fit --paint --params-out P.json`): its BRDF per channel (clear
     /// coat, flakes and base; physics.md §12).
     #[arg(long, value_name = "P.json", conflicts_with_all = [
@@ -84,9 +88,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--transmission and --weighting do not apply to a paint (it uses exact unpolarised Fresnel factors)"
         );
     }
+    if is_paint && args.spectral.any() {
+        bail!(
+            "--params/--paint and the spectral flags: a paint's channels are its own (r, g, b); give one or the other"
+        );
+    }
     if args.params.is_none() {
         args.source.validate()?;
     }
+    let wavelengths = if args.spectral.any() {
+        args.spectral.validate()?;
+        args.spectral.wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
+    } else {
+        None
+    };
     plan.check()?;
     let paint = match &args.params {
         Some(path) => Some(crate::cmd::paint::model_of(path)?),
@@ -100,22 +115,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let flakes = match &paint {
-        Some(_) => None,
-        None => {
+    let spectral = match &wavelengths {
+        Some(w) => {
+            let (coating, _) = args.spectral.coating(&args.optics)?;
+            let (orientation, _) = args.source.orientation()?;
+            Some(SpectralSource::new(
+                &coating,
+                &orientation,
+                &args.optics.settings(false),
+                w,
+            )?)
+        }
+        None => None,
+    };
+    let flakes = match (&paint, &spectral) {
+        (Some(_), _) | (_, Some(_)) => None,
+        (None, None) => {
             let (orientation, _) = args.source.orientation()?;
             let coating = args.optics.coating()?;
             let settings = args.optics.settings(false);
             Some(distribution_model(&coating, &settings, orientation)?)
         }
     };
-    let source = match (&paint, &flakes) {
-        (Some(p), _) => BrdfSource::Paint {
+    let source = match (&paint, &spectral, &flakes) {
+        (Some(p), _, _) => BrdfSource::Paint {
             model: p,
             rgb: paint_rgb(p).context("--params/--paint")?,
         },
-        (None, Some(m)) => BrdfSource::Distribution(m),
-        (None, None) => unreachable!("a paint or the flakes"),
+        (None, Some(s), _) => BrdfSource::Spectral(s),
+        (None, None, Some(m)) => BrdfSource::Distribution(m),
+        (None, None, None) => unreachable!("a paint, a spectrum or the flakes"),
     };
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(0);
@@ -133,14 +162,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             b.set_position(done as u64);
         }
     };
-    let table = merl_table(&source, &progress)?;
+    let tabulated = merl_table(&source, &progress)?;
+    let table = &tabulated.table;
+    if tabulated.clipped > 0 {
+        crate::output::warn(&format!(
+            "{} bins have a colour outside the sRGB gamut: their negative components are written as 0",
+            tabulated.clipped
+        ));
+    }
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
     let filled = table.channel(0).iter().filter(|v| **v >= 0.0).count();
     plan.write(
         &out,
-        |w| Ok(write_merl(w, &table)?),
+        |w| Ok(write_merl(w, table)?),
         Some(format!("{filled} of {} bins", flakescatter::io::merl::BINS)),
     )?;
     plan.finish()?;
@@ -162,6 +198,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 json!(names)
             }
             BrdfSource::Distribution(_) => json!("grey: the flakes' one BRDF in R, G and B"),
+            BrdfSource::Spectral(_) => json!(
+                "linear sRGB of the BRDF spectrum: CIE 1931 2° observer, illuminant D65 (ASTM E308 weights), IEC 61966-2-1 matrix; out-of-gamut components written as 0"
+            ),
         };
         print_json(&json!({
             "version": env!("CARGO_PKG_VERSION"),
@@ -178,6 +217,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "left_out": "the specular delta of a smooth clear coat",
             },
             "filled_bins": filled,
+            "out_of_gamut_bins": tabulated.clipped,
         }))?;
     }
     Ok(())
