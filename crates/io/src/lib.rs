@@ -42,6 +42,7 @@ pub mod frt;
 pub mod gwy;
 pub mod map;
 pub mod measured;
+pub mod merl;
 pub mod metropro;
 pub mod opd;
 pub mod plu;

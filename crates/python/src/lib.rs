@@ -10,6 +10,7 @@
 //! volume model, stacks) stop with `KeyboardInterrupt` on Ctrl-C.
 
 mod analysis;
+mod brdf;
 mod convert;
 mod errors;
 mod extras;
@@ -37,6 +38,7 @@ fn _flakescatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<map::Map>()?;
     m.add_function(wrap_pyfunction!(map::read_map, m)?)?;
     m.add_function(wrap_pyfunction!(map::write_map, m)?)?;
+    m.add_function(wrap_pyfunction!(brdf::read_brdf, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::segment, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::orientation_stats, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::compare, m)?)?;

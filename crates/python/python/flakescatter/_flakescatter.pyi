@@ -83,6 +83,11 @@ class Map:
     def valid_count(self) -> int:
         """Number of valid points."""
 
+def read_brdf(path: PathLike) -> dict[str, Any]:
+    """A MERL isotropic BRDF table: ``brdf`` (3, 90, 90, 180) float64 in 1/sr indexed
+    [R, G, B][theta_h bin][theta_d bin][phi_d bin], NaN where the file holds no value;
+    ``channels``, ``scale``, ``file``."""
+
 def read_map(
     path: PathLike,
     channel: Optional[Union[int, str]] = None,
