@@ -392,3 +392,99 @@ def test_sphere_previews_show_the_lobe_width(paint_files, tmp_path, variant):
     ratio = sizes["broad"] / sizes["narrow"]
     print(f"highlight sizes {sizes}, ratio {ratio:.2f}")
     assert sizes["narrow"] >= 1 and ratio > 1.5
+
+
+# ------------------------------------------------------------ bad files
+
+
+@pytest.fixture
+def bad_files(tmp_path):
+    """A truncated file (right header, 100 values instead of 3 × 1 458 000) and one whose
+    header announces 90 × 90 × 360 bins (the full-φd layout, not MERL's)."""
+    short = tmp_path / "short.binary"
+    short.write_bytes(np.array([90, 90, 180], "<i4").tobytes() + np.zeros(100, "<f8").tobytes())
+    dims = tmp_path / "dims.binary"
+    dims.write_bytes(np.array([90, 90, 360], "<i4").tobytes()
+                     + np.zeros(3 * 90 * 90 * 360, "<f8").tobytes())
+    return {"missing": tmp_path / "missing.binary", "short": short, "dims": dims}
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("kind, error", [("missing", flakescatter.FileError),
+                                         ("short", flakescatter.FileFormatError),
+                                         ("dims", flakescatter.FileFormatError)])
+def test_bad_file_is_a_clear_error_naming_it(kind, error, bad_files, tmp_path, variant):
+    """A missing, truncated or wrong-dimension file: the project's error naming the file
+    from load_bsdf and render_preview (no PNG written); through mitsuba.load_dict,
+    Mitsuba's RuntimeError carrying the same text."""
+    fm = use("scalar_rgb")
+    path = bad_files[kind]
+    with pytest.raises(error, match=path.name):
+        fm.load_bsdf(path)
+    out = tmp_path / "never.png"
+    with pytest.raises(error, match=path.name):
+        fm.render_preview(path, out, resolution=8, spp=1)
+    assert not out.exists()
+    with pytest.raises(RuntimeError, match=rf"{error.__name__}.*{path.name}"):
+        mi.load_dict({"type": "flakescatter", "filename": str(path)})
+
+
+@needs_mitsuba
+def test_missing_filename_property_is_named(variant):
+    use("scalar_rgb")
+    with pytest.raises(RuntimeError, match="'filename'"):
+        mi.load_dict({"type": "flakescatter"})
+
+
+@needs_mitsuba
+def test_bad_preview_arguments_are_refused(paint_files, tmp_path, variant):
+    import flakescatter.mitsuba as fm
+
+    """Each argument is honoured or refused naming it; nothing is written."""
+    out = tmp_path / "x.png"
+    for kwargs, what in [({"shape": "cube"}, "shape"), ({"resolution": 0}, "resolution"),
+                         ({"spp": 0}, "spp"),
+                         ({"sun_direction": (0, 0, 0)}, "sun_direction"),
+                         ({"sun_irradiance": (1, 1)}, "sun_irradiance"),
+                         ({"sky_radiance": (0.1, -1, 0.1)}, "sky_radiance"),
+                         ({"exposure": 0.0}, "exposure"),
+                         ({"variant": "scalar_spectral"}, "variant")]:
+        with pytest.raises(ValueError, match=what):
+            fm.render_preview(paint_files["broad"], out, **kwargs)
+    missing = tmp_path / "no-such-folder" / "x.png"
+    with pytest.raises(flakescatter.FileError, match="no-such-folder"):
+        fm.render_preview(paint_files["broad"], missing)
+    assert not out.exists() and not missing.parent.exists()
+
+
+# ------------------------------------------------------------ without mitsuba
+
+
+def run_python(code):
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return r.stdout
+
+
+def test_package_import_does_not_import_mitsuba():
+    """Mitsuba is an optional extra: importing flakescatter (and its mitsuba module)
+    must not load it."""
+    out = run_python("import sys, flakescatter, flakescatter.mitsuba; "
+                     "print('mitsuba' in sys.modules, 'drjit' in sys.modules)")
+    assert out.split() == ["False", "False"]
+
+
+def test_without_mitsuba_the_error_says_how_to_install_it(tmp_path):
+    """With mitsuba unimportable (sys.modules entry None: ImportError on import),
+    register and render_preview raise ImportError with the install hint."""
+    out = run_python(
+        "import sys\n"
+        "sys.modules['mitsuba'] = None; sys.modules['drjit'] = None\n"
+        "import flakescatter.mitsuba as fm\n"
+        "for call in (fm.register, lambda: fm.render_preview('x.binary', 'x.png')):\n"
+        "    try:\n"
+        "        call()\n"
+        "    except ImportError as e:\n"
+        "        print(e)\n")
+    lines = out.strip().splitlines()
+    assert len(lines) == 2 and all("pip install flakescatter[render]" in x for x in lines)

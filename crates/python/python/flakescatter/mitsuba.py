@@ -20,8 +20,8 @@ the layout of MERL's reference reader ``BRDFRead.cpp``; ``docs/formats.md``), re
 with :func:`flakescatter.read_brdf`: 90 × 90 × 180 bins over the Rusinkiewicz
 half/difference angles (θh, θd, φd) in R, G, B, in sr⁻¹. A missing file raises
 :class:`flakescatter.FileError`, a malformed one :class:`flakescatter.FileFormatError`,
-both naming the file (Mitsuba may wrap them when it builds a scene; the message is
-kept).
+both naming the file: directly from :func:`load_bsdf` and :func:`render_preview`,
+wrapped in Mitsuba's ``RuntimeError`` (their text kept) from ``mitsuba.load_dict``.
 
 * **eval** is the table's value × cos θo (Mitsuba's convention), RGB, looked up in the
   bin of (ωi, ωo) exactly as the reference reader does (no interpolation): θh index
@@ -69,8 +69,8 @@ from typing import Any, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["register", "render_preview", "PLUGIN_NAME", "SUN_DIRECTION", "SUN_IRRADIANCE",
-           "SKY_RADIANCE"]
+__all__ = ["register", "load_bsdf", "render_preview", "PLUGIN_NAME", "SUN_DIRECTION",
+           "SUN_IRRADIANCE", "SKY_RADIANCE"]
 
 #: The plugin's name in scene descriptions (``{"type": "flakescatter", ...}``).
 PLUGIN_NAME = "flakescatter"
@@ -309,11 +309,28 @@ def register() -> None:
     mi.register_bsdf(PLUGIN_NAME, lambda props: cls(props))
 
 
+def load_bsdf(filename):
+    """The plugin for ``filename`` as a ``mitsuba.BSDF`` of the active variant (after
+    :func:`register`), with the project's errors unwrapped: a missing file raises
+    :class:`flakescatter.FileError`, a malformed one
+    :class:`flakescatter.FileFormatError`, both naming the file. (Through
+    ``mitsuba.load_dict`` the same errors arrive wrapped in Mitsuba's ``RuntimeError``,
+    their text kept.)"""
+    mi, _ = _mitsuba()
+    filename = os.fspath(filename)
+    _load_table(filename)
+    register()
+    return mi.load_dict({"type": PLUGIN_NAME, "filename": filename})
+
+
 # --------------------------------------------------------------------------- previews
 
 
 def _choose_variant(mi, variant: Optional[str]) -> str:
     """``variant`` if given, else the active RGB variant, else llvm_ad_rgb / scalar_rgb."""
+    if variant is not None and not str(variant).endswith("_rgb"):
+        raise ValueError(f"variant: the plugin works in RGB variants (e.g. scalar_rgb, "
+                         f"llvm_ad_rgb), not {variant!r}")
     if variant is None:
         try:
             current = mi.variant()
@@ -349,6 +366,15 @@ def _panel_mesh(mi, bsdf):
         params[key] = type(params[key])(data.ravel().tolist())
     params.update()
     return mesh
+
+
+def _rgb_argument(name: str, value) -> list:
+    """Three finite non-negative numbers (an RGB triple), or a ValueError naming ``name``."""
+    v = np.asarray(value, dtype=np.float64).reshape(-1)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise ValueError(f"{name}: expected 3 finite non-negative numbers (R, G, B), "
+                         f"got {value!r}")
+    return [float(x) for x in v]
 
 
 def _tonemap(linear: np.ndarray, exposure: float, white: float) -> np.ndarray:
@@ -396,8 +422,9 @@ def render_preview(
       ≈ 0.157, about 1/6 of the sun.
 
     Tone map, per channel: the linear radiance is multiplied by ``exposure`` (default
-    1 / L_white, L_white = cos 45° × E_sun / π + L_sky the radiance of a white
-    Lambertian disc facing the camera under this light, from the first channel of each),
+    1 / L_white, L_white = cos θ × E_sun / π + L_sky the radiance of a white Lambertian
+    disc facing the camera under this light, θ the sun's angle from the viewing axis,
+    45° by default; from the first channel of each),
     then mapped by the extended Reinhard curve ``y = x (1 + x / white²) / (1 + x)``
     (``white`` = 8: eight times a white diffuser is displayed white, the highlight
     keeps its shape instead of clipping), clamped to 1, sRGB-encoded and written as an
@@ -425,15 +452,23 @@ def render_preview(
     sun = sun / np.linalg.norm(sun)
     brdf_file = os.fspath(brdf_file)
     _load_table(brdf_file)  # the project's error for a missing or malformed file, unwrapped
-    variant = _choose_variant(mi, variant)
-    register()
 
-    e_sun = [float(v) for v in sun_irradiance]
-    l_sky = [float(v) for v in sky_radiance]
+    e_sun = _rgb_argument("sun_irradiance", sun_irradiance)
+    l_sky = _rgb_argument("sky_radiance", sky_radiance)
     if exposure is None:
-        l_white = math.cos(math.radians(45.0)) * e_sun[0] / math.pi + l_sky[0]
+        l_white = max(float(sun[2]), 0.0) * e_sun[0] / math.pi + l_sky[0]
         exposure = 1.0 / l_white if l_white > 0 else 1.0
-    bsdf = mi.load_dict({"type": PLUGIN_NAME, "filename": brdf_file})
+    elif not (math.isfinite(exposure) and exposure > 0):
+        raise ValueError(f"exposure: expected a positive number, got {exposure!r}")
+    out_png = os.fspath(out_png)
+    folder = os.path.dirname(os.path.abspath(out_png))
+    if not os.path.isdir(folder):
+        from . import FileError
+
+        raise FileError(f"{out_png}: cannot write the preview: the folder {folder} "
+                        f"does not exist")
+    variant = _choose_variant(mi, variant)
+    bsdf = load_bsdf(brdf_file)
     if shape == "sphere":
         obj = {"type": "sphere", "bsdf": bsdf}
     else:
@@ -457,8 +492,7 @@ def render_preview(
     })
     image = np.array(mi.render(scene, seed=int(seed)), dtype=np.float32)[..., :3]
     bitmap = mi.Bitmap(_tonemap(image, exposure, white), mi.Bitmap.PixelFormat.RGB)
-    out_png = os.fspath(out_png)
-    bitmap.write(out_png)
+    bitmap.write(out_png, mi.Bitmap.FileFormat.PNG)
     return {
         "png": out_png,
         "image": image,
