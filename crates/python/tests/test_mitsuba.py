@@ -515,3 +515,24 @@ def test_sampling_lobe_follows_the_table(paint, paint_files, variant):
     hwhm = math.radians(PAINTS[paint]["hwhm_deg"])
     assert bsdf.alpha == pytest.approx(math.tan(hwhm) / math.sqrt(math.log(2.0)), rel=0.05)
     assert bsdf.lobe_weight == pytest.approx(0.9)
+
+
+@needs_mitsuba
+@needs_llvm
+def test_guide_snippets_run_as_written(tmp_path, monkeypatch, variant):
+    """docs/guide.md §14's Python blocks, run as written in a folder whose out/ holds
+    the two MERL files the guide's export commands would write (here from this file's
+    writer: the export is the CLI's, tested with it)."""
+    guide = (pathlib.Path(__file__).resolve().parents[3] / "docs" / "guide.md").read_text()
+    section = guide.split("## 14. Seeing a paint: Mitsuba previews", 1)[1].split("\n## ", 1)[0]
+    blocks = [b.split("```", 1)[0] for b in section.split("```python\n")[1:]]
+    assert len(blocks) == 2
+    (tmp_path / "out").mkdir()
+    write_merl(tmp_path / "out" / "hwhm4.binary", lobe_paint(**PAINTS["narrow"]))
+    write_merl(tmp_path / "out" / "hwhm10.binary", lobe_paint(**PAINTS["broad"]))
+    monkeypatch.chdir(tmp_path)
+    for block in blocks:
+        exec(compile(block, "docs/guide.md §14", "exec"), {})
+    for name in ("hwhm4", "hwhm10"):
+        png = mi.Bitmap(str(tmp_path / "out" / f"{name}.png"))
+        assert (png.width(), png.height()) == (256, 256)

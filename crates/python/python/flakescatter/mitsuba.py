@@ -416,7 +416,8 @@ def render_preview(
     * the sun: a directional emitter of irradiance ``sun_irradiance`` (on a plane
       normal to the beam, default 1) arriving from ``sun_direction`` (the direction
       towards the sun; default (−0.5, 0.5, √½), 45° from the viewing axis, up and to the
-      left in the image), so that the specular highlight sits 22.5° off the centre;
+      left in the image), so that the highlight is where the normal is about 22.5° from
+      the viewing axis;
     * the sky: a constant emitter of radiance ``sky_radiance`` (default 0.05) from every
       direction (a uniform grey surround, no ground): it lights any plane with π × 0.05
       ≈ 0.157, about 1/6 of the sun.
