@@ -62,6 +62,8 @@ enum Command {
     Colour(cmd::colour::Args),
     /// Thin-film (interference) flakes: amplitude and power reflection and transmission of a layer stack over angles and wavelengths.
     Film(cmd::film::Args),
+    /// A model's BRDF as a table for renderers and BRDF tools (MERL isotropic format).
+    Export(cmd::export::Args),
     /// A sample from its manifest (maps, measured curve) to a report: statistics, models, comparison, fit.
     Analyze(cmd::analyze::Args),
 }
@@ -99,6 +101,7 @@ fn main() -> ExitCode {
         Command::Volume(a) => cmd::volume::run(a),
         Command::Colour(a) => cmd::colour::run(a),
         Command::Film(a) => cmd::film::run(a),
+        Command::Export(a) => cmd::export::run(a),
         Command::Analyze(a) => cmd::analyze::run(a),
     };
     match result {

@@ -78,6 +78,7 @@
 pub mod analyze;
 pub mod chart;
 pub mod compare;
+pub mod export;
 pub mod figures;
 pub mod film;
 pub mod fit;

@@ -364,6 +364,16 @@ pub fn looks_like_merl(head: &[u8]) -> bool {
     head.len() >= 12 && header(head) == [90, 90, 180]
 }
 
+/// `true` when the file `path` starts with MERL's header ([`looks_like_merl`]);
+/// `false` when it does not or cannot be read (reading it says why).
+#[must_use]
+pub fn is_merl_file(path: impl AsRef<Path>) -> bool {
+    let mut head = [0u8; 12];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok_and(|()| looks_like_merl(&head))
+}
+
 fn header(b: &[u8]) -> [i32; 3] {
     [
         crate::bytes::i32_le(b, 0),
@@ -438,7 +448,7 @@ pub fn read_merl_bytes(bytes: &[u8], file: &str) -> Result<MerlTable, MerlError>
 ///
 /// # Errors
 /// The writer's.
-pub fn write_merl(w: &mut impl Write, table: &MerlTable) -> std::io::Result<()> {
+pub fn write_merl(w: &mut (impl Write + ?Sized), table: &MerlTable) -> std::io::Result<()> {
     let mut buf = Vec::with_capacity(FILE_LEN);
     for d in [90i32, 90, 180] {
         buf.extend_from_slice(&d.to_le_bytes());

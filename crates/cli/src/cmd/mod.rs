@@ -3,6 +3,7 @@ pub mod analyze;
 pub mod colour;
 pub mod compare;
 pub mod convert;
+pub mod export;
 pub mod film;
 pub mod fit;
 pub mod info;

@@ -152,6 +152,12 @@ impl MeasuredArgs {
                 path.display()
             );
         }
+        if flakescatter::io::merl::is_merl_file(path) {
+            anyhow::bail!(
+                "--measured {}: a MERL BRDF table (R, G, B over every direction): fit it with `fit --paint`, compare a paint with it with `compare --params P.json` or `compare --paint`",
+                path.display()
+            );
+        }
         let all = read_measured(path)
             .with_context(|| format!("reading --measured {}", path.display()))?;
         let Selection {

@@ -66,6 +66,10 @@ impl Plan {
                     "{} -: a stack cannot go to stdout; give a file name ending in .tif",
                     out.flag
                 ),
+                Kind::Brdf => bail!(
+                    "{} -: a binary BRDF table cannot go to stdout; give a file name ending in .binary",
+                    out.flag
+                ),
             }
         }
         if self.stdout_users.len() > 1 {
@@ -206,6 +210,11 @@ fn check_target(flag: &str, path: &Path, kind: Kind, dir: bool) -> anyhow::Resul
         Kind::Stack => {
             if !matches!(ext.as_deref(), Some("tif" | "tiff")) {
                 bail!("{flag} {shown}: a stack file must end in .tif or .tiff (multi-page TIFF)");
+            }
+        }
+        Kind::Brdf => {
+            if ext.as_deref() != Some("binary") {
+                bail!("{flag} {shown}: a MERL BRDF file must end in .binary");
             }
         }
     }

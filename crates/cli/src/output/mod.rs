@@ -52,6 +52,8 @@ pub enum Kind {
     ConvertedMap,
     /// A confocal z-stack: `.tif` or `.tiff` (multi-page TIFF).
     Stack,
+    /// A tabulated BRDF: `.binary` (MERL).
+    Brdf,
 }
 
 /// Where an output goes.

@@ -36,6 +36,11 @@ use crate::compare::MeasuredKind;
 /// malformed or unknown column, angles out of range, values that are not positive, a
 /// geometry given twice; relative values (a paint has an absolute BRDF).
 pub fn read_measurement(path: &Path, kind: MeasuredKind) -> Result<Measurement, PipelineError> {
+    if flakescatter_io::merl::is_merl_file(path) {
+        let table = flakescatter_io::merl::read_merl(path)
+            .map_err(|e| PipelineError::Measurement(e.to_string()))?;
+        return Ok(from_merl(&table, &path.display().to_string()));
+    }
     let text = flakescatter_io::files::read_text(path)
         .map_err(|e| PipelineError::Measurement(e.to_string()))?;
     if looks_like_brdf_table(&text) {
@@ -47,6 +52,64 @@ pub fn read_measurement(path: &Path, kind: MeasuredKind) -> Result<Measurement, 
     }
     let curve = read_measured(path).map_err(|e| PipelineError::Measurement(e.to_string()))?;
     from_curve(&curve, kind)
+}
+
+/// Incidences of the rows [`from_merl`] takes from a MERL table, degrees.
+pub const MERL_THETA_I_DEG: [f64; 5] = [15.0, 30.0, 45.0, 60.0, 75.0];
+/// Azimuths of its out-of-plane detectors, degrees (`φr = 0` the specular half-plane).
+pub const MERL_PHI_R_DEG: [f64; 8] = [10.0, 20.0, 30.0, 45.0, 60.0, 90.0, 120.0, 150.0];
+
+/// The paint fit's view of a MERL table (channels `r`, `g`, `b`): the table looked up
+/// as MERL's reference reader does ([`flakescatter_io::merl::MerlTable::lookup`]) on
+/// the grid of the shipped paint tables (`fixtures/real/paints/README.md`): incidences
+/// [`MERL_THETA_I_DEG`]; in-plane detectors `θr = 0…85°` in 1° steps on both sides
+/// (`φr = 0` and 180°); out-of-plane detectors `θr = 5…80°` in 5° steps at
+/// [`MERL_PHI_R_DEG`]; point detectors. A geometry whose bin has no value, or a value
+/// that is not positive in some channel, is left out (a paint is fitted in log). Rows
+/// carry no uncertainty; `line` is 0 (a binary file has none).
+#[must_use]
+pub fn from_merl(table: &flakescatter_io::merl::MerlTable, file: &str) -> Measurement {
+    let mut detectors: Vec<(f64, f64)> = Vec::new();
+    for t in 0..=85 {
+        detectors.push((f64::from(t), 0.0));
+        if t > 0 {
+            detectors.push((f64::from(t), 180.0));
+        }
+    }
+    for &p in &MERL_PHI_R_DEG {
+        for t in (5..=80).step_by(5) {
+            detectors.push((f64::from(t), p));
+        }
+    }
+    let mut rows = Vec::new();
+    for &ti in &MERL_THETA_I_DEG {
+        let ti = ti.to_radians();
+        let wi = [-ti.sin(), 0.0, ti.cos()];
+        for &(tr, pr) in &detectors {
+            let (tr, pr) = (tr.to_radians(), pr.to_radians());
+            let wo = [tr.sin() * pr.cos(), tr.sin() * pr.sin(), tr.cos()];
+            if let Some(v) = table.lookup(wi, wo)
+                && v.iter().all(|x| *x > 0.0)
+            {
+                rows.push(Observation {
+                    theta_i: ti,
+                    theta_r: tr,
+                    phi_r: pr,
+                    values: v.to_vec(),
+                    uncertainties: vec![None; 3],
+                    line: 0,
+                });
+            }
+        }
+    }
+    Measurement {
+        file: file.to_owned(),
+        channels: ["r", "g", "b"]
+            .iter()
+            .map(|c| Channel::parse(c).expect("r, g and b are channels"))
+            .collect(),
+        rows,
+    }
 }
 
 /// The paint fit's view of a BRDF table.

@@ -1,0 +1,184 @@
+//! `flakescatter export`: a model's BRDF as a table for renderers (MERL; formats.md).
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use flakescatter::export::{BrdfSource, merl_table, paint_rgb};
+use flakescatter::io::merl::write_merl;
+use flakescatter::pipeline::distribution_model;
+use serde_json::json;
+
+use crate::flags::{OpticsArgs, OrientationArgs, PaintFlags};
+use crate::output::{Dest, Kind, Plan, print_json};
+
+/// The table formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// MERL's isotropic table (Matusik et al. 2003): 90 × 90 × 180 bins of (θh, θd, φd),
+    /// R, G, B.
+    Merl,
+}
+
+/// A model's point BRDF tabulated for renderers and BRDF tools: every bin of a MERL
+/// isotropic table (90 θh × 90 θd × 180 φd, R, G, B) filled with the BRDF at the bin's
+/// centre, sr⁻¹ (docs/formats.md). The model is the distribution model of the orientation
+/// and coating flags (grey: R = G = B), or a paint (--params P.json from `fit --paint`,
+/// or --paint with its flags; its channels r, g, b, or its one channel as grey). Bins
+/// below the horizon are written as MERL does (−1); a smooth clear coat's specular delta
+/// cannot be tabulated and is left out.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The table format.
+    #[arg(long, value_enum)]
+    pub format: Format,
+    /// The table file (MERL: `.binary`).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub optics: OpticsArgs,
+    #[command(flatten)]
+    pub source: OrientationArgs,
+    /// A fitted paint (`fit --paint --params-out P.json`): its BRDF per channel (clear
+    /// coat, flakes and base; physics.md §12).
+    #[arg(long, value_name = "P.json", conflicts_with_all = [
+        "hwhm", "sigma", "rms_tilt", "distribution", "orientation", "n",
+        "transmission", "weighting", "flake_index",
+    ])]
+    pub params: Option<PathBuf>,
+    #[command(flatten)]
+    pub paint: PaintFlags,
+    /// Print a JSON summary on stdout (inputs, the table's layout and units, how many
+    /// bins hold a value).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut plan = Plan::new();
+    args.source.inputs(&mut plan);
+    if let Some(p) = &args.params {
+        plan.input("--params", p);
+    }
+    let out = plan
+        .output("--out", Some(&args.out), Kind::Brdf)
+        .context("--out is required")?;
+    if args.json {
+        plan.stdout("--json");
+    }
+    if args.optics.aperture.is_some() {
+        bail!(
+            "--aperture does not apply to export: every bin holds the point BRDF at its centre (an aperture-0 detector)"
+        );
+    }
+    if args.params.is_some() && args.paint.paint {
+        bail!("--params and --paint: give the paint either as a parameter file or by flags");
+    }
+    let is_paint = args.params.is_some() || args.paint.paint;
+    if is_paint
+        && (args.optics.transmission != Default::default()
+            || args.optics.weighting != Default::default())
+    {
+        bail!(
+            "--transmission and --weighting do not apply to a paint (it uses exact unpolarised Fresnel factors)"
+        );
+    }
+    if args.params.is_none() {
+        args.source.validate()?;
+    }
+    plan.check()?;
+    let paint = match &args.params {
+        Some(path) => Some(crate::cmd::paint::model_of(path)?),
+        None if args.paint.paint => {
+            let (orientation, _) = args.source.orientation()?;
+            let metal = crate::flags::flake_metal(&args.optics)?;
+            Some(
+                args.paint
+                    .model(orientation, args.optics.coating()?.n, metal)?,
+            )
+        }
+        None => None,
+    };
+    let flakes = match &paint {
+        Some(_) => None,
+        None => {
+            let (orientation, _) = args.source.orientation()?;
+            let coating = args.optics.coating()?;
+            let settings = args.optics.settings(false);
+            Some(distribution_model(&coating, &settings, orientation)?)
+        }
+    };
+    let source = match (&paint, &flakes) {
+        (Some(p), _) => BrdfSource::Paint {
+            model: p,
+            rgb: paint_rgb(p).context("--params/--paint")?,
+        },
+        (None, Some(m)) => BrdfSource::Distribution(m),
+        (None, None) => unreachable!("a paint or the flakes"),
+    };
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "tabulating {bar:40} {pos}/{len} θh rows {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let progress = |done: usize, total: usize| {
+        if let Some(b) = &bar {
+            b.set_length(total as u64);
+            b.set_position(done as u64);
+        }
+    };
+    let table = merl_table(&source, &progress)?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let filled = table.channel(0).iter().filter(|v| **v >= 0.0).count();
+    plan.write(
+        &out,
+        |w| Ok(write_merl(w, &table)?),
+        Some(format!("{filled} of {} bins", flakescatter::io::merl::BINS)),
+    )?;
+    plan.finish()?;
+    if args.json {
+        let model = match &args.params {
+            Some(p) => json!({"params": p.display().to_string()}),
+            None if args.paint.paint => json!({"paint": flakescatter::paint::file::ParamsFile::new(
+                paint.as_ref().map(|p| p.params()).context("the paint")?, None)}),
+            None => {
+                json!({"distribution": args.source.orientation()?.1, "optics": args.optics.echo(false)})
+            }
+        };
+        let rgb = match source {
+            BrdfSource::Paint { model, rgb } => {
+                let names: Vec<&str> = rgb
+                    .iter()
+                    .map(|&k| model.params().channels[k].channel.name.as_str())
+                    .collect();
+                json!(names)
+            }
+            BrdfSource::Distribution(_) => json!("grey: the flakes' one BRDF in R, G and B"),
+        };
+        print_json(&json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "command": "export",
+            "format": "merl",
+            "out": match &out { Dest::File(p) => p.display().to_string(), Dest::Stdout => "-".into() },
+            "model": model,
+            "channels_rgb": rgb,
+            "layout": {
+                "bins": [90, 90, 180],
+                "axes": ["theta_h (index floor(90 sqrt(theta_h/(pi/2))))", "theta_d (pi/180 bins over [0, pi/2))", "phi_d (pi/180 bins over [0, pi), folded by reciprocity)"],
+                "scale_rgb": flakescatter::io::merl::SCALES,
+                "value": "point BRDF at the bin centre, 1/sr, stored divided by the channel's scale; -1 below the horizon",
+                "left_out": "the specular delta of a smooth clear coat",
+            },
+            "filled_bins": filled,
+        }))?;
+    }
+    Ok(())
+}
