@@ -129,11 +129,24 @@ PAINTS = {
 }
 
 
+def horizon_mask():
+    """Bins whose centre has θh + θd > 90°, left unfilled (−1) as MERL leaves bins
+    below the horizon; directions above the horizon still reach them (at φd near 90°
+    both directions have z = cos θh cos θd > 0), so the plugin must cope with them."""
+    th = theta_h_centres()
+    td = (np.arange(N_TD) + 0.5) / N_TD * (math.pi / 2)
+    return np.broadcast_to((th[:, None] + td[None, :] > math.pi / 2)[:, :, None],
+                           (N_TH, N_TD, N_PD))
+
+
 @pytest.fixture(scope="module")
 def paint_files(tmp_path_factory):
     d = tmp_path_factory.mktemp("merl")
-    return {name: str(write_merl(d / f"{name}.binary", lobe_paint(**p)))
-            for name, p in PAINTS.items()}
+    files = {name: str(write_merl(d / f"{name}.binary", lobe_paint(**p)))
+             for name, p in PAINTS.items()}
+    files["broad-unfilled"] = str(write_merl(d / "broad-unfilled.binary",
+                                             lobe_paint(**PAINTS["broad"]), horizon_mask()))
+    return files
 
 
 @pytest.fixture
@@ -191,7 +204,7 @@ def test_mitsuba_is_there_when_required():
 
 @needs_mitsuba
 @needs_llvm
-@pytest.mark.parametrize("paint", ["narrow", "broad"])
+@pytest.mark.parametrize("paint", ["narrow", "broad", "broad-unfilled"])
 @pytest.mark.parametrize("theta_i", [10.0, 45.0, 70.0])
 def test_chi2_sampling_matches_pdf(paint, theta_i, paint_files, variant):
     """Mitsuba's χ² goodness-of-fit test of sample() against pdf() (``mitsuba.chi2``,
@@ -203,7 +216,11 @@ def test_chi2_sampling_matches_pdf(paint, theta_i, paint_files, variant):
     ``ires=16`` (not the default 4): the hwhm-4° paint's lobe (Beckmann α ≈ 0.084)
     is narrower than a few of the 1.8° cells, and a 4-point trapezoid rule misintegrates
     it — Mitsuba's own roughconductor with α = 0.084 fails at ires=4 (p ≈ 0) and passes
-    at 16 on this very test. The Šidák correction covers the 6 tests."""
+    at 16 on this very test. The Šidák correction covers the 9 tests.
+
+    "broad-unfilled" has MERL's unfilled bins: Mitsuba counts a sample of weight 0 as
+    failed, so pdf() must be 0 where eval is 0 for the samples that count to follow it
+    (a real ``export --format merl`` table failed here before that rule)."""
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
     use(JIT)
@@ -212,8 +229,30 @@ def test_chi2_sampling_matches_pdf(paint, theta_i, paint_files, variant):
         "flakescatter", {"type": "flakescatter", "filename": paint_files[paint]}, wi=wi)
     chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sample_func,
                          pdf_func=pdf_func, sample_dim=3, ires=16, seed=7)
-    ok = chi2.run(significance_level=0.01, test_count=6, quiet=True)
+    ok = chi2.run(significance_level=0.01, test_count=9, quiet=True)
     print(f"chi2 {paint} theta_i={theta_i}: p = {chi2.p_value}")
+    assert ok, chi2.messages
+
+
+@needs_mitsuba
+@needs_llvm
+def test_chi2_on_a_table_from_export(cli_bin, tmp_path, variant):
+    """The same χ² test on a table written by ``flakescatter export --format merl``
+    (the distribution model, hwhm 10°: a quarter of its bins unfilled, values spanning
+    ten decades), at 45°, where it failed before pdf() was made 0 where eval is 0."""
+    from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
+
+    path = tmp_path / "hwhm10.binary"
+    subprocess.run([str(cli_bin), "export", "--format", "merl", "--hwhm", "10", "--out",
+                    str(path)], check=True, capture_output=True)
+    use(JIT)
+    wi = [float(x) for x in direction(45.0, 0.0)]
+    sample_func, pdf_func = BSDFAdapter(
+        "flakescatter", {"type": "flakescatter", "filename": str(path)}, wi=wi)
+    chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sample_func,
+                         pdf_func=pdf_func, sample_dim=3, ires=16, seed=7)
+    ok = chi2.run(significance_level=0.01, quiet=True)
+    print(f"chi2 exported hwhm 10 at 45: p = {chi2.p_value}")
     assert ok, chi2.messages
 
 
@@ -239,11 +278,7 @@ def bin_table(tmp_path_factory):
     the bins of θh + θd > 90° at their centres left unfilled (−1) as MERL does."""
     rng = np.random.default_rng(48)
     values = rng.uniform(0.1, 2.0, size=(3, N_TH, N_TD, N_PD))
-    th = theta_h_centres()
-    td = (np.arange(N_TD) + 0.5) / N_TD * (math.pi / 2)
-    unfilled = np.broadcast_to((th[:, None] + td[None, :] > math.pi / 2)[:, :, None],
-                               (N_TH, N_TD, N_PD))
-    path = write_merl(tmp_path_factory.mktemp("bins") / "bins.binary", values, unfilled)
+    path = write_merl(tmp_path_factory.mktemp("bins") / "bins.binary", values, horizon_mask())
     return str(path), read_stored(path)
 
 

@@ -40,7 +40,9 @@ wrapped in Mitsuba's ``RuntimeError`` (their text kept) from ``mitsuba.load_dict
   - with probability ``1 − w``, cosine-weighted hemisphere sampling.
 
   ``pdf`` is the mixture's exact density ``w · p_lobe(ωo) + (1 − w) · p_cos(ωo)``
-  (``p_lobe = D_ωi(m) / (4 |ωo · m|)``, m the half vector), 0 below either horizon; the
+  (``p_lobe = D_ωi(m) / (4 |ωo · m|)``, m the half vector), 0 below either horizon and
+  wherever eval is 0 (unfilled bins: a sample drawn there is a failed sample, weight
+  0, so the samples that count have exactly this density); the
   sample's ``pdf`` is computed by the same function on the sampled direction, so that
   sample and pdf agree exactly (Mitsuba's χ² test, ``mitsuba.chi2``, passes:
   ``crates/python/tests/test_mitsuba.py``). The weight is ``eval / pdf``.
@@ -250,10 +252,16 @@ def _make_plugin_class(mi, dr):
             value = self._lookup(wo, wi, active) * cos_o
             return dr.select(active, value, 0.0)
 
-        def _pdf(self, wi, wo, active):
+        def _pdf(self, wi, wo, active, value=None):
             cos_i = mi.Frame3f.cos_theta(wi)
             cos_o = mi.Frame3f.cos_theta(wo)
             active = active & (cos_i > 0) & (cos_o > 0)
+            # Where the BSDF is 0 (an unfilled bin, a zero bin) the density is 0 too:
+            # a sample landing there is a failed sample (weight 0) for Mitsuba, so the
+            # density of the samples that count excludes those directions.
+            if value is None:
+                value = self._eval(wi, wo, active)
+            active = active & dr.any(value > 0)
             m = dr.normalize(wi + wo)
             p_lobe = self._distr.pdf(wi, m) / (4.0 * dr.abs_dot(wo, m))
             p_cos = mi.warp.square_to_cosine_hemisphere_pdf(wo)
@@ -268,7 +276,8 @@ def _make_plugin_class(mi, dr):
             return self._pdf(si.wi, wo, active)
 
         def eval_pdf(self, ctx, si, wo, active=True):
-            return self._eval(si.wi, wo, active), self._pdf(si.wi, wo, active)
+            value = self._eval(si.wi, wo, active)
+            return value, self._pdf(si.wi, wo, active, value)
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             wi = si.wi
@@ -277,8 +286,8 @@ def _make_plugin_class(mi, dr):
             m, _ = self._distr.sample(wi, sample2)
             wo = dr.select(lobe, mi.reflect(wi, m),
                            mi.warp.square_to_cosine_hemisphere(sample2))
-            pdf = self._pdf(wi, wo, active)
             value = self._eval(wi, wo, active)
+            pdf = self._pdf(wi, wo, active, value)
             bs = dr.zeros(mi.BSDFSample3f)
             bs.wo = wo
             bs.pdf = pdf
