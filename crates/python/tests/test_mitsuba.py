@@ -477,6 +477,16 @@ def test_bad_file_is_a_clear_error_naming_it(kind, error, bad_files, tmp_path, v
 
 
 @needs_mitsuba
+def test_a_spectral_variant_is_refused_naming_it(variant):
+    """The table is RGB: registering in a spectral variant is refused, not mixed up."""
+    import flakescatter.mitsuba as fm
+
+    mi.set_variant("scalar_spectral")
+    with pytest.raises(ValueError, match="scalar_spectral"):
+        fm.register()
+
+
+@needs_mitsuba
 def test_missing_filename_property_is_named(variant):
     use("scalar_rgb")
     with pytest.raises(RuntimeError, match="'filename'"):

@@ -57,6 +57,10 @@ wrapped in Mitsuba's ``RuntimeError`` (their text kept) from ``mitsuba.load_dict
   to [0.1, 0.9] so that each strategy keeps some samples. The estimates only steer the
   sampling (noise), never the values: a poor estimate costs variance, not bias.
 
+  The two strategies are reported as components 0 (glossy) and 1 (diffuse) of the
+  sample, but the BSDF is one table: a ``BSDFContext`` selecting one component or
+  type is not honoured (eval and pdf are always of the whole).
+
 Previews
 --------
 :func:`render_preview` renders a sphere (or a curved panel) with the plugin under a
