@@ -9,6 +9,10 @@ column names. Errors are :class:`Error` and its subclasses :class:`InputError` a
 :class:`FileFormatError` (both also ``ValueError``) and :class:`FileError` (also
 ``OSError``); warnings are :class:`FlakescatterWarning`. Long calls release the GIL and
 stop with ``KeyboardInterrupt`` on Ctrl-C.
+
+The submodule :mod:`flakescatter.mitsuba` (not imported here) renders a MERL table with
+Mitsuba 3 and registers it as a Mitsuba BSDF; it needs the optional extra
+``pip install flakescatter[render]``.
 """
 
 from ._flakescatter import (
