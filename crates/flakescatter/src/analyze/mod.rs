@@ -25,7 +25,8 @@
 //! sets), `plan` (the steps of an analysis), `cache` (what a rerun reuses), `models`
 //! (the model runs), `report` (one file per report section), `samples` (the comparison
 //! across samples), `paint` (the `[paint]` part) and `optional` (statistics whose
-//! failure is reported rather than fatal).
+//! failure is reported rather than fatal), `preview` (the model a rendered preview
+//! shows).
 
 mod cache;
 pub mod document;
@@ -36,6 +37,7 @@ mod models;
 mod optional;
 mod paint;
 mod plan;
+mod preview;
 mod report;
 mod samples;
 mod settings;
@@ -54,6 +56,7 @@ use document::Document;
 pub use manifest::{Manifest, ManifestError, TopoKind};
 pub use optional::FailedStatistic;
 pub use plan::analyze_sample;
+pub use preview::PreviewModel;
 pub use samples::{SampleRow, comparison_report};
 pub use settings::load_options;
 
@@ -175,6 +178,9 @@ pub struct SampleReport {
     pub warnings: Vec<String>,
     /// The sample's line in a comparison across samples.
     pub row: SampleRow,
+    /// What a rendered preview of the sample shows (`None` when the pooled width gives
+    /// no distribution and there is no fitted paint).
+    pub preview: Option<PreviewModel>,
 }
 
 fn input_err(e: impl std::fmt::Display) -> AnalyzeError {

@@ -30,6 +30,8 @@ pub struct PaintOutcome {
     pub warnings: Vec<String>,
     /// Whether the fit ran (false: taken from the cache).
     pub fitted: bool,
+    /// The fitted paint (what the report's preview shows).
+    pub params: crate::paint_model::PaintParams,
 }
 
 /// The fit's options of a `[paint]` section.
@@ -98,7 +100,7 @@ pub fn paint_part(
     let params = params_file
         .to_params(&name)
         .map_err(|e| AnalyzeError::Input(e.to_string()))?;
-    let model = crate::paint_model::PaintModel::new(params)
+    let model = crate::paint_model::PaintModel::new(params.clone())
         .map_err(|e| AnalyzeError::Input(format!("{name}: {e}")))?;
     let cmp = crate::paint::compare(&model, &m, &opts.selection)
         .map_err(|e| AnalyzeError::Input(e.to_string()))?;
@@ -149,6 +151,7 @@ pub fn paint_part(
         }),
         warnings,
         fitted,
+        params,
     })
 }
 

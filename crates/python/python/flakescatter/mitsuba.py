@@ -75,7 +75,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["register", "load_bsdf", "render_preview", "PLUGIN_NAME", "SUN_DIRECTION",
+__all__ = ["register", "load_bsdf", "render_preview", "montage", "main", "PLUGIN_NAME", "SUN_DIRECTION",
            "SUN_IRRADIANCE", "SKY_RADIANCE"]
 
 #: The plugin's name in scene descriptions (``{"type": "flakescatter", ...}``).
@@ -515,3 +515,77 @@ def render_preview(
         "light": {"sun_direction": tuple(sun.tolist()), "sun_irradiance": tuple(e_sun),
                   "sky_radiance": tuple(l_sky)},
     }
+
+
+def montage(pngs: Sequence[Any], out_png, *, gap: int = 8) -> str:
+    """Put preview PNGs of one height side by side, left to right in the order given,
+    separated by ``gap`` white pixels, and write the result to ``out_png`` (8-bit RGB).
+    Used for samples compared in one report (``flakescatter analyze``). Raises
+    :class:`ValueError` for no images or images of different heights."""
+    mi, _ = _mitsuba()
+    if not pngs:
+        raise ValueError("montage: no images")
+    images = []
+    for p in pngs:
+        a = np.array(mi.Bitmap(os.fspath(p)).convert(
+            mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True))
+        images.append(a[..., :3])
+    h = images[0].shape[0]
+    if any(a.shape[0] != h for a in images):
+        raise ValueError("montage: the images are of different heights: "
+                         + ", ".join(str(a.shape[0]) for a in images))
+    parts = []
+    for k, a in enumerate(images):
+        if k:
+            parts.append(np.full((h, gap, 3), 255, dtype=np.uint8))
+        parts.append(a.astype(np.uint8))
+    out = np.ascontiguousarray(np.concatenate(parts, axis=1))
+    mi.Bitmap(out, mi.Bitmap.PixelFormat.RGB).write(os.fspath(out_png),
+                                                    mi.Bitmap.FileFormat.PNG)
+    return os.fspath(out_png)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """``python -m flakescatter.mitsuba check | preview BRDF.binary OUT.png [--shape S]
+    [--resolution N] [--spp N] [--seed N] | montage OUT.png IN.png...``: the previews
+    from the command line (``flakescatter analyze`` runs them). ``check`` exits 0 when
+    Mitsuba can render here and prints the variant it would use; errors go to stderr
+    with exit status 2."""
+    import argparse
+    import json
+    import sys
+
+    parser = argparse.ArgumentParser(prog="python -m flakescatter.mitsuba")
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("check", help="exit 0 when Mitsuba can render here")
+    p = sub.add_parser("preview", help="render a MERL table's preview to a PNG")
+    p.add_argument("brdf")
+    p.add_argument("out")
+    p.add_argument("--shape", default="sphere", choices=("sphere", "panel"))
+    p.add_argument("--resolution", type=int, default=256)
+    p.add_argument("--spp", type=int, default=64)
+    p.add_argument("--seed", type=int, default=0)
+    m = sub.add_parser("montage", help="PNGs of one height side by side")
+    m.add_argument("out")
+    m.add_argument("images", nargs="+")
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "check":
+            mi, _ = _mitsuba()
+            print(json.dumps({"mitsuba": mi.__version__,
+                              "variant": _choose_variant(mi, None)}))
+        elif args.command == "preview":
+            r = render_preview(args.brdf, args.out, shape=args.shape,
+                               resolution=args.resolution, spp=args.spp, seed=args.seed)
+            print(json.dumps({"png": r["png"], "variant": r["variant"],
+                              "exposure": r["exposure"], "light": r["light"]}))
+        else:
+            print(json.dumps({"png": montage(args.images, args.out)}))
+    except (ImportError, ValueError, OSError, RuntimeError) as e:
+        print(f"{type(e).__name__}: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

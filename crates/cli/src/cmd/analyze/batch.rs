@@ -1,6 +1,6 @@
 //! A batch of samples in one output directory: `DIR/<name>/` per sample (each an owned
 //! report directory, swapped in when that sample is complete) and the comparison
-//! across samples (`samples.csv`, `index.md`, `index.html`) written when the whole
+//! across samples (`samples.csv`, `index.md`, `index.html`, `previews.png`) written when the whole
 //! batch is. The directory's marker (`output::owned`) lists the comparison files and
 //! the sample folders, so a rerun recognises it and nothing else in it is touched.
 //!
@@ -22,8 +22,8 @@ use crate::output::owned::MARKER;
 /// The owner recorded in a batch directory's marker.
 pub const BATCH_OWNER: &str = "analyze (batch)";
 
-/// The batch's own files in its directory.
-pub const COMPARISON_FILES: [&str; 3] = ["samples.csv", "index.md", "index.html"];
+/// The batch's own files in its directory (`previews.png` when previews are rendered).
+pub const COMPARISON_FILES: [&str; 4] = ["samples.csv", "index.md", "index.html", "previews.png"];
 
 /// Takes the batch directory `dir` (checked by the plan: missing, empty, or an earlier
 /// batch holding nothing else) for this run's samples.

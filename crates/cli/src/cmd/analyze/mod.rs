@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use base64::Engine as _;
+use flakescatter::analyze::document::Block;
 use flakescatter::analyze::{
     Content, Manifest, SampleInput, analyze_sample, comparison_report, default_name, read_cache,
 };
@@ -34,6 +35,7 @@ use crate::maps::{Pairing, Repeats, check_duplicates, dangling, expand, pair};
 use crate::output::{Dest, Plan, note, print_json, warn};
 
 mod batch;
+mod preview;
 
 /// Analyses samples from their manifests: segmentation of every map, pooled statistics
 /// with flake-level and map-level intervals, the distribution model (pooled width and
@@ -55,6 +57,12 @@ pub struct Args {
     /// and the work counter.
     #[arg(long)]
     pub json: bool,
+    /// No rendered preview. By default each report shows its paint (the fitted
+    /// `[paint]`, else the flakes of the pooled width) as a sphere rendered by the Python
+    /// package's flakescatter.mitsuba when `$FLAKESCATTER_PYTHON` (default python3) has
+    /// it and Mitsuba (`pip install flakescatter[render]`), and says so when it has not.
+    #[arg(long)]
+    pub no_preview: bool,
 }
 
 /// The manifest files of the arguments: files as given, directories' `*.toml` files in
@@ -220,9 +228,18 @@ fn render(
     s: &SampleInput,
     report: &flakescatter::analyze::SampleReport,
     dir: &Path,
+    shown: Shown,
 ) -> anyhow::Result<Vec<(PathBuf, Vec<u8>)>> {
     let mut out: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     let mut images: Vec<(String, Vec<u8>)> = Vec::new();
+    let mut document = report.document.clone();
+    document.blocks.extend(shown.blocks);
+    for (path, bytes) in shown.files {
+        if path.ends_with(".png") {
+            images.push((path.clone(), bytes.clone()));
+        }
+        out.push((PathBuf::from(path), bytes));
+    }
     for f in &report.files {
         let target = dir.join(&f.path).display().to_string();
         let bytes = match &f.content {
@@ -238,15 +255,13 @@ fn render(
         }
         out.push((PathBuf::from(&f.path), bytes));
     }
-    let md = report.document.to_markdown();
-    let html = report
-        .document
-        .to_html(&format!("Sample {}", s.name), &|name| {
-            images
-                .iter()
-                .find(|(n, _)| n == name)
-                .map(|(_, b)| data_uri(b))
-        });
+    let md = document.to_markdown();
+    let html = document.to_html(&format!("Sample {}", s.name), &|name| {
+        images
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, b)| data_uri(b))
+    });
     out.push((PathBuf::from("index.md"), md.into_bytes()));
     out.push((PathBuf::from("index.html"), html.into_bytes()));
     Ok(out)
@@ -309,6 +324,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         b
     });
+    let renderer = (!args.no_preview).then(preview::probe);
+    let mut previews: Vec<(String, Vec<u8>)> = Vec::new();
     let mut rows = Vec::new();
     let mut echoes = Vec::new();
     let mut open_batch: Option<crate::output::batch::Batch> = None;
@@ -332,7 +349,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let cache = read_cache(&dir, &s.map_names);
         let report = analyze_sample(s, &cache, build, &progress)
             .with_context(|| format!("sample {} ({})", s.name, s.file.display()))?;
-        let out = render(s, &report, &dir)?;
+        if let Some(b) = &bar {
+            b.set_message("preview");
+        }
+        let shown = show_preview(renderer.as_ref(), &report, &dir, build);
+        if let Some(png) = &shown.png {
+            previews.push((s.name.clone(), png.clone()));
+        }
+        let out = render(s, &report, &dir, shown)?;
         for w in &report.warnings {
             warn(&format!("{}: {w}", s.name));
         }
@@ -382,8 +406,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         b.finish_and_clear();
     }
     if let Some(b) = open_batch {
-        let (csv, doc) = comparison_report(&rows);
-        let html = doc.to_html("Samples compared", &|_| None);
+        let (csv, mut doc) = comparison_report(&rows);
+        let montage = side_by_side(renderer.as_ref(), &previews, &mut doc);
+        let html = doc.to_html("Samples compared", &|name| {
+            (name == SIDE_BY_SIDE)
+                .then_some(montage.as_deref())
+                .flatten()
+                .map(data_uri)
+        });
+        if let Some(png) = &montage {
+            let dest = Dest::File(args.out.join(SIDE_BY_SIDE));
+            plan.write(&dest, |w| Ok(w.write_all(png)?), None)?;
+        }
         let detail = format!("{} samples compared", rows.len());
         for (name, text, detail) in [
             ("samples.csv", csv, Some(detail)),
@@ -407,4 +441,110 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }))?;
     }
     Ok(())
+}
+
+/// The batch report's picture of every sample's preview side by side.
+const SIDE_BY_SIDE: &str = batch::COMPARISON_FILES[3];
+
+/// A sample report's preview: its files, its section, and the PNG for a comparison.
+struct Shown {
+    files: Vec<(String, Vec<u8>)>,
+    blocks: Vec<Block>,
+    png: Option<Vec<u8>>,
+}
+
+/// The preview section of a report (module `preview`): the cached or newly rendered
+/// sphere, or a note saying why there is none. A failed rendering is a warning and a
+/// note, not a failed report.
+fn show_preview(
+    renderer: Option<&preview::Availability>,
+    report: &flakescatter::analyze::SampleReport,
+    dir: &Path,
+    build: &str,
+) -> Shown {
+    let mut blocks = vec![Block::Heading(2, "Preview".into())];
+    let note = |why: String| Shown {
+        files: Vec::new(),
+        blocks: vec![Block::Heading(2, "Preview".into()), Block::Para(why)],
+        png: None,
+    };
+    let Some(renderer) = renderer else {
+        return Shown {
+            files: Vec::new(),
+            blocks: Vec::new(),
+            png: None,
+        };
+    };
+    let Some(model) = &report.preview else {
+        return note("No preview: the pooled width gives no orientation distribution and there is no fitted paint.".into());
+    };
+    let r = match renderer {
+        preview::Availability::Ready(r) => r,
+        preview::Availability::Missing(why) => {
+            return note(format!(
+                "No preview: rendering needs the Python package with Mitsuba 3 (`pip install flakescatter[render]`, and `FLAKESCATTER_PYTHON` naming that Python if it is not `python3`): {why}."
+            ));
+        }
+    };
+    let key = r.key(model, build);
+    let png = match preview::cached(dir, &key) {
+        Some(png) => png,
+        None => match r.preview(model) {
+            Ok(png) => png,
+            Err(e) => {
+                warn(&format!("{}: preview: {e:#}", report.name));
+                return note(format!("No preview: rendering failed: {e:#}."));
+            }
+        },
+    };
+    blocks.push(Block::Image(
+        "preview.png".into(),
+        format!(
+            "{}, as a sphere under a sun 45° from the view and a uniform sky (flakescatter.mitsuba.render_preview; Mitsuba {})",
+            model.describe(),
+            r.identity()["mitsuba"].as_str().unwrap_or("?")
+        ),
+    ));
+    Shown {
+        files: vec![
+            ("preview.png".into(), png.clone()),
+            (
+                "cache/preview.json".into(),
+                preview::cache_text(&key, r.identity()).into_bytes(),
+            ),
+        ],
+        blocks,
+        png: Some(png),
+    }
+}
+
+/// The samples' previews side by side in the comparison, or a note; the PNG's bytes.
+fn side_by_side(
+    renderer: Option<&preview::Availability>,
+    previews: &[(String, Vec<u8>)],
+    doc: &mut flakescatter::analyze::document::Document,
+) -> Option<Vec<u8>> {
+    let Some(preview::Availability::Ready(r)) = renderer else {
+        return None;
+    };
+    if previews.is_empty() {
+        return None;
+    }
+    let pngs: Vec<Vec<u8>> = previews.iter().map(|(_, p)| p.clone()).collect();
+    let names: Vec<&str> = previews.iter().map(|(n, _)| n.as_str()).collect();
+    doc.push(Block::Heading(2, "Previews".into()));
+    match r.montage(&pngs) {
+        Ok(png) => {
+            doc.push(Block::Image(
+                SIDE_BY_SIDE.into(),
+                format!("Left to right: {}", names.join(", ")),
+            ));
+            Some(png)
+        }
+        Err(e) => {
+            warn(&format!("previews side by side: {e:#}"));
+            doc.push(Block::Para(format!("No side-by-side picture: {e:#}.")));
+            None
+        }
+    }
 }

@@ -60,13 +60,25 @@ pub(super) fn build_report(
     let p = &a.stats.pooled;
     let mut files: Vec<OutFile> = Vec::new();
     let mut warnings = warnings;
-    let (paint_blocks, paint_summary) = match paint {
+    let (paint_blocks, paint_summary, fitted_paint) = match paint {
         Some(o) => {
             files.extend(o.files);
             warnings.extend(o.warnings);
-            (o.blocks, o.summary)
+            (o.blocks, o.summary, Some(o.params))
         }
-        None => (Vec::new(), Value::Null),
+        None => (Vec::new(), Value::Null, None),
+    };
+    let preview = match fitted_paint {
+        Some(p) => Some(super::PreviewModel::Paint(Box::new(p))),
+        None => p
+            .flake_level
+            .orientation()
+            .ok()
+            .map(|orientation| super::PreviewModel::Flakes {
+                orientation,
+                coating: a.coating.clone(),
+                settings: crate::Settings::default(),
+            }),
     };
     files.extend(tables::tables(a));
     // The quoted interval: map level where there is one.
@@ -101,5 +113,6 @@ pub(super) fn build_report(
         work,
         warnings,
         row,
+        preview,
     }
 }
