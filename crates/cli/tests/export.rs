@@ -174,23 +174,27 @@ fn a_grey_table_is_the_point_brdf_of_model_at_every_bin_centre() {
     assert!(fs::read(&one).unwrap() == fs::read(&out).unwrap());
 }
 
+/// A paint from flags: flakes of hwhm 8° with coverage 0.5 (the default), flake scales
+/// and base albedos per channel, a slightly rough coat.
+const PAINT: [&str; 11] = [
+    "--paint",
+    "--channels",
+    "r,g,b",
+    "--hwhm",
+    "8",
+    "--flake-scale",
+    "0.9,0.7,0.5",
+    "--base-albedo",
+    "0.02,0.05,0.2",
+    "--coat-roughness",
+    "0.05",
+];
+
 #[test]
 fn a_paint_table_holds_its_r_g_b_channels() {
     let d = scratch("export", "paint");
     let out = d.join("p.binary");
-    let flags = [
-        "--paint",
-        "--channels",
-        "r,g,b",
-        "--hwhm",
-        "8",
-        "--flake-scale",
-        "0.9,0.7,0.5",
-        "--base-albedo",
-        "0.02,0.05,0.2",
-        "--coat-roughness",
-        "0.05",
-    ];
+    let flags = PAINT;
     let mut args = vec!["export", "--format", "merl", "--out", s(&out)];
     args.extend(flags);
     let o = run(&args);
@@ -237,24 +241,10 @@ fn bad_export_flags_exit_2_naming_the_flag_and_write_nothing() {
 fn a_fit_to_an_exported_table_gives_back_the_paint() {
     let d = scratch("export", "fit");
     let out = d.join("p.binary");
-    let o = run(&[
-        "export",
-        "--format",
-        "merl",
-        "--out",
-        s(&out),
-        "--paint",
-        "--channels",
-        "r,g,b",
-        "--hwhm",
-        "8",
-        "--flake-scale",
-        "0.9,0.7,0.5",
-        "--base-albedo",
-        "0.02,0.05,0.2",
-        "--coat-roughness",
-        "0.05",
-    ]);
+    let o = run(&["export", "--format", "merl", "--out", s(&out)]
+        .into_iter()
+        .chain(PAINT)
+        .collect::<Vec<_>>());
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&[
         "fit",

@@ -102,21 +102,15 @@ impl SpectralSource {
             flakescatter_colour::Observer::Cie1931TwoDegree,
         )
         .map_err(|e| PipelineError::Spectral(format!("--wavelengths for sRGB: {e}")))?;
-        // The weights of wavelength i are the XYZ of the unit spectrum e_i (the sums are
-        // linear in the spectrum).
-        let mut weights = Vec::with_capacity(wavelengths_nm.len());
-        let mut unit = vec![0.0; wavelengths_nm.len()];
-        for i in 0..wavelengths_nm.len() {
-            unit[i] = 1.0;
-            let w = tw
-                .xyz(&unit)
-                .map_err(|e| PipelineError::Spectral(e.to_string()))?;
-            unit[i] = 0.0;
-            let xyz = [w.x / 100.0, w.y / 100.0, w.z / 100.0];
-            weights.push(
-                XYZ_TO_LINEAR_SRGB.map(|row| row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2]),
-            );
-        }
+        // Σ W_ȳ = 100 for the white: XYZ per unit BRDF at wavelength i is W_i / 100.
+        let weights: Vec<[f64; 3]> = tw
+            .weights()
+            .iter()
+            .map(|w| {
+                let xyz = [w[0] / 100.0, w[1] / 100.0, w[2] / 100.0];
+                XYZ_TO_LINEAR_SRGB.map(|row| row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2])
+            })
+            .collect();
         let models = coating
             .at_all(wavelengths_nm)?
             .into_iter()

@@ -194,6 +194,10 @@ pub const TARGETS: &[BenchTarget] = &[
         package: "flakescatter",
         bench: "paint",
     },
+    BenchTarget {
+        package: "flakescatter",
+        bench: "export",
+    },
 ];
 
 /// Usable pixels of an `n × n` map with the default 5 × 5 normal window: `(n − 4)²`.
@@ -567,6 +571,28 @@ pub const ROWS: &[RowSpec] = &[
         unit: Unit::Detectors,
         target: None,
         target_note: "",
+        quick: true,
+    },
+    RowSpec {
+        operation: "MERL export, flakes (hwhm 6°, grey), every bin at its centre",
+        size: "1,458,000 bins × 3",
+        id: "export/merl_flakes_full_table",
+        floor: None,
+        work: 4_374_000.0,
+        unit: Unit::Evaluations,
+        target: Some(Target::MaxSeconds(3.0)),
+        target_note: "< 3 s, 2 cores (issue 48)",
+        quick: true,
+    },
+    RowSpec {
+        operation: "MERL export, paint fitted to the measured blue paint",
+        size: "1,458,000 bins × 3",
+        id: "export/merl_paint_full_table",
+        floor: None,
+        work: 4_374_000.0,
+        unit: Unit::Evaluations,
+        target: Some(Target::MaxSeconds(3.0)),
+        target_note: "< 3 s, 2 cores (issue 48)",
         quick: true,
     },
 ];

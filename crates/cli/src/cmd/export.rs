@@ -58,19 +58,8 @@ pub struct Args {
     pub json: bool,
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut plan = Plan::new();
-    args.source.inputs(&mut plan);
-    if let Some(p) = &args.params {
-        plan.input("--params", p);
-    }
-    let out = plan
-        .output("--out", Some(&args.out), Kind::Brdf)
-        .context("--out is required")?;
-    if args.json {
-        plan.stdout("--json");
-    }
+/// The flag checks before any work; the wavelengths of a spectral model.
+fn check(args: &Args) -> anyhow::Result<Option<Vec<f64>>> {
     if args.optics.aperture.is_some() {
         bail!(
             "--aperture does not apply to export: every bin holds the point BRDF at its centre (an aperture-0 detector)"
@@ -96,12 +85,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.params.is_none() {
         args.source.validate()?;
     }
-    let wavelengths = if args.spectral.any() {
+    Ok(if args.spectral.any() {
         args.spectral.validate()?;
         args.spectral.wavelengths_nm(Some(DEFAULT_WAVELENGTHS))?
     } else {
         None
-    };
+    })
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut plan = Plan::new();
+    args.source.inputs(&mut plan);
+    if let Some(p) = &args.params {
+        plan.input("--params", p);
+    }
+    let out = plan
+        .output("--out", Some(&args.out), Kind::Brdf)
+        .context("--out is required")?;
+    if args.json {
+        plan.stdout("--json");
+    }
+    let wavelengths = check(&args)?;
     plan.check()?;
     let paint = match &args.params {
         Some(path) => Some(crate::cmd::paint::model_of(path)?),

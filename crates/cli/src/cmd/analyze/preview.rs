@@ -17,6 +17,8 @@ use anyhow::{Context, bail};
 use flakescatter::analyze::PreviewModel;
 use serde_json::{Value, json};
 
+use crate::output::scratch::{Scratch, read_bytes};
+
 /// Render settings of a report's preview (the sphere, pixels, samples per pixel, seed).
 const RESOLUTION: u32 = 192;
 const SPP: u32 = 32;
@@ -87,14 +89,11 @@ impl Renderer {
     /// Renders `model` as a sphere: the PNG's bytes.
     pub fn preview(&self, model: &PreviewModel) -> anyhow::Result<Vec<u8>> {
         let table = model.table().context("tabulating the preview's BRDF")?;
-        let dir = tempfile::tempdir().context("a temporary directory for the preview")?;
-        let merl = dir.path().join("preview.binary");
-        let png = dir.path().join("preview.png");
-        let mut f =
-            std::fs::File::create(&merl).with_context(|| format!("writing {}", merl.display()))?;
-        flakescatter::io::merl::write_merl(&mut f, &table)
-            .with_context(|| format!("writing {}", merl.display()))?;
-        drop(f);
+        let scratch = Scratch::new()?;
+        let merl = scratch.write("preview.binary", |w| {
+            flakescatter::io::merl::write_merl(w, &table)
+        })?;
+        let png = scratch.path("preview.png");
         self.run(&[
             "preview".as_ref(),
             merl.as_os_str(),
@@ -106,22 +105,21 @@ impl Renderer {
             "--seed".as_ref(),
             SEED.to_string().as_ref(),
         ])?;
-        std::fs::read(&png).with_context(|| format!("reading {}", png.display()))
+        scratch.read("preview.png")
     }
 
     /// The previews side by side (left to right in the order given): the PNG's bytes.
     pub fn montage(&self, pngs: &[Vec<u8>]) -> anyhow::Result<Vec<u8>> {
-        let dir = tempfile::tempdir().context("a temporary directory for the previews")?;
-        let out = dir.path().join("samples.png");
-        let mut args: Vec<OsString> = vec!["montage".into(), out.clone().into_os_string()];
+        let scratch = Scratch::new()?;
+        let out = scratch.path("samples.png");
+        let mut args: Vec<OsString> = vec!["montage".into(), out.into_os_string()];
         for (k, b) in pngs.iter().enumerate() {
-            let p = dir.path().join(format!("{k}.png"));
-            std::fs::write(&p, b).with_context(|| format!("writing {}", p.display()))?;
+            let p = scratch.write(&format!("{k}.png"), |w| w.write_all(b))?;
             args.push(p.into_os_string());
         }
         let refs: Vec<&std::ffi::OsStr> = args.iter().map(OsString::as_os_str).collect();
         self.run(&refs)?;
-        std::fs::read(&out).with_context(|| format!("reading {}", out.display()))
+        scratch.read("samples.png")
     }
 
     fn run(&self, args: &[&std::ffi::OsStr]) -> anyhow::Result<()> {
@@ -146,10 +144,10 @@ impl Renderer {
 
 /// The preview of a previous report at `dir` when its key is `key`.
 pub fn cached(dir: &Path, key: &str) -> Option<Vec<u8>> {
-    let text = std::fs::read_to_string(dir.join("cache").join("preview.json")).ok()?;
+    let text = flakescatter::io::files::read_text(dir.join("cache").join("preview.json")).ok()?;
     let v: Value = serde_json::from_str(&text).ok()?;
     (v["key"] == key)
-        .then(|| std::fs::read(dir.join("preview.png")).ok())
+        .then(|| read_bytes(&dir.join("preview.png")).ok())
         .flatten()
 }
 
