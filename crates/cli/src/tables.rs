@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 
 use rayon::prelude::*;
 
-use crate::parse::{deg, deg_num, shortest};
+use crate::parse::{deg, deg_num};
 
 /// Rows per block of a curve table, formatted on one thread.
 const BLOCK: usize = 4096;
@@ -496,76 +496,15 @@ impl CurveWarnings {
     }
 }
 
-/// Columns of the flake table written by `segment` (the first eight are the flake-table
-/// "normals" set with centre and angles, readable by `stats --flakes`; the last two say
-/// which map a flake is on and its number there, the label of the overlays).
-pub const FLAKE_COLUMNS: [&str; 18] = [
-    "x_um",
-    "y_um",
-    "nx",
-    "ny",
-    "nz",
-    "area_um2",
-    "theta_n_deg",
-    "phi_n_deg",
-    "projected_area_um2",
-    "equivalent_diameter_um",
-    "rms_um",
-    "tilt_se_deg",
-    "pixels",
-    "inliers",
-    "touches_border",
-    "quality",
-    "map",
-    "flake",
-];
-
-/// Writes the flake table (header [`FLAKE_COLUMNS`]) of several maps: `(map name, its
-/// flakes)`, flakes numbered from 1 on each map.
+/// Writes the flake table of several maps, `(map name, its flakes)`: io's one writer
+/// (columns `flakescatter::io::flakes::SEGMENTED_COLUMNS`, flakes numbered from 1 on
+/// each map).
 pub fn write_flakes(
     out: &mut dyn Write,
     maps: &[(String, &[SegmentedFlake])],
 ) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_writer(out);
-    w.write_record(FLAKE_COLUMNS).map_err(csv_error)?;
-    for (name, flakes) in maps {
-        for (k, f) in flakes.iter().enumerate() {
-            write_flake_row(&mut w, f, name, k + 1)?;
-        }
-    }
-    w.flush()?;
-    Ok(())
-}
-
-fn write_flake_row<W: Write>(
-    w: &mut csv::Writer<W>,
-    f: &SegmentedFlake,
-    map: &str,
-    id: usize,
-) -> anyhow::Result<()> {
-    {
-        let row = [
-            shortest(f.centre_um[0]),
-            shortest(f.centre_um[1]),
-            shortest(f.normal.x),
-            shortest(f.normal.y),
-            shortest(f.normal.z),
-            shortest(f.area_um2),
-            shortest(f.theta_n.to_degrees()),
-            shortest(f.phi_n.to_degrees()),
-            shortest(f.projected_area_um2),
-            shortest(f.equivalent_diameter_um),
-            shortest(f.rms_um),
-            shortest(f.tilt_se.to_degrees()),
-            f.pixels.to_string(),
-            f.inliers.to_string(),
-            f.touches_border.to_string(),
-            shortest(f.quality),
-            map.to_owned(),
-            id.to_string(),
-        ];
-        w.write_record(&row).map_err(csv_error)?;
-    }
+    let maps: Vec<(&str, &[SegmentedFlake])> = maps.iter().map(|(n, f)| (n.as_str(), *f)).collect();
+    flakescatter::io::flakes::write_segmented_flakes(out, "the flake table", &maps)?;
     Ok(())
 }
 

@@ -371,3 +371,36 @@ fn a_paint_section_reports_the_fitted_paint() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// One writer for flake tables: `analyze`'s `flakes.csv` is what `segment --out` writes
+/// for the same maps and settings (the manifest's `cutoff` and intensity suffix), byte
+/// for byte but for the map column, which holds the report's short map names.
+#[test]
+fn the_reports_flake_table_is_segments() {
+    let d = scratch("analyze", "flake-table");
+    let out = d.join("report");
+    analyze(&fixtures().join("sample.toml"), &out);
+    let seg = d.join("segment.csv");
+    let fx = fixtures();
+    let o = run(&[
+        "segment",
+        s(&fx.join("synth-hwhm3-smooth.height.x3p")),
+        s(&fx.join("synth-hwhm6-rough.height.x3p")),
+        "--intensity-suffix",
+        ".intensity",
+        "--cutoff",
+        "0.49",
+        "--out",
+        s(&seg),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // `segment` names a map as it was given.
+    let mut segment = std::fs::read_to_string(&seg).unwrap();
+    for stem in ["synth-hwhm3-smooth", "synth-hwhm6-rough"] {
+        let given = fx.join(format!("{stem}.height.x3p"));
+        segment = segment.replace(&format!(",{},", s(&given)), &format!(",{stem},"));
+    }
+    let report = std::fs::read_to_string(out.join("flakes.csv")).unwrap();
+    assert!(report.lines().count() > 100);
+    assert_eq!(report, segment);
+}

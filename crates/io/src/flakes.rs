@@ -26,6 +26,7 @@ use std::path::Path;
 use flakescatter_stats::flake::{Flake, FlakeError, normal_from_tilts, polar_from_normal};
 use flakescatter_stats::histogram::AreaHistogram;
 use flakescatter_stats::nalgebra::Vector3 as Vec3;
+use flakescatter_stats::segment::SegmentedFlake;
 
 use crate::table::{Table, TableError, io_err, write_err};
 
@@ -256,6 +257,79 @@ pub fn write_flakes(
             p.to_degrees().to_string(),
         ])
         .map_err(|e| write_err(file, e))?;
+    }
+    w.flush().map_err(io_err(file))
+}
+
+/// Columns of a table of segmented flakes (`segment --out`, `analyze`'s `flakes.csv`):
+/// the centre, the normal, the areas and the polar angles first (the first eight are the
+/// "normals" set with the centre, so [`read_flakes_from`] reads the table), then the fit's
+/// quality, and last the map's name and the flake's number on it (from 1, the label of
+/// the overlays).
+pub const SEGMENTED_COLUMNS: [&str; 18] = [
+    "x_um",
+    "y_um",
+    "nx",
+    "ny",
+    "nz",
+    "area_um2",
+    "theta_n_deg",
+    "phi_n_deg",
+    "projected_area_um2",
+    "equivalent_diameter_um",
+    "rms_um",
+    "tilt_se_deg",
+    "pixels",
+    "inliers",
+    "touches_border",
+    "quality",
+    "map",
+    "flake",
+];
+
+/// A number in a table: Rust's shortest round-trip form, `0` for either zero.
+fn shortest(x: f64) -> String {
+    if x == 0.0 { "0".into() } else { format!("{x}") }
+}
+
+/// Writes segmented flakes of several maps, `(map name, its flakes)`, as a table with
+/// the columns [`SEGMENTED_COLUMNS`], flakes numbered from 1 on each map; numbers in
+/// shortest round-trip form, angles in degrees.
+///
+/// # Errors
+/// [`FlakeTableError::Io`] if writing fails; `file` names the destination.
+pub fn write_segmented_flakes(
+    writer: impl Write,
+    file: &str,
+    maps: &[(&str, &[SegmentedFlake])],
+) -> Result<(), FlakeTableError> {
+    let mut w = csv::Writer::from_writer(writer);
+    w.write_record(SEGMENTED_COLUMNS)
+        .map_err(|e| write_err(file, e))?;
+    for (name, flakes) in maps {
+        for (k, f) in flakes.iter().enumerate() {
+            w.write_record([
+                shortest(f.centre_um[0]),
+                shortest(f.centre_um[1]),
+                shortest(f.normal.x),
+                shortest(f.normal.y),
+                shortest(f.normal.z),
+                shortest(f.area_um2),
+                shortest(f.theta_n.to_degrees()),
+                shortest(f.phi_n.to_degrees()),
+                shortest(f.projected_area_um2),
+                shortest(f.equivalent_diameter_um),
+                shortest(f.rms_um),
+                shortest(f.tilt_se.to_degrees()),
+                f.pixels.to_string(),
+                f.inliers.to_string(),
+                f.touches_border.to_string(),
+                shortest(f.quality),
+                (*name).to_owned(),
+                (k + 1).to_string(),
+            ])
+            .map_err(|e| write_err(file, e))?;
+        }
     }
     w.flush().map_err(io_err(file))
 }

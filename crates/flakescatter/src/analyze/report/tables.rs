@@ -59,40 +59,19 @@ fn maps_csv(a: &Analysis) -> String {
     t
 }
 
-/// Every flake of every map.
+/// Every flake of every map, as `segment --out` writes them (io's one writer).
 fn flakes_csv(a: &Analysis) -> String {
-    let stats = a.stats;
-    let names = &a.input.map_names;
-    let mut t = String::from(
-        "map,flake,x_um,y_um,nx,ny,nz,area_um2,theta_n_deg,phi_n_deg,projected_area_um2,equivalent_diameter_um,rms_um,tilt_se_deg,pixels,inliers,touches_border,quality\n",
-    );
-    for (k, s) in stats.segmentations.iter().enumerate() {
-        for (i, f) in s.flakes.iter().enumerate() {
-            let _ = writeln!(
-                t,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                names[k],
-                i + 1,
-                num(f.centre_um[0]),
-                num(f.centre_um[1]),
-                num(f.normal.x),
-                num(f.normal.y),
-                num(f.normal.z),
-                num(f.area_um2),
-                num(f.theta_n.to_degrees()),
-                num(f.phi_n.to_degrees()),
-                num(f.projected_area_um2),
-                num(f.equivalent_diameter_um),
-                num(f.rms_um),
-                num(f.tilt_se.to_degrees()),
-                f.pixels,
-                f.inliers,
-                f.touches_border,
-                num(f.quality)
-            );
-        }
-    }
-    t
+    let maps: Vec<(&str, &[flakescatter_stats::SegmentedFlake])> = a
+        .input
+        .map_names
+        .iter()
+        .zip(&a.stats.segmentations)
+        .map(|(n, s)| (n.as_str(), s.flakes.as_slice()))
+        .collect();
+    let mut bytes = Vec::new();
+    // Writing to memory cannot fail.
+    let _ = flakescatter_io::flakes::write_segmented_flakes(&mut bytes, "flakes.csv", &maps);
+    String::from_utf8(bytes).unwrap_or_default()
 }
 
 /// The pooled area-weighted histogram.
