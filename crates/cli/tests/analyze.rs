@@ -404,3 +404,42 @@ fn the_reports_flake_table_is_segments() {
     assert!(report.lines().count() > 100);
     assert_eq!(report, segment);
 }
+
+/// One writer for the pooled width's JSON: `analyze`'s `summary.json` statistics say
+/// what `stats --map … --json` says of the same maps and settings (the map-level
+/// interval, the heterogeneity, the interval quoted, the z bound and each map, but for
+/// the map's name, the report's short name).
+#[test]
+fn the_reports_pooled_width_is_stats() {
+    let d = scratch("analyze", "pooled-json");
+    let out = d.join("report");
+    let summary = analyze(&fixtures().join("sample.toml"), &out);
+    let fx = fixtures();
+    let o = run(&[
+        "stats",
+        "--map",
+        s(&fx.join("synth-hwhm3-smooth.height.x3p")),
+        s(&fx.join("synth-hwhm6-rough.height.x3p")),
+        "--intensity-suffix",
+        ".intensity",
+        "--cutoff",
+        "0.49",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stats: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let report = &summary["statistics"];
+    for key in ["map_level", "heterogeneity", "quoted_interval", "z_bound"] {
+        assert_eq!(report[key], stats[key], "{key}");
+    }
+    assert!(report["map_level"]["mean_square_tilt_std_err_rad2"].as_f64().unwrap() > 0.0);
+    let strip = |v: &Value| {
+        let mut v = v.clone();
+        for m in v.as_array_mut().unwrap() {
+            m.as_object_mut().unwrap().remove("map");
+        }
+        v
+    };
+    assert_eq!(strip(&report["maps"]), strip(&stats["maps"]));
+    assert_eq!(report["maps"].as_array().unwrap().len(), 2);
+}

@@ -276,6 +276,27 @@ pub struct IncidenceComparison {
     pub points: Vec<ComparedPoint>,
 }
 
+impl IncidenceComparison {
+    /// Its regions as JSON, one writer for `compare --json` and `analyze`'s
+    /// `summary.json`: per region its name, points, points without a model value, and
+    /// the rms and mean of `log10(model/measured)`.
+    #[must_use]
+    pub fn regions_json(&self) -> serde_json::Value {
+        self.regions
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "region": r.region.name(),
+                    "points": r.points,
+                    "points_without_model": r.no_model,
+                    "rms_log10": r.rms_log10,
+                    "mean_log10": r.mean_log10,
+                })
+            })
+            .collect()
+    }
+}
+
 /// Two angles (radians) that stand for the same typed degrees: within 1e-9 rad.
 fn same_angle(a: f64, b: f64) -> bool {
     (a - b).abs() < 1e-9

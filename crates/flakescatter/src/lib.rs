@@ -91,6 +91,7 @@ pub mod paint;
 pub mod pipeline;
 pub mod pixels;
 pub mod polarimetry;
+pub mod pooled_json;
 pub mod reproduce;
 pub mod sample;
 pub mod spectral;

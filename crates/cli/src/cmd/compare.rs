@@ -309,13 +309,7 @@ fn incidences_json(results: &[IncidenceComparison]) -> Value {
                 json!({
                     "theta_i_deg": deg_num(c.theta_i),
                     "scale": c.scale,
-                    "regions": c.regions.iter().map(|r| json!({
-                        "region": r.region.name(),
-                        "points": r.points,
-                        "points_without_model": r.no_model,
-                        "rms_log10": r.rms_log10,
-                        "mean_log10": r.mean_log10,
-                    })).collect::<Vec<_>>(),
+                    "regions": c.regions_json(),
                 })
             })
             .collect(),

@@ -3,6 +3,7 @@
 //! plot with the fitted Gaussian.
 
 use flakescatter::chart::histogram_chart;
+use flakescatter::pooled_json;
 use flakescatter::sample::SampleStatistics;
 use flakescatter::stats::fit::WidthFit;
 use flakescatter::stats::histogram::AreaHistogram;
@@ -13,11 +14,7 @@ use super::Args;
 use crate::output::{Dest, Plan};
 use crate::tables::num;
 
-/// `[lo, hi]` in degrees of the hwhm, `null` for an infinite end.
-pub(super) fn ci_deg(ci: (f64, f64)) -> Value {
-    let f = |x: f64| x.is_finite().then(|| x.to_degrees());
-    json!([f(ci.0), f(ci.1)])
-}
+pub(super) use flakescatter::pooled_json::ci_deg;
 
 /// The JSON of a pooled sample.
 fn pooled_json(p: &PooledWidth, names: &[String]) -> Value {
@@ -28,29 +25,11 @@ fn pooled_json(p: &PooledWidth, names: &[String]) -> Value {
         "hwhm_ci95_deg": ci_deg(flake.hwhm_ci95()),
         "hwhm_ci95_method": format!("flake level: {}", flake.ci_method.describe()),
         "effective_flakes": flake.effective_n,
-        "map_level": p.map_level.map(|m| json!({
-            "hwhm_ci95_deg": ci_deg(m.hwhm_ci95()),
-            "method": m.describe(),
-            "maps": m.maps,
-            "dof": m.dof,
-            "t_quantile": m.t_quantile,
-            "mean_square_tilt_std_err_rad2": m.mean_square_tilt_std_err,
-        })),
-        "quoted_interval": if p.map_level.is_some() { "map_level" } else { "flake_level" },
-        "heterogeneity": p.heterogeneity.map(|h| json!({
-            "cochran_q": h.q, "dof": h.dof, "p": h.p, "i2": h.i2,
-        })),
+        "map_level": pooled_json::map_level(p),
+        "quoted_interval": pooled_json::quoted_interval(p),
+        "heterogeneity": pooled_json::heterogeneity(p),
         "z_bound": p.z_bound,
-        "maps": p.maps.iter().zip(names).map(|(m, name)| json!({
-            "map": name,
-            "flakes": m.flakes,
-            "area_um2": m.area_um2,
-            "effective_flakes": m.effective_n,
-            "hwhm_deg": m.fit.map(|f| f.hwhm().to_degrees()),
-            "hwhm_ci95_deg": m.fit.map(|f| ci_deg(f.hwhm_ci95())),
-            "z": m.z,
-            "flagged": m.flagged,
-        })).collect::<Vec<_>>(),
+        "maps": pooled_json::maps(p, names),
         "warnings": p.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
     })
 }

@@ -7,6 +7,7 @@ use super::Analysis;
 use crate::analyze::format::{ci_deg, deg};
 use crate::analyze::settings::in_plane_angles;
 use crate::analyze::{FailedStatistic, OutFile, Work};
+use crate::pooled_json;
 
 /// `summary.json` as a value; `files` are the report's other files so far.
 pub(super) fn summary(
@@ -109,28 +110,13 @@ fn statistics(a: &Analysis) -> Value {
             "method": flake.ci_method.describe(),
             "effective_flakes": flake.effective_n,
         },
-        "map_level": p.map_level.map(|ml| json!({
-            "hwhm_ci95_deg": ci_deg(ml.hwhm_ci95()),
-            "method": ml.describe(),
-            "maps": ml.maps,
-            "dof": ml.dof,
-            "t_quantile": ml.t_quantile,
-        })),
-        "quoted_interval": if p.map_level.is_some() { "map_level" } else { "flake_level" },
-        "heterogeneity": p.heterogeneity.map(|h| json!({"cochran_q": h.q, "dof": h.dof, "p": h.p, "i2": h.i2})),
+        "map_level": pooled_json::map_level(p),
+        "quoted_interval": pooled_json::quoted_interval(p),
+        "heterogeneity": pooled_json::heterogeneity(p),
         "z_bound": p.z_bound,
         "histogram_fit_hwhm_deg": stats.histogram_fit.as_ref().ok().map(|h| h.hwhm().to_degrees()),
         "histogram_fit_error": stats.histogram_fit.as_ref().err(),
-        "maps": p.maps.iter().enumerate().map(|(k, w)| json!({
-            "map": names[k],
-            "flakes": w.flakes,
-            "area_um2": w.area_um2,
-            "effective_flakes": w.effective_n,
-            "hwhm_deg": w.fit.map(|f| f.hwhm().to_degrees()),
-            "hwhm_ci95_deg": w.fit.map(|f| ci_deg(f.hwhm_ci95())),
-            "z": w.z,
-            "flagged": w.flagged,
-        })).collect::<Vec<_>>(),
+        "maps": pooled_json::maps(p, names),
         "pixel_level": stats.pixel.as_ref().map_or_else(|| pixel_failure.map(|f| json!({"error": f.error})), |px| Some(json!({
             "usable_pixels": px.orientation.tilts.usable_pixels,
             "hwhm_deg": px.orientation.width.map(|w| w.hwhm().to_degrees()),
@@ -154,13 +140,7 @@ fn comparison_json(a: &Analysis) -> Vec<Value> {
                     "model": label,
                     "theta_i_deg": deg(c.theta_i),
                     "scale": c.scale,
-                    "regions": c.regions.iter().map(|r| json!({
-                        "region": r.region.name(),
-                        "points": r.points,
-                        "points_without_model": r.no_model,
-                        "rms_log10": r.rms_log10,
-                        "mean_log10": r.mean_log10,
-                    })).collect::<Vec<_>>(),
+                    "regions": c.regions_json(),
                 })
             })
         })
