@@ -432,7 +432,12 @@ fn the_reports_pooled_width_is_stats() {
     for key in ["map_level", "heterogeneity", "quoted_interval", "z_bound"] {
         assert_eq!(report[key], stats[key], "{key}");
     }
-    assert!(report["map_level"]["mean_square_tilt_std_err_rad2"].as_f64().unwrap() > 0.0);
+    assert!(
+        report["map_level"]["mean_square_tilt_std_err_rad2"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
     let strip = |v: &Value| {
         let mut v = v.clone();
         for m in v.as_array_mut().unwrap() {

@@ -77,6 +77,7 @@
 
 pub mod analyze;
 pub mod chart;
+pub mod checks;
 pub mod compare;
 pub mod export;
 pub mod figures;

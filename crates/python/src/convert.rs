@@ -268,12 +268,7 @@ pub fn coating_with_stack(
             return Ok(c);
         }
     }
-    if !(n.is_finite() && n >= 1.0) {
-        return Err(input(
-            py,
-            format!("n={n}: the refractive index must be a finite number >= 1"),
-        ));
-    }
+    flakescatter::checks::coat_index(n).map_err(|e| input(py, format!("n={e}")))?;
     let flake = match flake_index {
         None => FlakeReflectance::PerfectConductor,
         Some((nf, k)) => FlakeReflectance::complex(nf, k).map_err(|e| {

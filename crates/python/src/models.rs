@@ -186,20 +186,8 @@ pub fn distribution_model<'py>(
 
 /// Topographic settings from the keywords, checked as the CLI checks them.
 fn topo_settings(py: Python<'_>, window: usize, tile_um: f64) -> PyResult<TopoSettings> {
-    if window < 3 || window.is_multiple_of(2) {
-        return Err(input(
-            py,
-            format!(
-                "window={window}: the least-squares window must be an odd number of pixels >= 3"
-            ),
-        ));
-    }
-    if !(tile_um.is_finite() && tile_um > 0.0) {
-        return Err(input(
-            py,
-            format!("tile_um={tile_um}: the tile side must be a finite length > 0 µm"),
-        ));
-    }
+    flakescatter::checks::window(window).map_err(|e| input(py, format!("window={e}")))?;
+    flakescatter::checks::tile_um(tile_um).map_err(|e| input(py, format!("tile_um={e}")))?;
     Ok(TopoSettings { window, tile_um })
 }
 

@@ -75,9 +75,7 @@ pub fn fit_paint<'py>(
         }
         selection.min_value = v;
     }
-    if !(n.is_finite() && n >= 1.0) {
-        return Err(input(py, format!("n={n}: expected a finite index >= 1")));
-    }
+    flakescatter::checks::coat_index(n).map_err(|e| input(py, format!("n={e}")))?;
     let opts = FitOptions {
         families,
         n,

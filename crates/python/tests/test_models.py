@@ -6,7 +6,7 @@ import pytest
 
 import flakescatter as fs
 from conftest import (
-    CUTOFF, HEIGHT, HEIGHT3, INTENSITY, INTENSITY3, assert_column_equal, read_csv,
+    CUTOFF, FIXTURES, HEIGHT, HEIGHT3, INTENSITY, INTENSITY3, assert_column_equal, read_csv,
 )
 
 CURVE = ["theta_i_deg", "theta_s_deg", "phi_s_deg", "aperture_deg", "brdf_per_sr", "reflectance", "relative"]
@@ -171,3 +171,19 @@ def test_bad_topographic_parameters():
         fs.distribution_mueller(incident=[1, 2, 0, 0])
     with pytest.raises(fs.InputError):
         fs.distribution_mueller(analyzer=[1, 0.5, 0, 0])
+
+
+def test_settings_share_the_cli_messages():
+    """The keywords refuse what the CLI's flags and the manifest's keys refuse, with the
+    same words (flakescatter::checks; crates/cli/tests/checks.rs), naming the keyword."""
+    index = "0.5: the refractive index must be a finite number >= 1"
+    with pytest.raises(fs.InputError, match="^n=" + index):
+        fs.distribution_model(n=0.5)
+    paint = str(FIXTURES / "real" / "paints" / "blue-metallic-paint2.csv")
+    with pytest.raises(fs.InputError, match="^n=" + index):
+        fs.fit_paint(paint, n=0.5)
+    m = fs.read_map(HEIGHT, intensity=INTENSITY, cutoff=CUTOFF)
+    with pytest.raises(fs.InputError, match="^window=4: the least-squares window must be"):
+        fs.topographic_model([m], window=4)
+    with pytest.raises(fs.InputError, match="^tile_um=-2.0: the tile side must be"):
+        fs.topographic_model([m], tile_um=-2.0)

@@ -50,12 +50,7 @@ pub struct OpticsArgs {
 impl OpticsArgs {
     /// The coating these flags describe.
     pub fn coating(&self) -> anyhow::Result<Coating> {
-        if !(self.n.is_finite() && self.n >= 1.0) {
-            bail!(
-                "--n {}: the refractive index must be a finite number >= 1",
-                self.n
-            );
-        }
+        flakescatter::checks::coat_index(self.n).map_err(|e| anyhow::anyhow!("--n {e}"))?;
         let flake = match &self.flake_index {
             None => FlakeReflectance::PerfectConductor,
             Some(s) => {

@@ -153,18 +153,9 @@ fn check_numbers(args: &Args) -> anyhow::Result<()> {
         );
     }
     if args.pixel_normals {
-        if args.window < 3 || args.window.is_multiple_of(2) {
-            bail!(
-                "--window {}: the least-squares window must be an odd number of pixels >= 3",
-                args.window
-            );
-        }
-        if !(args.tile_um.is_finite() && args.tile_um > 0.0) {
-            bail!(
-                "--tile-um {}: the tile side must be a finite length > 0 µm",
-                args.tile_um
-            );
-        }
+        flakescatter::checks::window(args.window).map_err(|e| anyhow::anyhow!("--window {e}"))?;
+        flakescatter::checks::tile_um(args.tile_um)
+            .map_err(|e| anyhow::anyhow!("--tile-um {e}"))?;
     }
     Ok(())
 }

@@ -104,18 +104,8 @@ pub struct Args {
 
 /// Checks the flags that need no file.
 fn validate(args: &Args) -> anyhow::Result<()> {
-    if args.window < 3 || args.window.is_multiple_of(2) {
-        bail!(
-            "--window {}: the least-squares window must be an odd number of pixels >= 3",
-            args.window
-        );
-    }
-    if !(args.tile_um.is_finite() && args.tile_um > 0.0) {
-        bail!(
-            "--tile-um {}: the tile side must be a finite length > 0 µm",
-            args.tile_um
-        );
-    }
+    flakescatter::checks::window(args.window).map_err(|e| anyhow::anyhow!("--window {e}"))?;
+    flakescatter::checks::tile_um(args.tile_um).map_err(|e| anyhow::anyhow!("--tile-um {e}"))?;
     if let Some(d) = args.node_spacing_deg {
         let max = 0.01f64.to_degrees();
         if !(d.is_finite() && d > 0.0 && d.to_radians() <= 0.01) {

@@ -171,11 +171,8 @@ fn check_instrument(i: &InstrumentSection, file: &str) -> Result<(), ManifestErr
 /// `[coating]`.
 fn check_coating(c: &CoatingSection, file: &str) -> Result<(), ManifestError> {
     let bad = |key: &str, msg: String| bad(file, key, msg);
-    if !(c.n.is_finite() && c.n >= 1.0) {
-        return bad(
-            "coating.n",
-            format!("{}: the refractive index must be finite and >= 1", c.n),
-        );
+    if let Err(e) = crate::checks::coat_index(c.n) {
+        return bad("coating.n", e.to_string());
     }
     if let Some([n, k]) = c.flake_index
         && flakescatter_optics::flake::FlakeReflectance::complex(n, k).is_err()
@@ -313,17 +310,11 @@ fn check_models(md: &ModelsSection, has_measured: bool, file: &str) -> Result<()
             ),
         );
     }
-    if md.window < 3 || md.window.is_multiple_of(2) {
-        return bad(
-            "models.window",
-            format!("{}: an odd number of pixels >= 3", md.window),
-        );
+    if let Err(e) = crate::checks::window(md.window) {
+        return bad("models.window", e.to_string());
     }
-    if !(md.tile_um.is_finite() && md.tile_um > 0.0) {
-        return bad(
-            "models.tile_um",
-            format!("{}: must be finite and > 0 µm", md.tile_um),
-        );
+    if let Err(e) = crate::checks::tile_um(md.tile_um) {
+        return bad("models.tile_um", e.to_string());
     }
     if md.fit && !has_measured {
         return bad(
