@@ -17,12 +17,20 @@ const TILE: &str = "-2: the tile side must be a finite length > 0 µm";
 fn flags_and_manifest_keys_share_the_message() {
     let o = run(&["model", "--n", "0.5"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains(&format!("--n {INDEX}")), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("--n {INDEX}")),
+        "{}",
+        stderr(&o)
+    );
 
     let map = fixtures().join("synth-hwhm3-smooth.height.x3p");
     let o = run(&["topo", s(&map), "--tile-um", "-2"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains(&format!("--tile-um {TILE}")), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("--tile-um {TILE}")),
+        "{}",
+        stderr(&o)
+    );
 
     let d = scratch("checks", "manifest");
     for (section, want) in [

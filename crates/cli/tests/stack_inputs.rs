@@ -9,32 +9,17 @@
 //! * an ImageJ stack whose `XResolution` is 0/1 is said to have an unusable resolution,
 //!   not a missing tag.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::{run, s, stderr};
 use tiff::encoder::{Rational, TiffEncoder, colortype::Gray16};
 use tiff::tags::{ResolutionUnit, Tag};
 
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-stackinputs-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    common::scratch("stackinputs", name)
 }
 
 fn json(o: &Output) -> serde_json::Value {

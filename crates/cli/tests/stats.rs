@@ -1,25 +1,19 @@
 //! `flakescatter stats` end to end: outputs, exit codes and bad-input messages.
 
+mod common;
+
 use std::path::PathBuf;
-use std::process::{Command, Output};
+
+use common::run;
 
 fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flakescatter-stats-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("stats", name)
 }
 
 fn write(d: &std::path::Path, name: &str, text: &str) -> PathBuf {
     let p = d.join(name);
     std::fs::write(&p, text).unwrap();
     p
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 #[test]

@@ -1,16 +1,18 @@
 //! `flakescatter synth`: outputs, reproducibility, exit codes.
 
+mod common;
+
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
+use std::sync::OnceLock;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
+use common::bin;
 
+/// `name` in this file's one scratch directory (made empty once per test binary).
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("flakescatter-synth-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| common::scratch("synth", "cli"))
+        .join(name)
 }
 
 fn run(args: &[&str]) -> Output {

@@ -1,20 +1,15 @@
 //! `flakescatter topo`: CSV columns and values on a tilted plane (closed form), the JSON
 //! summary, intensity cutoff, several maps, and bad input (exit status 2).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::{bin, fresnel_ts_tp as ts_tp, stderr};
 
 fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "flakescatter-cli-topo-{}-{name}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("topo", name)
 }
 
 /// Writes a plain-text matrix (rows of whitespace-separated values).
@@ -45,20 +40,6 @@ fn fixtures(d: &Path) -> (PathBuf, PathBuf) {
 
 fn run(args: &[&str]) -> Output {
     bin().arg("topo").args(args).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Power transmittance of the air/coating surface, unpolarised channels, from the
-/// Fresnel amplitudes (written out here independently of the library).
-fn ts_tp(theta: f64, n: f64) -> (f64, f64) {
-    let ci = theta.cos();
-    let ct = (1.0 - (theta.sin() / n).powi(2)).sqrt();
-    let rs = (ci - n * ct) / (ci + n * ct);
-    let rp = (n * ci - ct) / (n * ci + ct);
-    (1.0 - rs * rs, 1.0 - rp * rp)
 }
 
 /// At normal incidence a plane tilted by β = 2° sends every ray to

@@ -2,38 +2,22 @@
 //! JSON keys and units, empty standard errors, the same numbers as the facade's
 //! `isotropic_curves`, independence of how the map lies on its grid, and flag errors.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::{bin, fixture, fresnel_ts_tp as ts_tp, stderr};
 use flakescatter::io::{MapFormat, ReadOptions, read_intensity, read_map, write_map};
 use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::{Coating, DetectorSet, Instrument, Settings, TopoSettings, isotropic_curves};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flakescatter"))
-}
-
 fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "flakescatter-cli-iso-{}-{name}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../fixtures")
-        .join(name)
+    common::scratch("iso", name)
 }
 
 fn run(args: &[&str]) -> Output {
     bin().arg("topo").args(args).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// Header and rows of a CSV text.
@@ -65,15 +49,6 @@ fn tilted_plane(d: &Path) -> PathBuf {
     }
     std::fs::write(&p, s).unwrap();
     p
-}
-
-/// Power transmittances of the air/coating surface (Fresnel, written out here).
-fn ts_tp(theta: f64, n: f64) -> (f64, f64) {
-    let ci = theta.cos();
-    let ct = (1.0 - (theta.sin() / n).powi(2)).sqrt();
-    let rs = (ci - n * ct) / (ci + n * ct);
-    let rp = (n * ci - ct) / (n * ci + ct);
-    (1.0 - rs * rs, 1.0 - rp * rp)
 }
 
 /// At normal incidence a plane tilted by β = 2°, turned to every azimuth φ, sends its

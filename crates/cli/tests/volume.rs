@@ -4,8 +4,11 @@
 //! or mirror substrate), results do not depend on the thread count, and bad flags exit
 //! 2 naming the flag with nothing left behind.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+
+use std::path::PathBuf;
+
+use common::s;
 
 use flakescatter::stats::{GaussianWidth, Orientation};
 use flakescatter::volume::{Amount, Depth, Diameter, RimRule, Substrate};
@@ -14,7 +17,7 @@ use flakescatter::{
 };
 
 fn run_env(args: &[&str], threads: Option<&str>) -> (i32, String, String) {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_flakescatter"));
+    let mut cmd = common::bin();
     cmd.args(args);
     if let Some(t) = threads {
         cmd.env("RAYON_NUM_THREADS", t);
@@ -32,14 +35,7 @@ fn run(args: &[&str]) -> (i32, String, String) {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fs-volume-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::scratch("volume", name)
 }
 
 /// A CSV as header and rows of numbers (empty cells are NaN).

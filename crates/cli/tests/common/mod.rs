@@ -92,3 +92,15 @@ pub fn snapshot(d: &Path) -> BTreeMap<String, Vec<u8>> {
     }
     out
 }
+
+/// Power transmittances `(Ts, Tp)` of the air/coating surface at incidence `theta`
+/// (radians) for a coat of index `n`: the Fresnel amplitudes written out,
+/// `rs = (cos θi − n cos θt)/(cos θi + n cos θt)`, `rp = (n cos θi − cos θt)/(n cos θi + cos θt)`,
+/// `T = 1 − r²` (independent of the library's optics).
+pub fn fresnel_ts_tp(theta: f64, n: f64) -> (f64, f64) {
+    let ci = theta.cos();
+    let ct = (1.0 - (theta.sin() / n).powi(2)).sqrt();
+    let rs = (ci - n * ct) / (ci + n * ct);
+    let rp = (n * ci - ct) / (n * ci + ct);
+    (1.0 - rs * rs, 1.0 - rp * rp)
+}
