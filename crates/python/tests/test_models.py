@@ -185,5 +185,5 @@ def test_settings_share_the_cli_messages():
     m = fs.read_map(HEIGHT, intensity=INTENSITY, cutoff=CUTOFF)
     with pytest.raises(fs.InputError, match="^window=4: the least-squares window must be"):
         fs.topographic_model([m], window=4)
-    with pytest.raises(fs.InputError, match="^tile_um=-2.0: the tile side must be"):
+    with pytest.raises(fs.InputError, match="^tile_um=-2: the tile side must be"):
         fs.topographic_model([m], tile_um=-2.0)
