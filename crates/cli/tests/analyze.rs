@@ -372,7 +372,8 @@ fn a_paint_section_reports_the_fitted_paint() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// One writer for flake tables: `analyze`'s `flakes.csv` is what `segment --out` writes
+/// One writer for flake tables and histograms: `analyze`'s `flakes.csv` is what
+/// `segment --out` writes, and its `histogram.csv` what `stats --out` writes,
 /// for the same maps and settings (the manifest's `cutoff` and intensity suffix), byte
 /// for byte but for the map column, which holds the report's short map names.
 #[test]
@@ -403,6 +404,25 @@ fn the_reports_flake_table_is_segments() {
     let report = std::fs::read_to_string(out.join("flakes.csv")).unwrap();
     assert!(report.lines().count() > 100);
     assert_eq!(report, segment);
+    // And its histogram is `stats --out`'s (one writer, one number format).
+    let hist = d.join("histogram.csv");
+    let o = run(&[
+        "stats",
+        "--map",
+        s(&fx.join("synth-hwhm3-smooth.height.x3p")),
+        s(&fx.join("synth-hwhm6-rough.height.x3p")),
+        "--intensity-suffix",
+        ".intensity",
+        "--cutoff",
+        "0.49",
+        "--out",
+        s(&hist),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        std::fs::read_to_string(out.join("histogram.csv")).unwrap(),
+        std::fs::read_to_string(&hist).unwrap()
+    );
 }
 
 /// One writer for the pooled width's JSON: `analyze`'s `summary.json` statistics say

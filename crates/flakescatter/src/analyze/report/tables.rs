@@ -74,22 +74,14 @@ fn flakes_csv(a: &Analysis) -> String {
     String::from_utf8(bytes).unwrap_or_default()
 }
 
-/// The pooled area-weighted histogram.
+/// The pooled area-weighted histogram, as `stats --out` writes it.
 fn histogram_csv(a: &Analysis) -> String {
-    let stats = a.stats;
-    let mut t = String::from("theta_lo_deg,theta_hi_deg,area_fraction,p_per_rad,p_tilde\n");
-    for b in stats.histogram.bins() {
-        let _ = writeln!(
-            t,
-            "{},{},{},{},{}",
-            deg(b.theta_lo),
-            deg(b.theta_hi),
-            num(b.area_fraction),
-            num(b.p_per_rad),
-            num(b.p_tilde)
-        );
-    }
-    t
+    // io's one writer, as `stats --out` writes the histogram.
+    let mut bytes = Vec::new();
+    // Writing to memory cannot fail.
+    let _ =
+        flakescatter_io::flakes::write_histogram(&mut bytes, "histogram.csv", &a.stats.histogram);
+    String::from_utf8(bytes).unwrap_or_default()
 }
 
 /// Every model curve.
