@@ -28,41 +28,13 @@
 //! Not read: the icon, the repeatability plane as a channel of its own (it masks the
 //! depths).
 
-use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
-use thiserror::Error;
+use flakescatter_stats::heightmap::HeightMap;
 
 use crate::bytes::f32_le;
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
-/// What is wrong with an AL3D file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum Al3dError {
-    /// The file ends before a block does.
-    #[error(
-        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
-    )]
-    Truncated {
-        /// What was being read.
-        what: String,
-        /// Byte offset where it starts.
-        offset: usize,
-        /// Bytes it needs.
-        needed: u64,
-        /// File length.
-        end: usize,
-    },
-    /// A tag is missing or has an unusable value.
-    #[error("tag {tag}: {what}")]
-    Tag {
-        /// The tag's key.
-        tag: String,
-        /// What is wrong.
-        what: String,
-    },
-    /// The header's numbers do not make a valid height map.
-    #[error("{0}")]
-    Map(HeightMapError),
-}
+/// What is wrong with a AL3D file: the binary readers' one error type.
+pub type Al3dError = crate::format_error::FormatError;
 
 const MAGIC: &[u8; 17] = b"AliconaImaging\0\r\n";
 const TAG: usize = 52;

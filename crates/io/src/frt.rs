@@ -46,65 +46,13 @@
 //! Not read: profile (line-scan) files, the drift-correction data, x-position tables,
 //! the text export (`HeaderLines=`). The file stores no wavelength.
 
-use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
-use thiserror::Error;
+use flakescatter_stats::heightmap::HeightMap;
 
 use crate::bytes::{f64_le, i32_le, u16_le, u32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
-/// What is wrong with an FRT file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum FrtError {
-    /// The file ends before a block does.
-    #[error(
-        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
-    )]
-    Truncated {
-        /// What was being read.
-        what: String,
-        /// Byte offset where it starts.
-        offset: usize,
-        /// Bytes it needs.
-        needed: u64,
-        /// File length.
-        end: usize,
-    },
-    /// The file header has an unusable value.
-    #[error("header field {field} (byte {offset}) = {value}: expected {expected}")]
-    Header {
-        /// The field.
-        field: &'static str,
-        /// Its byte offset.
-        offset: usize,
-        /// The value found.
-        value: String,
-        /// What was expected.
-        expected: &'static str,
-    },
-    /// A block is malformed, or holds an unusable value.
-    #[error("block 0x{block:04x} (byte {offset}): {what}")]
-    Block {
-        /// The block id.
-        block: u16,
-        /// Byte offset of the block (its id) or of the field at fault.
-        offset: usize,
-        /// What is wrong.
-        what: String,
-    },
-    /// A block the map needs is not in the file.
-    #[error("block 0x{block:04x} ({what}) is missing{hint}")]
-    Missing {
-        /// The block id.
-        block: u16,
-        /// What the block holds.
-        what: &'static str,
-        /// How to do without it, if one can.
-        hint: &'static str,
-    },
-    /// The header's numbers do not make a valid height map.
-    #[error("{0}")]
-    Map(HeightMapError),
-}
+/// What is wrong with a FRT file: the binary readers' one error type.
+pub type FrtError = crate::format_error::FormatError;
 
 const MAGIC: &[u8; 12] = b"FRTM_GLIDERV";
 /// Magic, version, block count.
@@ -148,7 +96,7 @@ impl Block<'_> {
             Ok(self.data)
         } else {
             Err(FrtError::Block {
-                block: self.id,
+                block: self.id.into(),
                 offset: self.at,
                 what: format!(
                     "{what}: the block holds {} bytes, expected {size}",
@@ -256,7 +204,7 @@ fn parse(bytes: &[u8]) -> Result<Frt<'_>, FrtError> {
         });
     }
     if !bytes.starts_with(MAGIC) {
-        return Err(FrtError::Header {
+        return Err(FrtError::Field {
             field: "magic",
             offset: 0,
             value: format!("{:?}", text(&bytes[..12])),
@@ -268,7 +216,7 @@ fn parse(bytes: &[u8]) -> Result<Frt<'_>, FrtError> {
         b"1.00" => 4,
         b"1.01" => 8,
         _ => {
-            return Err(FrtError::Header {
+            return Err(FrtError::Field {
                 field: "version",
                 offset: 12,
                 value: format!("{version:?}"),
@@ -308,7 +256,7 @@ fn parse(bytes: &[u8]) -> Result<Frt<'_>, FrtError> {
         if READ.contains(&id) {
             if let Some(first) = blocks.iter().find(|b| b.id == id) {
                 return Err(FrtError::Block {
-                    block: id,
+                    block: id.into(),
                     offset: at,
                     what: format!("appears a second time (first at byte {})", first.at),
                 });
@@ -347,7 +295,7 @@ fn image(
     left: usize,
 ) -> Result<Image, FrtError> {
     let bad = |what: String| FrtError::Block {
-        block: block.id,
+        block: block.id.into(),
         offset: header_at,
         what,
     };
@@ -379,7 +327,7 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
     if let Some(b) = f.block(0x007d) {
         if b.data.len() < 8 {
             return Err(FrtError::Block {
-                block: b.id,
+                block: b.id.into(),
                 offset: b.at,
                 what: format!(
                     "the block holds {} bytes, fewer than its 8-byte buffer ids",
@@ -392,7 +340,7 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
             let left = b.data.len() - p;
             if left < 16 {
                 return Err(FrtError::Block {
-                    block: b.id,
+                    block: b.id.into(),
                     offset: b.body + p,
                     what: format!(
                         "{left} bytes left at the end of the block: too few for a 16-byte image header"
@@ -411,7 +359,7 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
     {
         let Some(size) = f.block(0x0066) else {
             return Err(FrtError::Missing {
-                block: 0x0066,
+                block: 0x0066.into(),
                 what: "the image size of the data in block 0x000b",
                 hint: "",
             });
@@ -423,7 +371,7 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
         let need = data_size(head.1, head.2, head.3).unwrap_or(u64::MAX);
         if need != b.data.len() as u64 {
             return Err(FrtError::Block {
-                block: b.id,
+                block: b.id.into(),
                 offset: b.at,
                 what: format!(
                     "holds {} bytes, but block 0x0066 says {} x {} points of {} bits ({need} bytes)",
@@ -438,7 +386,7 @@ fn images(f: &Frt<'_>) -> Result<Vec<Image>, FrtError> {
     }
     if out.is_empty() {
         return Err(FrtError::Missing {
-            block: 0x000b,
+            block: 0x000b.into(),
             what: "the image data",
             hint: ", and block 0x007d holds no image either",
         });
@@ -470,7 +418,7 @@ fn names(images: &[Image]) -> Vec<String> {
 fn pitch_um(f: &Frt<'_>, img: &Image) -> Result<(f64, f64), FrtError> {
     let Some(b) = f.block(0x0067) else {
         return Err(FrtError::Missing {
-            block: 0x0067,
+            block: 0x0067.into(),
             what: "the scan range",
             hint: ", so the pixel pitch is unknown: give it (--pixel-um)",
         });
@@ -483,7 +431,7 @@ fn pitch_um(f: &Frt<'_>, img: &Image) -> Result<(f64, f64), FrtError> {
             Ok(p)
         } else {
             Err(FrtError::Block {
-                block: b.id,
+                block: b.id.into(),
                 offset: b.body + a,
                 what: format!(
                     "{name} range = {range} m: expected a length > 0 (or give the pitch, --pixel-um)"
@@ -545,7 +493,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let names = names(&f.images);
     let Some(img) = f.images.get(index) else {
         return Err(FrtError::Block {
-            block: 0x007d,
+            block: 0x007d.into(),
             offset: f.block(0x007d).map_or(16, |b| b.at),
             what: format!(
                 "channel {index} asked for, the file has {} image(s)",
@@ -558,7 +506,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         ValueKind::Height => {
             if !img.is_height() {
                 return Err(FrtError::Block {
-                    block: 0x007d,
+                    block: 0x007d.into(),
                     offset: img.data.saturating_sub(16),
                     what: format!(
                         "channel {index} ({}, type 0x{:08x}) is not a height image; read it as an intensity map",
@@ -568,7 +516,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             }
             let Some(b) = f.block(0x006c) else {
                 return Err(FrtError::Missing {
-                    block: 0x006c,
+                    block: 0x006c.into(),
                     what: "the z scale",
                     hint: ", so the heights cannot be scaled",
                 });
@@ -577,7 +525,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             let s = zscale * 1e6;
             if !(zscale.is_finite() && s.is_finite() && s != 0.0) {
                 return Err(FrtError::Block {
-                    block: b.id,
+                    block: b.id.into(),
                     offset: b.body + 4,
                     what: format!("z scale = {zscale} m: expected a finite, non-zero scale"),
                 });

@@ -25,53 +25,14 @@
 //! anything is allocated, nesting is limited to 32 levels, and a file that ends early is
 //! refused with the byte offset where the missing bytes should be.
 
-use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
-use thiserror::Error;
+use flakescatter_stats::heightmap::HeightMap;
 
 use crate::bytes::{f64_le, i32_le, i64_le, u32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 use crate::units::length_unit_exponent;
 
-/// What is wrong with a GWY file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum GwyError {
-    /// The file ends before a value does.
-    #[error(
-        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
-    )]
-    Truncated {
-        /// What was being read.
-        what: String,
-        /// Byte offset where it starts.
-        offset: usize,
-        /// Bytes it needs.
-        needed: u64,
-        /// File length.
-        end: usize,
-    },
-    /// The bytes are not a valid serialized object.
-    #[error("byte {offset}: {what}")]
-    Corrupt {
-        /// Byte offset.
-        offset: usize,
-        /// What is wrong.
-        what: String,
-    },
-    /// The file holds no data field.
-    #[error("the file holds no data field (no container key /N/data)")]
-    NoChannel,
-    /// A data field lacks a component or has an unusable one.
-    #[error("channel {channel:?}: {what}")]
-    Field {
-        /// The channel's title.
-        channel: String,
-        /// What is wrong.
-        what: String,
-    },
-    /// The header's numbers do not make a valid height map.
-    #[error("{0}")]
-    Map(HeightMapError),
-}
+/// What is wrong with a GWY file: the binary readers' one error type.
+pub type GwyError = crate::format_error::FormatError;
 
 const MAGIC: &[u8; 4] = b"GWYP";
 const MAX_DEPTH: usize = 32;
@@ -169,7 +130,7 @@ impl<'a> Parser<'a> {
 
     fn object(&mut self, depth: usize) -> Result<Object<'a>, GwyError> {
         if depth > MAX_DEPTH {
-            return Err(GwyError::Corrupt {
+            return Err(GwyError::At {
                 offset: self.pos,
                 what: format!("objects nested deeper than {MAX_DEPTH} levels"),
             });
@@ -231,7 +192,7 @@ impl<'a> Parser<'a> {
                     Value::Other
                 }
                 other => {
-                    return Err(GwyError::Corrupt {
+                    return Err(GwyError::At {
                         offset: at,
                         what: format!(
                             "component {key} of {name} has unknown type {:?} (expected one of bcilqdsoCIQDSO)",
@@ -248,7 +209,7 @@ impl<'a> Parser<'a> {
 
 fn container(bytes: &[u8]) -> Result<Object<'_>, GwyError> {
     if !bytes.starts_with(MAGIC) {
-        return Err(GwyError::Corrupt {
+        return Err(GwyError::At {
             offset: 0,
             what: "the file does not start with the magic GWYP".into(),
         });
@@ -256,7 +217,7 @@ fn container(bytes: &[u8]) -> Result<Object<'_>, GwyError> {
     let mut p = Parser { bytes, pos: 4 };
     let top = p.object(0)?;
     if top.name != "GwyContainer" {
-        return Err(GwyError::Corrupt {
+        return Err(GwyError::At {
             offset: 4,
             what: format!("top-level object is {:?}, expected GwyContainer", top.name),
         });
@@ -307,7 +268,9 @@ fn fields<'a>(top: &'a Object<'a>) -> Result<Vec<Field<'a>>, GwyError> {
         .collect();
     found.sort_by_key(|(id, _)| *id);
     if found.is_empty() {
-        return Err(GwyError::NoChannel);
+        return Err(GwyError::NoData(
+            "the file holds no data field (no container key /N/data)",
+        ));
     }
     found
         .into_iter()
@@ -316,7 +279,7 @@ fn fields<'a>(top: &'a Object<'a>) -> Result<Vec<Field<'a>>, GwyError> {
                 Some(Value::Str(s)) => s.clone(),
                 _ => id.to_string(),
             };
-            let err = |what: String| GwyError::Field {
+            let err = |what: String| GwyError::Channel {
                 channel: title.clone(),
                 what,
             };
@@ -383,7 +346,7 @@ fn pitch_um(f: &Field<'_>) -> Result<Option<(f64, f64)>, GwyError> {
     if f.unit_xy.is_empty() {
         return Ok(None);
     }
-    let e = length_unit_exponent(&f.unit_xy).ok_or_else(|| GwyError::Field {
+    let e = length_unit_exponent(&f.unit_xy).ok_or_else(|| GwyError::Channel {
         channel: f.title.clone(),
         what: format!(
             "lateral unit {:?} is not a length unit (m, mm, µm, nm)",
@@ -426,12 +389,12 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let all = fields(&top)?;
     let index = options.channel.unwrap_or(0);
     let Some(f) = all.get(index) else {
-        return Err(GwyError::Field {
+        return Err(GwyError::Channel {
             channel: index.to_string(),
             what: format!("no such channel; the file has {}", all.len()),
         });
     };
-    let err = |what: String| GwyError::Field {
+    let err = |what: String| GwyError::Channel {
         channel: f.title.clone(),
         what,
     };

@@ -38,6 +38,7 @@ pub mod curves;
 pub mod detectors;
 pub mod files;
 pub mod flakes;
+pub mod format_error;
 pub mod frt;
 pub mod gwy;
 pub mod map;

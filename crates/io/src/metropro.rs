@@ -33,54 +33,13 @@
 //!
 //! Not read: the coordinate origins, the header-format-3 extension beyond byte 834.
 
-use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
-use thiserror::Error;
+use flakescatter_stats::heightmap::HeightMap;
 
 use crate::bytes::{f32_be, i32_be, u16_be, u32_be};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
-/// What is wrong with a MetroPro file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum MetroProError {
-    /// The file ends before a block does.
-    #[error(
-        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
-    )]
-    Truncated {
-        /// What was being read.
-        what: String,
-        /// Byte offset where it starts.
-        offset: usize,
-        /// Bytes it needs.
-        needed: u64,
-        /// File length.
-        end: usize,
-    },
-    /// A header field has an unusable value.
-    #[error("header field {field} (byte {offset}) = {value}: expected {expected}")]
-    BadField {
-        /// The field.
-        field: &'static str,
-        /// Its byte offset.
-        offset: usize,
-        /// The value found.
-        value: String,
-        /// What was expected.
-        expected: &'static str,
-    },
-    /// A channel was read as the other kind of values (heights / intensity), or
-    /// cannot be read.
-    #[error("channel {channel} holds {what}")]
-    NotThisKind {
-        /// The channel's name.
-        channel: String,
-        /// What it holds, and what to do.
-        what: &'static str,
-    },
-    /// The header's numbers do not make a valid height map.
-    #[error("{0}")]
-    Map(HeightMapError),
-}
+/// What is wrong with a METROPRO file: the binary readers' one error type.
+pub type MetroProError = crate::format_error::FormatError;
 
 const MAGIC: [u8; 3] = [0x88, 0x1b, 0x03];
 const BASE_HEADER: usize = 834;
@@ -129,7 +88,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
     let size = u32_be(bytes, 6);
     let expected_size = if format == 3 { 4096 } else { 834 };
     if !(1..=3).contains(&format) {
-        return Err(MetroProError::BadField {
+        return Err(MetroProError::Field {
             field: "header_format",
             offset: 4,
             value: format.to_string(),
@@ -137,7 +96,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
         });
     }
     if size != expected_size {
-        return Err(MetroProError::BadField {
+        return Err(MetroProError::Field {
             field: "header_size",
             offset: 6,
             value: size.to_string(),
@@ -157,7 +116,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
         u64::from(u16_be(bytes, 52)) * u64::from(u16_be(bytes, 54)) * u64::from(u16_be(bytes, 56));
     let ac_bytes = u64::from(u32_be(bytes, 60));
     if ac_bytes != 2 * ac_n {
-        return Err(MetroProError::BadField {
+        return Err(MetroProError::Field {
             field: "ac_n_bytes",
             offset: 60,
             value: ac_bytes.to_string(),
@@ -167,7 +126,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
     let (nx, ny) = (u16_be(bytes, 68), u16_be(bytes, 70));
     let cn_bytes = u64::from(u32_be(bytes, 72));
     if nx == 0 || ny == 0 {
-        return Err(MetroProError::BadField {
+        return Err(MetroProError::Field {
             field: "cn_width x cn_height",
             offset: 68,
             value: format!("{nx} x {ny}"),
@@ -176,7 +135,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
     }
     let n = u64::from(nx) * u64::from(ny);
     if cn_bytes != 4 * n {
-        return Err(MetroProError::BadField {
+        return Err(MetroProError::Field {
             field: "cn_n_bytes",
             offset: 72,
             value: cn_bytes.to_string(),
@@ -197,7 +156,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
         1 => 32768.0,
         2 => 131072.0,
         other => {
-            return Err(MetroProError::BadField {
+            return Err(MetroProError::Field {
                 field: "phase_res",
                 offset: 218,
                 value: other.to_string(),
@@ -212,7 +171,7 @@ fn header(bytes: &[u8]) -> Result<Header, MetroProError> {
     );
     let scale_m = s * w * o / r;
     if !scale_m.is_finite() || scale_m <= 0.0 {
-        return Err(MetroProError::BadField {
+        return Err(MetroProError::Field {
             field: "intf_scale_factor × wavelength_in × obliquity_factor",
             offset: 164,
             value: format!("{s} × {w} × {o}"),
@@ -287,7 +246,7 @@ pub fn read(
     let names = intensity_names(&h);
     let index = options.channel.unwrap_or(0);
     if index > names.len() {
-        return Err(MetroProError::BadField {
+        return Err(MetroProError::Field {
             field: "ac_n_buckets",
             offset: 56,
             value: names.len().to_string(),
@@ -296,14 +255,14 @@ pub fn read(
     }
     match (index, kind) {
         (0, ValueKind::Intensity) => {
-            return Err(MetroProError::NotThisKind {
+            return Err(MetroProError::ChannelHolds {
                 channel: "phase".into(),
                 what: "heights (m), not an intensity image; the intensity is the channel `intensity`",
             });
         }
         (0, ValueKind::Height) => {}
         (i, ValueKind::Height) => {
-            return Err(MetroProError::NotThisKind {
+            return Err(MetroProError::ChannelHolds {
                 channel: names[i - 1].clone(),
                 what: "an intensity frame (a.u.), not heights; read it as the intensity map (--intensity-channel)",
             });
@@ -333,7 +292,7 @@ pub fn read(
 fn pitch_or(h: &Header, options: &ReadOptions) -> Result<(f64, f64), MetroProError> {
     match (pitch_um(h), options.pixel_um) {
         (_, Some(p)) | (Some(p), None) => Ok(p),
-        (None, None) => Err(MetroProError::BadField {
+        (None, None) => Err(MetroProError::Field {
             field: "lateral_res",
             offset: 184,
             value: h.lateral_m.to_string(),
@@ -372,7 +331,7 @@ fn read_intensity(
 ) -> Result<HeightMap, MetroProError> {
     let (nx, ny, buckets) = h.ac;
     if buckets != 1 {
-        return Err(MetroProError::NotThisKind {
+        return Err(MetroProError::ChannelHolds {
             channel: name.into(),
             what: "one bucket of several, whose sample order is not confirmed here; only single-bucket intensity frames are read",
         });

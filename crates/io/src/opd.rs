@@ -20,43 +20,13 @@
 //! `Image`, read as intensity: values as stored). Metadata `opd.*`: date, time,
 //! wavelength, magnification, and the other scalar blocks.
 
-use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
-use thiserror::Error;
+use flakescatter_stats::heightmap::HeightMap;
 
 use crate::bytes::{f32_le, f64_le, i16_le, i32_le, u16_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
-/// What is wrong with an OPD file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum OpdError {
-    /// The file ends before a block does.
-    #[error(
-        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
-    )]
-    Truncated {
-        /// What was being read.
-        what: String,
-        /// Byte offset where it starts.
-        offset: usize,
-        /// Bytes it needs.
-        needed: u64,
-        /// File length.
-        end: usize,
-    },
-    /// A block has an unusable value.
-    #[error("block {block:?} (byte {offset}): {what}")]
-    Bad {
-        /// The block's name.
-        block: String,
-        /// Its byte offset.
-        offset: usize,
-        /// What is wrong.
-        what: String,
-    },
-    /// The header's numbers do not make a valid height map.
-    #[error("{0}")]
-    Map(HeightMapError),
-}
+/// What is wrong with a OPD file: the binary readers' one error type.
+pub type OpdError = crate::format_error::FormatError;
 
 const HEIGHT_ARRAYS: [&str; 5] = ["RAW DATA", "RAW_DATA", "OPD", "Raw", "SAMPLE_DATA"];
 const ENTRY: usize = 24;
@@ -117,7 +87,7 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
     let i32_at = |a: usize| i32_le(bytes, a);
     let dir_len = i32_at(20);
     if dir_len < ENTRY as i32 || !(dir_len as usize).is_multiple_of(ENTRY) {
-        return Err(OpdError::Bad {
+        return Err(OpdError::Block {
             block: "Directory".into(),
             offset: 2,
             what: format!("length {dir_len} is not a positive multiple of {ENTRY} bytes"),
@@ -142,8 +112,8 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
         let kind = i16_le(bytes, e + 16);
         let len = i32_at(e + 18);
         if len < 0 {
-            return Err(OpdError::Bad {
-                block,
+            return Err(OpdError::Block {
+                block: block.into(),
                 offset: e,
                 what: format!("length {len} is negative"),
             });
@@ -159,8 +129,8 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
         match (kind, len) {
             (3, _) => {
                 if len < 6 {
-                    return Err(OpdError::Bad {
-                        block,
+                    return Err(OpdError::Block {
+                        block: block.into(),
                         offset: pos,
                         what: format!(
                             "an array block of {len} bytes has no room for its 6-byte size"
@@ -170,8 +140,8 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
                 let u = |a: usize| usize::from(u16_le(p, a));
                 let (nx, ny, item) = (u(0), u(2), u(4));
                 if !matches!(item, 1 | 2 | 4) || nx == 0 || ny == 0 {
-                    return Err(OpdError::Bad {
-                        block,
+                    return Err(OpdError::Block {
+                        block: block.into(),
                         offset: pos,
                         what: format!(
                             "array {nx} x {ny} of {item}-byte items: expected sizes > 0 and an item size of 1, 2 or 4"
@@ -179,8 +149,8 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
                     });
                 }
                 if (len - 6) < nx * ny * item {
-                    return Err(OpdError::Bad {
-                        block,
+                    return Err(OpdError::Block {
+                        block: block.into(),
                         offset: pos,
                         what: format!(
                             "block length {len} is less than 6 + {nx} x {ny} x {item} bytes"
@@ -214,7 +184,7 @@ fn parse(bytes: &[u8]) -> Result<File, OpdError> {
     file.arrays
         .sort_by_key(|a| !HEIGHT_ARRAYS.contains(&a.name.as_str()));
     if file.arrays.is_empty() {
-        return Err(OpdError::Bad {
+        return Err(OpdError::Block {
             block: "Directory".into(),
             offset: 2,
             what: "the file holds no array block".into(),
@@ -262,7 +232,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let f = parse(bytes)?;
     let index = options.channel.unwrap_or(0);
     let Some(a) = f.arrays.get(index) else {
-        return Err(OpdError::Bad {
+        return Err(OpdError::Block {
             block: "Directory".into(),
             offset: 2,
             what: format!(
@@ -275,14 +245,14 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         ValueKind::Intensity => 1.0,
         ValueKind::Height => {
             if !HEIGHT_ARRAYS.contains(&a.name.as_str()) {
-                return Err(OpdError::Bad {
-                    block: a.name.clone(),
+                return Err(OpdError::Block {
+                    block: a.name.clone().into(),
                     offset: a.data - 6,
                     what: "is not a height array (RAW DATA, RAW_DATA, OPD, Raw, SAMPLE_DATA); read it as an intensity map".into(),
                 });
             }
             let Some(w) = f.number("Wavelength").filter(|w| w.is_finite() && *w > 0.0) else {
-                return Err(OpdError::Bad {
+                return Err(OpdError::Block {
                     block: "Wavelength".into(),
                     offset: 2,
                     what: "is missing or not > 0, so the heights (in waves) cannot be scaled"
@@ -291,7 +261,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             };
             let mult = f.number("Mult").unwrap_or(1.0);
             if !(mult.is_finite() && mult != 0.0) {
-                return Err(OpdError::Bad {
+                return Err(OpdError::Block {
                     block: "Mult".into(),
                     offset: 2,
                     what: format!("= {mult}: expected a non-zero divisor"),
@@ -304,7 +274,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let (dx, dy) = match (pitch_um(&f), options.pixel_um) {
         (_, Some(p)) | (Some(p), None) => p,
         (None, None) => {
-            return Err(OpdError::Bad {
+            return Err(OpdError::Block {
                 block: "Pixel_size".into(),
                 offset: 2,
                 what: "is missing or not > 0; give the pixel pitch (--pixel-um)".into(),

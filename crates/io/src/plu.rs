@@ -37,53 +37,13 @@
 //! layer, and the first layer's size equal to the calibration's `xres × yres`; a file
 //! shorter than the header that starts with such a date scores 30 (a truncated PLU file).
 
-use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
-use thiserror::Error;
+use flakescatter_stats::heightmap::HeightMap;
 
 use crate::bytes::{f32_le, u32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 
-/// What is wrong with a PLU file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum PluError {
-    /// The file ends before a block does.
-    #[error(
-        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
-    )]
-    Truncated {
-        /// What was being read.
-        what: String,
-        /// Byte offset where it starts.
-        offset: usize,
-        /// Bytes it needs.
-        needed: u64,
-        /// File length.
-        end: usize,
-    },
-    /// A header field has an unusable value.
-    #[error("header field {field} (byte {offset}) = {value}: expected {expected}")]
-    BadField {
-        /// The field.
-        field: &'static str,
-        /// Its byte offset.
-        offset: usize,
-        /// The value found.
-        value: String,
-        /// What was expected.
-        expected: &'static str,
-    },
-    /// A channel was read as the other kind of values (heights / intensity).
-    #[error("channel {channel} holds {what}")]
-    NotThisKind {
-        /// The channel's name.
-        channel: String,
-        /// What it holds, and what to do.
-        what: &'static str,
-    },
-    /// The header's numbers do not make a valid height map.
-    #[error("{0}")]
-    Map(HeightMapError),
-}
+/// What is wrong with a PLU file: the binary readers' one error type.
+pub type PluError = crate::format_error::FormatError;
 
 const HEADER: usize = 500;
 const NOT_MEASURED: f32 = 1_000_001.0;
@@ -178,7 +138,7 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
     }
     let kind = u32_le(bytes, 428);
     if kind != 3 {
-        return Err(PluError::BadField {
+        return Err(PluError::Field {
             field: "measurement type",
             offset: 428,
             value: kind.to_string(),
@@ -190,7 +150,7 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
         if v.is_finite() && v > 0.0 {
             Ok(v)
         } else {
-            Err(PluError::BadField {
+            Err(PluError::Field {
                 field,
                 offset,
                 value: v.to_string(),
@@ -203,7 +163,7 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
     let n_layers = bytes[489];
     let images = u64::from(bytes[492]);
     if n_layers == 0 {
-        return Err(PluError::BadField {
+        return Err(PluError::Field {
             field: "number of layers",
             offset: 489,
             value: "0".into(),
@@ -223,7 +183,7 @@ fn header(bytes: &[u8]) -> Result<Header, PluError> {
         }
         let (ny, nx) = (u32_le(bytes, at), u32_le(bytes, at + 4));
         if nx == 0 || ny == 0 {
-            return Err(PluError::BadField {
+            return Err(PluError::Field {
                 field: "layer size",
                 offset: at,
                 value: format!("{nx} x {ny}"),
@@ -294,7 +254,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let all = entries(&h);
     let index = options.channel.unwrap_or(0);
     let Some(entry) = all.get(index) else {
-        return Err(PluError::BadField {
+        return Err(PluError::Field {
             field: "number of layers",
             offset: 489,
             value: h.layers.len().to_string(),
@@ -326,13 +286,13 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
             (*layer, name.clone(), z)
         }
         (Entry::Heights(i, _), ValueKind::Intensity) => {
-            return Err(PluError::NotThisKind {
+            return Err(PluError::ChannelHolds {
                 channel: format!("layer{i}"),
                 what: "heights (µm), not an intensity image; the images are the channels image0, ...",
             });
         }
         (Entry::Image(name, _, _), ValueKind::Height) => {
-            return Err(PluError::NotThisKind {
+            return Err(PluError::ChannelHolds {
                 channel: name.clone(),
                 what: "an intensity image (a.u.), not heights; read it as the intensity map (--intensity-channel)",
             });

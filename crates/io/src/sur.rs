@@ -31,48 +31,14 @@
 //! and Gwyddion do not add it, and surfalize adds it in the wrong unit (see the test).
 //! Each object is one channel, named by its z name. Metadata keys `sur.*`.
 
-use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
-use thiserror::Error;
+use flakescatter_stats::heightmap::HeightMap;
 
 use crate::bytes::{f32_le, i16_le, i32_le};
 use crate::reader::{Channel, Confidence, ReadOptions, ValueKind};
 use crate::units::length_unit_exponent;
 
-/// What is wrong with a SUR file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum SurError {
-    /// The file ends before a block does.
-    #[error(
-        "file is truncated: {what} at byte {offset} needs {needed} bytes, the file ends at byte {end}"
-    )]
-    Truncated {
-        /// What was being read.
-        what: String,
-        /// Byte offset where it starts.
-        offset: usize,
-        /// Bytes it needs.
-        needed: u64,
-        /// File length.
-        end: usize,
-    },
-    /// A header field has an unusable value.
-    #[error("object {object}, header field {field} (byte {offset}) = {value}: expected {expected}")]
-    BadField {
-        /// 0-based object.
-        object: usize,
-        /// The field.
-        field: &'static str,
-        /// Its byte offset in the file.
-        offset: usize,
-        /// The value found.
-        value: String,
-        /// What was expected.
-        expected: &'static str,
-    },
-    /// The header's numbers do not make a valid height map.
-    #[error("{0}")]
-    Map(HeightMapError),
-}
+/// What is wrong with a SUR file: the binary readers' one error type.
+pub type SurError = crate::format_error::FormatError;
 
 const HEADER: usize = 512;
 
@@ -125,7 +91,7 @@ fn objects(bytes: &[u8]) -> Result<Vec<Object>, SurError> {
         let h = &bytes[at..at + HEADER];
         let i16_at = |a: usize| i16_le(h, a);
         let i32_at = |a: usize| i32_le(h, a);
-        let bad = |field, a: usize, value: String, expected| SurError::BadField {
+        let bad = |field, a: usize, value: String, expected| SurError::ObjectField {
             object: k,
             field,
             offset: at + a,
@@ -197,7 +163,7 @@ fn step_um(
 ) -> Result<f64, SurError> {
     let s = f64::from(f32_le(b, o.at + spacing));
     let u = text(&b[o.at + unit..o.at + unit + 16]);
-    let e = length_unit_exponent(&u).ok_or_else(|| SurError::BadField {
+    let e = length_unit_exponent(&u).ok_or_else(|| SurError::ObjectField {
         object: k,
         field,
         offset: o.at + unit,
@@ -208,7 +174,7 @@ fn step_um(
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(SurError::BadField {
+        Err(SurError::ObjectField {
             object: k,
             field,
             offset: o.at + spacing,
@@ -260,7 +226,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
     let all = objects(bytes)?;
     let k = options.channel.unwrap_or(0);
     let Some(o) = all.get(k) else {
-        return Err(SurError::BadField {
+        return Err(SurError::ObjectField {
             object: 0,
             field: "number of objects",
             offset: 14,
@@ -284,7 +250,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         ValueKind::Intensity => sz,
         ValueKind::Height => {
             let u = text(&h[212..228]);
-            let e = length_unit_exponent(&u).ok_or_else(|| SurError::BadField {
+            let e = length_unit_exponent(&u).ok_or_else(|| SurError::ObjectField {
                 object: k,
                 field: "step unit of z",
                 offset: o.at + 212,
@@ -300,7 +266,7 @@ pub fn read(bytes: &[u8], options: &ReadOptions, kind: ValueKind) -> Result<Heig
         }
     };
     if !(scale.is_finite() && scale != 0.0) {
-        return Err(SurError::BadField {
+        return Err(SurError::ObjectField {
             object: k,
             field: "spacing z",
             offset: o.at + 128,
