@@ -26,6 +26,21 @@ pub struct Coating {
     pub flake: FlakeReflectance,
 }
 
+impl Coating {
+    /// A coating whose clear-coat index is checked (finite, ≥ 1): the one constructor
+    /// the command line, Python and the `analyze` manifest use (a caller names its own
+    /// setting in front of the message).
+    ///
+    /// # Errors
+    /// [`crate::checks::SettingError::CoatIndex`].
+    pub fn new(n: f64, flake: FlakeReflectance) -> Result<Self, crate::checks::SettingError> {
+        Ok(Self {
+            n: crate::checks::coat_index(n)?,
+            flake,
+        })
+    }
+}
+
 impl Default for Coating {
     fn default() -> Self {
         Self {

@@ -268,7 +268,6 @@ pub fn coating_with_stack(
             return Ok(c);
         }
     }
-    flakescatter::checks::coat_index(n).map_err(|e| input(py, format!("n={e}")))?;
     let flake = match flake_index {
         None => FlakeReflectance::PerfectConductor,
         Some((nf, k)) => FlakeReflectance::complex(nf, k).map_err(|e| {
@@ -278,7 +277,7 @@ pub fn coating_with_stack(
             )
         })?,
     };
-    Ok(Coating { n, flake })
+    Coating::new(n, flake).map_err(|e| input(py, format!("n={e}")))
 }
 
 /// Model settings from the keyword names (the CLI's values).

@@ -50,7 +50,6 @@ pub struct OpticsArgs {
 impl OpticsArgs {
     /// The coating these flags describe.
     pub fn coating(&self) -> anyhow::Result<Coating> {
-        flakescatter::checks::coat_index(self.n).map_err(|e| anyhow::anyhow!("--n {e}"))?;
         let flake = match &self.flake_index {
             None => FlakeReflectance::PerfectConductor,
             Some(s) => {
@@ -67,7 +66,7 @@ impl OpticsArgs {
                 }
             }
         };
-        Ok(Coating { n: self.n, flake })
+        Coating::new(self.n, flake).map_err(|e| anyhow::anyhow!("--n {e}"))
     }
 
     /// The model settings, with the clear coat's reflection on or off.

@@ -66,14 +66,12 @@ pub(super) fn segment_params(m: &Manifest) -> SegmentParams {
 }
 
 pub(super) fn coating_of(m: &Manifest) -> Result<Coating, String> {
-    Ok(Coating {
-        n: m.coating.n,
-        flake: match m.coating.flake_index {
-            None => FlakeReflectance::PerfectConductor,
-            Some([n, k]) => FlakeReflectance::complex(n, k)
-                .map_err(|e| format!("key `coating.flake_index`: {e}"))?,
-        },
-    })
+    let flake = match m.coating.flake_index {
+        None => FlakeReflectance::PerfectConductor,
+        Some([n, k]) => FlakeReflectance::complex(n, k)
+            .map_err(|e| format!("key `coating.flake_index`: {e}"))?,
+    };
+    Coating::new(m.coating.n, flake).map_err(|e| format!("key `coating.n`: {e}"))
 }
 
 /// The instrument of the models: the manifest's incidences (default the measured
