@@ -468,3 +468,89 @@ fn the_reports_pooled_width_is_stats() {
     assert_eq!(strip(&report["maps"]), strip(&stats["maps"]));
     assert_eq!(report["maps"].as_array().unwrap().len(), 2);
 }
+
+/// Interference flakes in a manifest (`[coating] flake_stack`, `wavelength_nm`): the
+/// report's distribution model of the pooled width is `model --flake-stack S
+/// --wavelengths W --hwhm H --clearcoat` at the report's own width and geometry (the
+/// same flake reached through the flags instead of the manifest), and a bad stack, a
+/// stack without a wavelength or beside `flake_index` is refused naming the key.
+#[test]
+fn a_manifest_takes_interference_flakes() {
+    let d = scratch("analyze", "stack");
+    let map = fixtures().join("synth-hwhm6-rough.height.x3p");
+    let manifest = |coating: &str| {
+        let p = d.join("m.toml");
+        std::fs::write(
+            &p,
+            format!(
+                "[maps]\nfiles = [\"{}\"]\nintensity_suffix = \".intensity\"\ncutoff = 0.49\n[models]\nfit = false\n[coating]\n{coating}",
+                map.display().to_string().replace('\\', "/")
+            ),
+        )
+        .unwrap();
+        p
+    };
+    let stack = "TiO2:125/mica:400/TiO2:125";
+    let out = d.join("report");
+    let summary = analyze(
+        &manifest(&format!("flake_stack = \"{stack}\"\nwavelength_nm = 550\n")),
+        &out,
+    );
+    let hwhm = summary["statistics"]["hwhm_deg"].as_f64().unwrap();
+    let o = run(&[
+        "model",
+        "--flake-stack",
+        stack,
+        "--wavelengths",
+        "550",
+        "--hwhm",
+        &hwhm.to_string(),
+        "--theta-i",
+        "30,60",
+        "--theta-s=-70:70:0.5",
+        "--clearcoat",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let model = String::from_utf8(o.stdout).unwrap();
+    let curves = std::fs::read_to_string(out.join("curves.csv")).unwrap();
+    let report: Vec<f64> = curves
+        .lines()
+        .filter(|l| l.starts_with("distribution (pooled width),"))
+        .map(|l| l.split(',').nth(4).unwrap().parse().unwrap())
+        .collect();
+    let flags: Vec<f64> = model
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(5).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(report.len(), 562);
+    assert_eq!(report.len(), flags.len());
+    for (a, b) in report.iter().zip(&flags) {
+        assert!((a - b).abs() <= 1e-12 * b.abs(), "{a} vs {b}");
+    }
+    for (coating, key) in [
+        (
+            format!("flake_stack = \"{stack}\"\n"),
+            "coating.wavelength_nm",
+        ),
+        (
+            "flake_stack = \"TiO2:-5\"\nwavelength_nm = 550\n".to_string(),
+            "coating.flake_stack",
+        ),
+        (
+            format!("flake_stack = \"{stack}\"\nwavelength_nm = 550\nflake_index = [1.0, 6.0]\n"),
+            "coating.flake_stack",
+        ),
+        ("wavelength_nm = 550\n".to_string(), "coating.wavelength_nm"),
+    ] {
+        let o = run(&[
+            "analyze",
+            s(&manifest(&coating)),
+            "--out",
+            s(&d.join("bad")),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{coating}");
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains(key), "{coating}: {e}");
+    }
+}

@@ -66,10 +66,15 @@ pub(super) fn segment_params(m: &Manifest) -> SegmentParams {
 }
 
 pub(super) fn coating_of(m: &Manifest) -> Result<Coating, String> {
-    let flake = match m.coating.flake_index {
-        None => FlakeReflectance::PerfectConductor,
-        Some([n, k]) => FlakeReflectance::complex(n, k)
+    let c = &m.coating;
+    let flake = match (c.flake_index, &c.flake_stack, c.wavelength_nm) {
+        (Some([n, k]), _, _) => FlakeReflectance::complex(n, k)
             .map_err(|e| format!("key `coating.flake_index`: {e}"))?,
+        (None, Some(stack), Some(wl)) => {
+            crate::film::stack_flake(stack, c.flake_core.as_deref(), wl)
+                .map_err(|e| format!("key `coating.flake_stack`: {e}"))?
+        }
+        _ => FlakeReflectance::PerfectConductor,
     };
     Coating::new(m.coating.n, flake).map_err(|e| format!("key `coating.n`: {e}"))
 }

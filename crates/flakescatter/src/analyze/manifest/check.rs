@@ -182,6 +182,50 @@ fn check_coating(c: &CoatingSection, file: &str) -> Result<(), ManifestError> {
             format!("[{n}, {k}]: not a usable complex index"),
         );
     }
+    match (
+        &c.flake_stack,
+        c.flake_index,
+        &c.flake_core,
+        c.wavelength_nm,
+    ) {
+        (None, _, Some(_), _) => {
+            return bad(
+                "coating.flake_core",
+                "a core is the core of a `flake_stack`; give the stack".into(),
+            );
+        }
+        (None, _, _, Some(_)) => {
+            return bad(
+                "coating.wavelength_nm",
+                "the wavelength of a `flake_stack`; without a stack the models are monochromatic and need none".into(),
+            );
+        }
+        (Some(_), Some(_), _, _) => {
+            return bad(
+                "coating.flake_stack",
+                "give `flake_index` or `flake_stack`, not both".into(),
+            );
+        }
+        (Some(_), None, _, None) => {
+            return bad(
+                "coating.wavelength_nm",
+                "needed with `flake_stack`: a stack reflects differently at every wavelength (nm)"
+                    .into(),
+            );
+        }
+        (Some(stack), None, core, Some(wl)) => {
+            if let Err(e) = crate::film::stack_flake(stack, core.as_deref(), wl) {
+                use crate::film::StackFlakeError as E;
+                let key = match e {
+                    E::Wavelength(_) => "coating.wavelength_nm",
+                    E::Core(_) => "coating.flake_core",
+                    E::Spec(_) | E::AtWavelength(_) => "coating.flake_stack",
+                };
+                return bad(key, e.to_string());
+            }
+        }
+        (None, _, None, None) => {}
+    }
     Ok(())
 }
 

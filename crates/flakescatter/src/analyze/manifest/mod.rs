@@ -258,7 +258,7 @@ impl Default for InstrumentSection {
 }
 
 /// `[coating]`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CoatingSection {
     /// Clear-coat refractive index (default 1.5).
@@ -267,6 +267,16 @@ pub struct CoatingSection {
     /// Complex flake index `[n, k]` (default a perfect conductor).
     #[serde(default)]
     pub flake_index: Option<[f64; 2]>,
+    /// Interference flakes: a thin-film stack, `"TiO2:120/mica:400"` (physics.md §13),
+    /// at `wavelength_nm`, instead of `flake_index`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flake_stack: Option<String>,
+    /// An opaque core under the stack's layers (a material name or `n+ki`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flake_core: Option<String>,
+    /// The vacuum wavelength, nm, at which the stack reflects (needed with `flake_stack`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wavelength_nm: Option<f64>,
 }
 
 fn default_n() -> f64 {
@@ -278,6 +288,9 @@ impl Default for CoatingSection {
         Self {
             n: default_n(),
             flake_index: None,
+            flake_stack: None,
+            flake_core: None,
+            wavelength_nm: None,
         }
     }
 }
