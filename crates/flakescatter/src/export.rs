@@ -101,7 +101,9 @@ impl SpectralSource {
             flakescatter_colour::Illuminant::D65,
             flakescatter_colour::Observer::Cie1931TwoDegree,
         )
-        .map_err(|e| PipelineError::Spectral(format!("--wavelengths for sRGB: {e}")))?;
+        .map_err(|e| {
+            PipelineError::Spectral(format!("the wavelengths of the sRGB conversion: {e}"))
+        })?;
         // Σ W_ȳ = 100 for the white: XYZ per unit BRDF at wavelength i is W_i / 100.
         let weights: Vec<[f64; 3]> = tw
             .weights()

@@ -5,6 +5,7 @@ one of 6 degrees (fixtures/README.md: how they were drawn), each get a sphere wh
 highlight is larger for the wider distribution, the batch report puts them side by side,
 and a rerun takes both from the report's cache. Needs Mitsuba (the render extra)."""
 
+import json
 import os
 import pathlib
 import subprocess
@@ -68,6 +69,9 @@ def test_analyze_renders_previews_side_by_side_and_reuses_them(tmp_path, cli_bin
     small = highlight_pixels(out / "smooth3" / "preview.png")
     large = highlight_pixels(out / "rough6" / "preview.png")
     assert large > 1.5 * small, (small, large)
+    summary = json.loads((out / "rough6" / "summary.json").read_text())
+    assert summary["preview"]["png"] == "preview.png"
+    assert "preview.png" in summary["files"] and "cache/preview.json" in summary["files"]
     side = luminance(out / "previews.png")
     assert side.shape == (192, 2 * 192 + 8)
     assert "Left to right: smooth3, rough6" in (out / "index.md").read_text()
@@ -91,6 +95,9 @@ def test_analyze_without_a_renderer_says_why(tmp_path, cli_bin):
     assert "No preview: rendering needs the Python package with Mitsuba 3" in md
     assert "no-such-python cannot be run" in md
     assert not (out / "preview.png").exists()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["preview"]["png"] is None
+    assert "no-such-python cannot be run" in summary["preview"]["note"]
     r = subprocess.run([str(cli_bin), "analyze", str(a), "--out", str(out), "--no-preview"],
                        env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr

@@ -97,6 +97,7 @@ fn check(args: &Args) -> anyhow::Result<Option<Vec<f64>>> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
     args.source.inputs(&mut plan);
+    args.spectral.inputs(&mut plan);
     if let Some(p) = &args.params {
         plan.input("--params", p);
     }

@@ -234,6 +234,12 @@ fn render(
     let mut images: Vec<(String, Vec<u8>)> = Vec::new();
     let mut document = report.document.clone();
     document.blocks.extend(shown.blocks);
+    // The summary lists the preview's files too, and says what the picture shows.
+    let mut summary = report.summary.clone();
+    summary["preview"] = shown.summary;
+    if let Some(list) = summary["files"].as_array_mut() {
+        list.extend(shown.files.iter().map(|(p, _)| json!(p)));
+    }
     for (path, bytes) in shown.files {
         if path.ends_with(".png") {
             images.push((path.clone(), bytes.clone()));
@@ -243,6 +249,9 @@ fn render(
     for f in &report.files {
         let target = dir.join(&f.path).display().to_string();
         let bytes = match &f.content {
+            Content::Text(_) if f.path == "summary.json" => {
+                (serde_json::to_string_pretty(&summary)? + "\n").into_bytes()
+            }
             Content::Text(t) => t.clone().into_bytes(),
             Content::Chart(c) => crate::plot::png(c, &target)?,
             Content::Overlay(o, title) => crate::picture::overlay_png(o, title, &target)?,
@@ -451,6 +460,9 @@ struct Shown {
     files: Vec<(String, Vec<u8>)>,
     blocks: Vec<Block>,
     png: Option<Vec<u8>>,
+    /// `summary.json`'s `"preview"`: the picture, the model and the renderer, or why
+    /// there is none (`null` with `--no-preview`).
+    summary: serde_json::Value,
 }
 
 /// The preview section of a report (module `preview`): the cached or newly rendered
@@ -465,14 +477,19 @@ fn show_preview(
     let mut blocks = vec![Block::Heading(2, "Preview".into())];
     let note = |why: String| Shown {
         files: Vec::new(),
-        blocks: vec![Block::Heading(2, "Preview".into()), Block::Para(why)],
+        blocks: vec![
+            Block::Heading(2, "Preview".into()),
+            Block::Para(why.clone()),
+        ],
         png: None,
+        summary: json!({"png": null, "note": why}),
     };
     let Some(renderer) = renderer else {
         return Shown {
             files: Vec::new(),
             blocks: Vec::new(),
             png: None,
+            summary: serde_json::Value::Null,
         };
     };
     let Some(model) = &report.preview else {
@@ -515,6 +532,12 @@ fn show_preview(
         ],
         blocks,
         png: Some(png),
+        summary: json!({
+            "png": "preview.png",
+            "model": model.describe(),
+            "renderer": r.identity(),
+            "light": "a sun of irradiance 1 from 45° off the view (up left) and a uniform sky of radiance 0.05 (flakescatter.mitsuba.render_preview)",
+        }),
     }
 }
 
