@@ -78,6 +78,28 @@ fn round_trip_is_bit_exact_and_windows_are_slices() {
             }
         }
     }
+    // Only the chunks a window touches are read: with the bottom-right chunk [2, 2]
+    // replaced by bytes that do not decode, a window inside chunks [0..2, 0..2] still
+    // reads, and one reaching into chunk [2, 2] (or the whole map) is refused.
+    let last = store.join("height/c/2/2");
+    let kept = std::fs::read(&last).unwrap();
+    std::fs::write(&last, b"not zstd").unwrap();
+    let inside = opened.read_window(0, 0, 6, 8).unwrap();
+    assert_eq!(bits(&inside[..8]), bits(&z[..8]));
+    for (y0, x0, h, w) in [(6, 8, 1, 1), (0, 0, ny, nx), (5, 7, 2, 2)] {
+        let e = opened.read_window(y0, x0, h, w).unwrap_err();
+        assert!(
+            matches!(
+                e.problem,
+                ZarrProblem::Array {
+                    array: "height",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+    std::fs::write(&last, kept).unwrap();
     let m = opened.read_window_map(2, 3, 4, 5).unwrap();
     assert_eq!((m.nx(), m.ny(), m.dx(), m.dy()), (5, 4, 0.18, 0.25));
     // Outside the map, or empty: refused, naming the window.
