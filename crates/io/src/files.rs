@@ -30,12 +30,36 @@ pub enum ReadFileError {
 }
 
 /// The SHA-256 of the bytes of `path` as 64 lower-case hexadecimal digits, read in
-/// blocks of 64 KiB (memory stays small for large maps and stacks).
+/// blocks of 64 KiB (memory stays small for large maps and stacks). For a directory (a
+/// Zarr store), the SHA-256 of its files in name order, each as its `/`-separated
+/// relative path, a 0 byte, its length (8 bytes, little-endian) and its bytes: equal
+/// for two directories holding the same files.
 ///
 /// # Errors
 /// [`ReadFileError::Io`] naming the file.
 pub fn sha256_file(path: impl AsRef<Path>) -> Result<String, ReadFileError> {
     let path = path.as_ref();
+    let mut hasher = Sha256::new();
+    if path.is_dir() {
+        let io = |source| ReadFileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        for (rel, file) in tree_files(path).map_err(io)? {
+            let len = std::fs::metadata(&file).map_err(io)?.len();
+            hasher.update(rel.as_bytes());
+            hasher.update([0u8]);
+            hasher.update(len.to_le_bytes());
+            hash_into(&file, &mut hasher)?;
+        }
+    } else {
+        hash_into(path, &mut hasher)?;
+    }
+    Ok(hex(&hasher.finalize()))
+}
+
+/// Feeds the bytes of the file `path` to `hasher`.
+fn hash_into(path: &Path, hasher: &mut Sha256) -> Result<(), ReadFileError> {
     let io = |source| ReadFileError::Io {
         path: path.to_path_buf(),
         source,
@@ -43,16 +67,41 @@ pub fn sha256_file(path: impl AsRef<Path>) -> Result<String, ReadFileError> {
     let mut file = std::fs::File::open(path)
         .map_err(|e| explain_open_error(path, e))
         .map_err(io)?;
-    let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 16];
     loop {
         let n = file.read(&mut buf).map_err(io)?;
         if n == 0 {
-            break;
+            return Ok(());
         }
         hasher.update(&buf[..n]);
     }
-    Ok(hex(&hasher.finalize()))
+}
+
+/// The files under the directory `dir` (links followed), as (`/`-separated relative
+/// path, path), in name order.
+fn tree_files(dir: &Path) -> std::io::Result<Vec<(String, PathBuf)>> {
+    fn walk(dir: &Path, rel: &str, out: &mut Vec<(String, PathBuf)>) -> std::io::Result<()> {
+        let mut entries: Vec<_> = std::fs::read_dir(dir)?.collect::<Result<_, _>>()?;
+        entries.sort_by_key(std::fs::DirEntry::file_name);
+        for e in entries {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let rel = if rel.is_empty() {
+                name
+            } else {
+                format!("{rel}/{name}")
+            };
+            let path = e.path();
+            if path.is_dir() {
+                walk(&path, &rel, out)?;
+            } else {
+                out.push((rel, path));
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, "", &mut out)?;
+    Ok(out)
 }
 
 /// The SHA-256 of `bytes` as 64 lower-case hexadecimal digits.
@@ -151,10 +200,19 @@ pub fn list_dir(dir: impl AsRef<Path>) -> std::io::Result<Vec<PathBuf>> {
 }
 
 /// The length in bytes of the file `path` (links followed), or `None` when it cannot be
-/// read.
+/// read; for a directory (a Zarr store), the total length of the files under it.
 #[must_use]
 pub fn file_len(path: impl AsRef<Path>) -> Option<u64> {
-    std::fs::metadata(path.as_ref()).ok().map(|m| m.len())
+    let path = path.as_ref();
+    let meta = std::fs::metadata(path).ok()?;
+    if !meta.is_dir() {
+        return Some(meta.len());
+    }
+    tree_files(path)
+        .ok()?
+        .iter()
+        .map(|(_, p)| std::fs::metadata(p).ok().map(|m| m.len()))
+        .sum()
 }
 
 /// The text of `path` (UTF-8; a leading byte-order mark is dropped).
@@ -217,6 +275,43 @@ mod tests {
                 .contains("missing.toml")
         );
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn directories_hash_their_files_by_name_and_content() {
+        let dir = tempfile_dir("dirs");
+        let (a, b) = (dir.join("a.zarr"), dir.join("b.zarr"));
+        for d in [&a, &b] {
+            std::fs::create_dir_all(d.join("height/c")).unwrap();
+            std::fs::write(d.join("zarr.json"), b"{}").unwrap();
+            std::fs::write(d.join("height/c/0"), b"12345").unwrap();
+        }
+        assert_eq!(file_len(&a), Some(7));
+        // The hash of the files as documented, computed here from the bytes.
+        let mut want = Vec::new();
+        for (rel, bytes) in [("height/c/0", &b"12345"[..]), ("zarr.json", &b"{}"[..])] {
+            want.extend_from_slice(rel.as_bytes());
+            want.push(0);
+            want.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
+            want.extend_from_slice(bytes);
+        }
+        assert_eq!(sha256_file(&a).unwrap(), sha256_bytes(&want));
+        assert_eq!(sha256_file(&a).unwrap(), sha256_file(&b).unwrap());
+        // One byte of one chunk changed, or a file renamed: another hash.
+        std::fs::write(b.join("height/c/0"), b"12346").unwrap();
+        assert_ne!(sha256_file(&a).unwrap(), sha256_file(&b).unwrap());
+        std::fs::write(b.join("height/c/0"), b"12345").unwrap();
+        std::fs::rename(b.join("height/c/0"), b.join("height/c/1")).unwrap();
+        assert_ne!(sha256_file(&a).unwrap(), sha256_file(&b).unwrap());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    fn tempfile_dir(what: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("flakescatter-io-{what}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
     }
 
     #[cfg(unix)]

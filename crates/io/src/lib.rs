@@ -59,6 +59,7 @@ pub mod table;
 pub mod text;
 pub mod units;
 pub mod x3p;
+pub mod zarr;
 
 pub use channel::{ChannelError, ChannelSelector, describe_channels};
 pub use map::{

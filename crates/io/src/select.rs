@@ -115,10 +115,7 @@ pub fn read_selected(
 ) -> Result<SelectedRead, ReadMapError> {
     let path = path.as_ref();
     let mut buf = Vec::new();
-    let mut source = Source::open(path, &mut buf).map_err(|source| ReadMapError::Io {
-        path: path.to_path_buf(),
-        source: crate::files::explain_open_error(path, source),
-    })?;
+    let mut source = Source::open_path(path, &mut buf)?;
     read_selected_from(&mut source, options, channel, intensity).map_err(|error| {
         ReadMapError::Format {
             path: path.to_path_buf(),

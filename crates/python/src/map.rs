@@ -353,8 +353,10 @@ impl From<ReadMapError> for ReadFail {
 
 /// Writes a map as X3P (`.x3p`: heights in metres, float64, `valid.bin` for invalid
 /// points), SDF (`.sdf`: ISO 25178-71 text, `aISO-1.0`, the shortest decimals that read
-/// back to the same heights, `BAD` for invalid points) or plain text (`.txt`: µm with
-/// pitch header lines); `format` (`"x3p"`, `"sdf"` or `"text"`) overrides the extension.
+/// back to the same heights, `BAD` for invalid points), plain text (`.txt`: µm with
+/// pitch header lines) or a Zarr v3 store (`.zarr`: a directory, missing or empty, with
+/// the float64 `height` array in µm, NaN at invalid points; docs/formats.md); `format`
+/// (`"x3p"`, `"sdf"`, `"text"` or `"zarr"`) overrides the extension.
 #[pyfunction]
 #[pyo3(signature = (map, path, format = None))]
 pub fn write_map(
@@ -368,21 +370,23 @@ pub fn write_map(
         Some("x3p") => MapFormat::X3p,
         Some("sdf") => MapFormat::Sdf,
         Some("text") => MapFormat::Text,
+        Some("zarr") => MapFormat::Zarr,
         Some(f) => {
             return Err(input(
                 py,
-                format!("format={f:?}: expected \"x3p\", \"sdf\" or \"text\""),
+                format!("format={f:?}: expected \"x3p\", \"sdf\", \"text\" or \"zarr\""),
             ));
         }
         None => match path.extension().and_then(|e| e.to_str()) {
             Some(e) if e.eq_ignore_ascii_case("x3p") => MapFormat::X3p,
             Some(e) if e.eq_ignore_ascii_case("sdf") => MapFormat::Sdf,
             Some(e) if e.eq_ignore_ascii_case("txt") => MapFormat::Text,
+            Some(e) if e.eq_ignore_ascii_case("zarr") => MapFormat::Zarr,
             _ => {
                 return Err(input(
                     py,
                     format!(
-                        "path {}: a map is written as .x3p, .sdf or .txt (or give format=\"x3p\"/\"sdf\"/\"text\")",
+                        "path {}: a map is written as .x3p, .sdf, .txt or .zarr (or give format=\"x3p\"/\"sdf\"/\"text\"/\"zarr\")",
                         path.display()
                     ),
                 ));
@@ -395,6 +399,7 @@ pub fn write_map(
         WriteMapError::Io { .. } => to_py(py, Kind::File, &e),
         WriteMapError::Archive { .. } => to_py(py, Kind::File, &e),
         WriteMapError::Unsupported { .. } => to_py(py, Kind::Input, &e),
+        WriteMapError::Zarr(_) => to_py(py, Kind::File, &e),
     })
 }
 

@@ -15,7 +15,10 @@ use crate::errors::{Kind, input, raise, released, warn};
 
 /// A JSON value as Python objects (through the standard `json` module).
 fn to_python<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_string(v).map_err(|e| input(py, e.to_string()))?;
+    // Keys sorted, whatever serde_json's `preserve_order` (turned on by zarrs) keeps.
+    let mut v = v.clone();
+    v.sort_all_objects();
+    let text = serde_json::to_string(&v).map_err(|e| input(py, e.to_string()))?;
     py.import("json")?.call_method1("loads", (text,))
 }
 

@@ -1,6 +1,7 @@
 //! `flakescatter convert IN OUT`: reads a height map in any format `info` reads (X3P,
-//! SDF, text, the instrument formats; docs/formats.md) and writes it as X3P, SDF (text,
-//! `aISO-1.0`) or plain text, the output format taken from OUT's extension.
+//! SDF, text, the instrument formats, Zarr; docs/formats.md) and writes it as X3P, SDF
+//! (text, `aISO-1.0`), plain text or a Zarr v3 store (a directory, written whole and
+//! swapped in), the output format taken from OUT's extension.
 //!
 //! Heights, pitch and invalid points are kept exactly (X3P ↔ SDF round trip exact);
 //! of the metadata, what both formats hold (the SDF `ManufacID` and dates from `sdf.*`
@@ -18,13 +19,15 @@ use crate::maps::load_all;
 use crate::output::{Kind, Plan};
 
 /// Convert a height map between formats (the output format from OUT's extension:
-/// .x3p, .sdf or .txt).
+/// .x3p, .sdf, .txt or .zarr).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The map to read (any format `info` reads, recognised from its content).
     #[arg(value_name = "IN")]
     pub input: PathBuf,
-    /// The file to write: `.x3p` (ISO 25178-72), `.sdf` (ISO 25178-71, text) or `.txt`.
+    /// The file to write: `.x3p` (ISO 25178-72), `.sdf` (ISO 25178-71, text), `.txt`,
+    /// or `.zarr` (a Zarr v3 store: a directory, replaced only when empty or an earlier
+    /// output of `convert`).
     #[arg(value_name = "OUT")]
     pub output: PathBuf,
     /// Calibration and channel flags of the input.
@@ -40,7 +43,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut plan = Plan::new();
     plan.input("IN", &args.input);
-    plan.output("OUT", Some(&args.output), Kind::ConvertedMap);
+    plan.map_output("OUT", Some(&args.output), Kind::ConvertedMap, "convert");
     plan.check()?;
     let ext = args
         .output
@@ -50,6 +53,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let format = match ext.as_deref() {
         Some("sdf") => MapFormat::Sdf,
         Some("txt") => MapFormat::Text,
+        Some("zarr") => MapFormat::Zarr,
         _ => MapFormat::X3p,
     };
     let load = LoadOptions {
@@ -71,8 +75,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         format.name(),
         loaded.format
     );
-    plan.write_via_path(
+    plan.write_map_output(
+        "OUT",
         &args.output,
+        "convert",
         |tmp| {
             write_map(map, tmp, format)?;
             Ok(())

@@ -9,6 +9,11 @@ use flakescatter::inputs::{MapSource, SourceKind};
 
 use super::{MAP_EXTENSIONS, MAX_MAPS, Pairing, Repeats};
 
+/// Whether `p` is a Zarr store (a directory read as one map, [`flakescatter::io::zarr`]).
+fn is_store(p: &Path) -> bool {
+    flakescatter::io::zarr::is_store(p)
+}
+
 /// Whether a path segment is a glob pattern.
 fn is_pattern(s: &str) -> bool {
     s.contains(['*', '?', '['])
@@ -43,7 +48,9 @@ pub fn expand(
             _ => item.clone(),
         };
         let shown = path.display().to_string();
-        if path.is_dir() {
+        if is_store(&path) {
+            out.push(path);
+        } else if path.is_dir() {
             let mut found: Vec<PathBuf> = Vec::new();
             let entries = flakescatter::io::files::list_dir(&path)
                 .with_context(|| format!("{flag} {shown}: cannot list the directory"))?;
@@ -65,7 +72,7 @@ pub fn expand(
                 if let Some(why) = dangling(&p) {
                     bail!("{flag} {shown}: {why}; remove the link or restore its target");
                 }
-                if p.is_file() {
+                if p.is_file() || is_store(&p) {
                     found.push(p);
                 }
             }
@@ -102,7 +109,7 @@ pub fn expand(
                 if let Some(why) = dangling(&p) {
                     bail!("{flag} {shown}: {why}; remove the link or restore its target");
                 }
-                if p.is_file() {
+                if p.is_file() || is_store(&p) {
                     found.push(p);
                 }
             }
@@ -152,7 +159,7 @@ fn check_partner(map: &Path, partner: &Path, how: &str) -> anyhow::Result<()> {
     if let Some(why) = dangling(partner) {
         bail!("{}: its intensity map ({how}): {why}", map.display());
     }
-    if !partner.is_file() {
+    if !partner.is_file() && !is_store(partner) {
         bail!(
             "{}: its intensity map {} ({how}) does not exist",
             map.display(),

@@ -4,8 +4,10 @@
 //!
 //! **Which files are maps** (docs/cli.md "Several maps"): every `MAP` argument is a
 //! file, a directory or a glob pattern (`maps/*.x3p`, quoted so that the shell leaves
-//! it alone). A directory stands for its files (not its subdirectories) with a map or
-//! stack extension ([`MAP_EXTENSIONS`]: ISO, text, TIFF and instrument formats but `.dat`), in name order,
+//! it alone). A Zarr v3 store (a directory holding `zarr.json`, or named `*.zarr`) is
+//! one map. Any other directory stands for its files (not its subdirectories) and Zarr
+//! stores with a map or stack extension ([`MAP_EXTENSIONS`]: ISO, text, TIFF, Zarr and
+//! instrument formats but `.dat`), in name order,
 //! hidden files left out; with `--intensity-suffix` only those whose name carries the
 //! height suffix (`--height-suffix`, default `.height`) before the extension. A pattern
 //! stands for the files it matches, in name order. A directory or pattern that gives
@@ -35,11 +37,13 @@ pub use collect::{dangling, expand, pair};
 pub use load::load_all;
 
 /// Extensions of files taken from a directory as maps or stacks: the ISO formats, text
-/// matrices, TIFF stacks and the instrument formats with an extension of their own
+/// matrices, TIFF stacks, Zarr stores (`.zarr` directories) and the instrument formats
+/// with an extension of their own
 /// (MetroPro's `.dat` is also used for text and other data, so `.dat` files are named
 /// one by one or by a pattern such as `dir/*.dat`).
-pub const MAP_EXTENSIONS: [&str; 13] = [
+pub const MAP_EXTENSIONS: [&str; 14] = [
     "x3p", "sdf", "txt", "asc", "tif", "tiff", "gwy", "plu", "apx", "opd", "sur", "al3d", "frt",
+    "zarr",
 ];
 
 /// Largest number of maps one command reads.

@@ -55,11 +55,11 @@ impl Plan {
                     out.flag
                 ),
                 Kind::Map => bail!(
-                    "{} -: a map cannot go to stdout; give a file name ending in .x3p or .txt",
+                    "{} -: a map cannot go to stdout; give a file name ending in .x3p or .txt, or a Zarr store name ending in .zarr",
                     out.flag
                 ),
                 Kind::ConvertedMap => bail!(
-                    "{} -: a map cannot go to stdout; give a file name ending in .x3p, .sdf or .txt",
+                    "{} -: a map cannot go to stdout; give a file name ending in .x3p, .sdf or .txt, or a Zarr store name ending in .zarr",
                     out.flag
                 ),
                 Kind::Stack => bail!(
@@ -196,14 +196,14 @@ fn check_target(flag: &str, path: &Path, kind: Kind, dir: bool) -> anyhow::Resul
         Kind::Map => {
             if !matches!(ext.as_deref(), Some("x3p" | "txt")) {
                 bail!(
-                    "{flag} {shown}: a map file must end in .x3p (ISO 25178-72) or .txt (plain text)"
+                    "{flag} {shown}: a map file must end in .x3p (ISO 25178-72) or .txt (plain text), or name a Zarr v3 store ending in .zarr"
                 );
             }
         }
         Kind::ConvertedMap => {
             if !matches!(ext.as_deref(), Some("x3p" | "sdf" | "txt")) {
                 bail!(
-                    "{flag} {shown}: the output format is taken from the extension: .x3p (ISO 25178-72), .sdf (ISO 25178-71, text) or .txt (plain text)"
+                    "{flag} {shown}: the output format is taken from the extension: .x3p (ISO 25178-72), .sdf (ISO 25178-71, text), .txt (plain text) or .zarr (a Zarr v3 store, a directory)"
                 );
             }
         }

@@ -47,9 +47,9 @@ pub enum Kind {
     Table,
     /// A plot: `.svg` or `.png`.
     Plot,
-    /// A height or intensity map: `.x3p` or `.txt`.
+    /// A height or intensity map: `.x3p`, `.txt` or a `.zarr` store ([`Plan::map_output`]).
     Map,
-    /// A height map written by `convert`: `.x3p`, `.sdf` or `.txt`.
+    /// A height map written by `convert`: `.x3p`, `.sdf`, `.txt` or a `.zarr` store.
     ConvertedMap,
     /// A confocal z-stack: `.tif` or `.tiff` (multi-page TIFF).
     Stack,
@@ -156,6 +156,62 @@ impl Plan {
             kind: Kind::Table,
             owner: Some(owner.to_owned()),
         });
+    }
+
+    /// Registers a map output (`kind` [`Kind::Map`] or [`Kind::ConvertedMap`]): a file,
+    /// or, for a name ending in `.zarr`, a Zarr store: a directory owned by the command
+    /// `owner` ([`Plan::output_dir`]), so that it is written whole or not at all and
+    /// only an empty directory or an earlier store of the same command is replaced.
+    pub fn map_output(&mut self, flag: &str, path: Option<&Path>, kind: Kind, owner: &str) {
+        match path {
+            Some(p) if flakescatter::io::zarr::has_zarr_extension(p) => {
+                self.output_dir(flag, p, owner);
+            }
+            _ => {
+                self.output(flag, path, kind);
+            }
+        }
+    }
+
+    /// Writes a map output registered with [`Plan::map_output`] by a function that
+    /// writes the file or store at the path it is given: a temporary file renamed into
+    /// place, or, for a `.zarr` store, a temporary directory beside it swapped in by
+    /// [`Plan::finish`] (with the owner's marker listing every file written).
+    pub fn write_map_output(
+        &mut self,
+        flag: &str,
+        path: &Path,
+        owner: &str,
+        body: impl FnOnce(&Path) -> anyhow::Result<()>,
+        detail: Option<String>,
+    ) -> anyhow::Result<()> {
+        if !flakescatter::io::zarr::has_zarr_extension(path) {
+            return self.write_via_path(path, body, detail);
+        }
+        let name = path.display();
+        let stage = temp_dir_beside(&owned::real_target(path))?;
+        // The stage is empty: the store is written into it, then the marker beside.
+        body(stage.path()).map_err(|e| match e.downcast::<Failure>() {
+            Ok(f) => anyhow::Error::from(f),
+            Err(e) => anyhow::Error::from(Failure(format!("writing {name}: {e:#}"))),
+        })?;
+        let fail = |e: &dyn std::fmt::Display| {
+            anyhow::Error::from(Failure(format!("cannot write {name}: {e}")))
+        };
+        let files = owned::tree(stage.path())?
+            .into_iter()
+            .filter_map(|(rel, is_dir)| (!is_dir).then_some(rel))
+            .collect();
+        let marker = owned::Marker::new(owner, files, Vec::new());
+        std::fs::write(stage.path().join(owned::MARKER), marker.to_json()).map_err(|e| fail(&e))?;
+        self.staged_dirs.push(StagedDir {
+            stage,
+            target: path.to_path_buf(),
+            flag: flag.to_owned(),
+            owner: owner.to_owned(),
+        });
+        self.wrote(path, detail);
+        Ok(())
     }
 
     /// The table of a command whose table goes to stdout unless `--out FILE` or `--json`

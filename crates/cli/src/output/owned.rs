@@ -66,7 +66,7 @@ pub fn read_marker(dir: &Path) -> Option<Marker> {
 
 /// Every entry under `dir` (not following symbolic links), relative and
 /// `/`-separated, with whether it is a directory; in name order.
-fn tree(dir: &Path) -> anyhow::Result<Vec<(String, bool)>> {
+pub(super) fn tree(dir: &Path) -> anyhow::Result<Vec<(String, bool)>> {
     fn walk(root: &Path, rel: &str, out: &mut Vec<(String, bool)>) -> std::io::Result<()> {
         let here = if rel.is_empty() {
             root.to_path_buf()

@@ -70,9 +70,13 @@ pub fn print(text: &str) -> anyhow::Result<()> {
         .map_err(|e| stdout_error(&e))
 }
 
-/// Pretty JSON on stdout, one trailing newline.
+/// Pretty JSON on stdout, one trailing newline, every object's keys in sorted order (the
+/// order serde_json keeps by itself unless its `preserve_order` feature is on, which
+/// the `zarrs` crate turns on for the whole build: the outputs stay as they were).
 pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
-    print(&(serde_json::to_string_pretty(value)? + "\n"))
+    let mut value = value.clone();
+    value.sort_all_objects();
+    print(&(serde_json::to_string_pretty(&value)? + "\n"))
 }
 
 /// [`print_json`] of an object whose entry `key` is written by `rows`: its value as JSON
@@ -87,6 +91,8 @@ pub fn print_json_with(
     key: &str,
     rows: impl FnOnce(&mut dyn Write, &mut serde_json::Value) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
+    let mut value = value;
+    value.sort_all_objects();
     if !value.as_object().is_some_and(|m| m.contains_key(key)) {
         return print_json(&value);
     }
@@ -131,6 +137,8 @@ fn write_json_with(
         out: &mut *out,
     };
     rows(&mut lazy, &mut value).map_err(Written::Rows)?;
+    // Entries the rows set are in key order too (see `print_json`).
+    value.sort_all_objects();
     let mut tail = lazy.head.take().unwrap_or_default();
     for k in keys.iter().skip(at + 1) {
         push_entry(&mut tail, k, &value[k], false);

@@ -332,6 +332,9 @@ pub fn reproduce(
     });
     let mut summary = summary;
     summary["multiple_scattering"] = multiple;
+    // Keys sorted at every level, whatever serde_json's `preserve_order` (turned on by
+    // zarrs) would keep: the file and the index's table order stay as they were.
+    summary.sort_all_objects();
     let json_text = serde_json::to_string_pretty(&summary).map_err(|e| FiguresError::Figure {
         figure: "comparison.json",
         message: e.to_string(),

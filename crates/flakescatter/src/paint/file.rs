@@ -150,6 +150,12 @@ impl ParamsFile {
     /// The file of `params`, with the fit report `fit`.
     #[must_use]
     pub fn new(params: &PaintParams, fit: Option<serde_json::Value>) -> Self {
+        // The fit report's keys sorted, whatever serde_json's `preserve_order` (turned
+        // on by zarrs) would keep: the file's text stays as it was.
+        let fit = fit.map(|mut f| {
+            f.sort_all_objects();
+            f
+        });
         Self {
             format: FORMAT.into(),
             version: VERSION,

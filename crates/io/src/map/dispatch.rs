@@ -108,6 +108,10 @@ impl MapFormat {
 
     /// How sure this format's reader is that `bytes` are its format (0–100).
     pub fn confidence(self, bytes: &[u8]) -> Confidence {
+        if self == MapFormat::Zarr {
+            // A directory, never a file's bytes.
+            return 0;
+        }
         (spec(self).detect)(bytes)
     }
 }

@@ -18,6 +18,7 @@ use crate::sdf::SdfError;
 use crate::sur::SurError;
 use crate::text::TextError;
 use crate::x3p::{ArchiveError, X3pError};
+use crate::zarr::{ZarrError, ZarrProblem};
 
 use super::format::MapFormat;
 
@@ -54,6 +55,9 @@ pub enum MapError {
     /// An FRT MicroProf problem.
     #[error("FRT: {0}")]
     Frt(FrtError),
+    /// A Zarr v3 store problem (the array or attribute named).
+    #[error("Zarr v3 store: {0}")]
+    Zarr(ZarrProblem),
     /// The pitch override is not usable.
     #[error("pixel pitch option: {0}")]
     Pitch(HeightMapError),
@@ -181,8 +185,11 @@ pub enum WriteMapError {
         /// What the zip writer reported.
         source: ArchiveError,
     },
+    /// The Zarr store could not be written (the store and what failed named).
+    #[error("cannot write map {}: {}", .0.store.display(), .0.problem)]
+    Zarr(ZarrError),
     /// The format cannot be written.
-    #[error("cannot write map {}: writing {format} is not supported; use X3P, SDF or text", path.display())]
+    #[error("cannot write map {}: writing {format} is not supported; use X3P, SDF, text or Zarr", path.display())]
     Unsupported {
         /// The file.
         path: PathBuf,

@@ -27,10 +27,15 @@ pub enum MapFormat {
     Al3d,
     /// FRT MicroProf (`.frt`), one channel per image (topography, intensity, ...).
     Frt,
+    /// Zarr v3 store (a directory holding `zarr.json`, [`crate::zarr`]): channel 0 the
+    /// `height` array, then `intensity` if present. Not in [`MapFormat::ALL`]: a store
+    /// is a directory, never recognised from a file's bytes.
+    Zarr,
 }
 
 impl MapFormat {
-    /// Every format, in detection order.
+    /// Every format read from a file's bytes, in detection order ([`MapFormat::Zarr`],
+    /// a directory, is not among them).
     pub const ALL: [MapFormat; 10] = [
         MapFormat::X3p,
         MapFormat::Sdf,
@@ -57,6 +62,7 @@ impl MapFormat {
             MapFormat::MetroPro => "metropro",
             MapFormat::Plu => "plu",
             MapFormat::Frt => "frt",
+            MapFormat::Zarr => "zarr",
         }
     }
 
@@ -73,6 +79,7 @@ impl MapFormat {
             MapFormat::MetroPro => "a Zygo MetroPro DAT file",
             MapFormat::Plu => "a Sensofar PLU file",
             MapFormat::Frt => "an FRT MicroProf file",
+            MapFormat::Zarr => "a Zarr v3 store",
         }
     }
 
@@ -97,6 +104,9 @@ impl MapFormat {
                 "it lacks the PLU header (a date, a topography type and matching sizes), so not a Sensofar PLU file"
             }
             MapFormat::Frt => "it does not start with FRTM_GLIDERV, so not an FRT MicroProf file",
+            MapFormat::Zarr => {
+                "it is a file, not a directory holding zarr.json, so not a Zarr v3 store"
+            }
         }
     }
 
@@ -114,6 +124,7 @@ impl MapFormat {
             MapFormat::MetroPro => &[],
             MapFormat::Plu => &["plu", "apx"],
             MapFormat::Frt => &["frt"],
+            MapFormat::Zarr => &["zarr"],
         }
     }
 
@@ -122,6 +133,7 @@ impl MapFormat {
         let ext = ext.to_ascii_lowercase();
         Self::ALL
             .into_iter()
+            .chain([MapFormat::Zarr])
             .find(|f| f.extensions().contains(&ext.as_str()))
     }
 }

@@ -14,6 +14,10 @@
 //! Adding a format: a module with `detect`, `channels` and `read` (as [`crate::x3p`]), a
 //! [`MapFormat`] variant, a [`MapError`] variant, and one row in `FORMATS`.
 //!
+//! A Zarr v3 store ([`crate::zarr`]) is a directory, not bytes: `read` opens a path that
+//! is one ([`crate::zarr::is_store`]) as a store before anything reads the file, and
+//! [`MapFormat::Zarr`] is in no detection table.
+//!
 //! Rooms: `format` (the formats and what the messages call them), `dispatch` (each
 //! format's reader in one table, detection and the choice of reader), `error` (what can
 //! go wrong, by format and with the file named), `read` (the entry points that read a

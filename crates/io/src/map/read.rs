@@ -9,6 +9,7 @@ use flakescatter_stats::heightmap::{HeightMap, HeightMapError};
 use crate::channel::ChannelSelector;
 use crate::reader::{Channel, DecimalMark, ReadOptions, ValueKind};
 use crate::x3p::{self, X3pError};
+use crate::zarr::{self, ZarrMap, ZarrProblem};
 
 use super::dispatch::{choose, extension, spec};
 use super::error::{MapError, ReadMapError};
@@ -82,7 +83,11 @@ fn check_flags(format: MapFormat, options: &ReadOptions, kind: ValueKind) -> Res
             return Err(MapError::NotApplicable {
                 option: "z_unit (`--z-unit` on the command line)",
                 format,
-                why: "whose heights are calibrated in metres",
+                why: if format == MapFormat::Zarr {
+                    "whose heights are stated in µm (`height_unit`)"
+                } else {
+                    "whose heights are calibrated in metres"
+                },
             });
         }
         if options.decimal != DecimalMark::Auto {
@@ -155,9 +160,28 @@ pub(crate) enum Source<'a> {
     },
     /// An X3P file of at least [`STREAM_FILE_MIN`] bytes.
     X3pFile(std::io::BufReader<std::fs::File>),
+    /// A Zarr v3 store (a directory), opened.
+    Zarr(Box<ZarrMap>),
 }
 
 impl<'a> Source<'a> {
+    /// Opens `path`: a Zarr store ([`crate::zarr::is_store`]) as one, anything else as
+    /// [`Source::open`] does.
+    pub(crate) fn open_path(path: &'a Path, buf: &'a mut Vec<u8>) -> Result<Self, ReadMapError> {
+        if crate::zarr::is_store(path) {
+            return ZarrMap::open(path)
+                .map(|z| Self::Zarr(Box::new(z)))
+                .map_err(|e| ReadMapError::Format {
+                    path: path.to_path_buf(),
+                    error: MapError::Zarr(e.problem),
+                });
+        }
+        Self::open(path, buf).map_err(|source| ReadMapError::Io {
+            path: path.to_path_buf(),
+            source: crate::files::explain_open_error(path, source),
+        })
+    }
+
     /// Opens `path`: an X3P file of at least [`STREAM_FILE_MIN`] bytes whose extension
     /// names X3P or no format stays a file; any other file is read into `buf`.
     ///
@@ -199,6 +223,10 @@ impl<'a> Source<'a> {
         match self {
             Self::Bytes { bytes, extension } => list_channels_bytes(bytes, *extension, options),
             Self::X3pFile(reader) => Ok((x3p_file_channels(reader, options)?, MapFormat::X3p)),
+            Self::Zarr(store) => Ok((
+                zarr_channels(store).into_iter().map(|(c, _)| c).collect(),
+                MapFormat::Zarr,
+            )),
         }
     }
 
@@ -226,8 +254,63 @@ impl<'a> Source<'a> {
                 let map = x3p::read_from(&mut *reader, options, kind).map_err(MapError::X3p)?;
                 Ok((finish(map, format, options, kind)?, format))
             }
+            Self::Zarr(store) => Ok((read_zarr(store, options, kind)?, MapFormat::Zarr)),
         }
     }
+}
+
+/// The channels of a Zarr store: `height` (µm), then `intensity` (unit-less), those it
+/// has, each with the quantity it holds.
+fn zarr_channels(store: &ZarrMap) -> Vec<(Channel, ValueKind)> {
+    let (ny, nx) = store.shape();
+    let channel = |name: &str, unit: Option<&str>| Channel {
+        name: name.into(),
+        unit: unit.map(Into::into),
+        nx,
+        ny,
+        pitch_um: Some(store.pitch()),
+    };
+    let mut out = Vec::new();
+    if store.has_height() {
+        out.push((channel(zarr::HEIGHT, Some("µm")), ValueKind::Height));
+    }
+    if store.has_intensity() {
+        out.push((channel(zarr::INTENSITY, None), ValueKind::Intensity));
+    }
+    out
+}
+
+/// Reads the channel of a Zarr store that `options.channel` names, else the first that
+/// holds `wanted`; the quantity is the array's own (`height` or `intensity`), checked
+/// against `wanted` as a declared quantity is.
+fn read_zarr(
+    store: &ZarrMap,
+    options: &ReadOptions,
+    wanted: ValueKind,
+) -> Result<HeightMap, MapError> {
+    check_pitch(options)?;
+    let channels = zarr_channels(store);
+    let listed: Vec<Channel> = channels.iter().map(|(c, _)| c.clone()).collect();
+    let index = match options.channel {
+        Some(i) => ChannelSelector::Index(i).resolve(&listed)?,
+        None => channels.iter().position(|(_, k)| *k == wanted).unwrap_or(0),
+    };
+    let holds = channels[index].1;
+    let declared = crate::quantity::Declared {
+        quantity: holds,
+        by: format!("its array `{}`", channels[index].0.name),
+    };
+    let kind = quantity(Some(declared), options, wanted)?;
+    check_flags(MapFormat::Zarr, options, kind)?;
+    let problem = |e: crate::zarr::ZarrError| MapError::Zarr(e.problem);
+    let map = match holds {
+        ValueKind::Height => store.read().map_err(problem)?,
+        ValueKind::Intensity => store
+            .read_intensity()
+            .map_err(problem)?
+            .ok_or(MapError::Zarr(ZarrProblem::NoArray))?,
+    };
+    finish(map, MapFormat::Zarr, options, kind)
 }
 
 /// The channels of an X3P file read through `reader`, from its start.
@@ -255,11 +338,7 @@ fn read_file(
     kind: ValueKind,
 ) -> Result<(HeightMap, MapFormat), ReadMapError> {
     let mut buf = Vec::new();
-    Source::open(path, &mut buf)
-        .map_err(|source| ReadMapError::Io {
-            path: path.to_path_buf(),
-            source: crate::files::explain_open_error(path, source),
-        })?
+    Source::open_path(path, &mut buf)?
         .read(options, kind)
         .map_err(|error| ReadMapError::Format {
             path: path.to_path_buf(),
@@ -267,8 +346,9 @@ fn read_file(
         })
 }
 
-/// Reads a height map file (X3P, SDF or plain text, recognised from the content; an
-/// extension that names another format is an error).
+/// Reads a height map file (X3P, SDF, plain text or an instrument format, recognised
+/// from the content; an extension that names another format is an error) or a Zarr v3
+/// store (a directory holding `zarr.json` or named `*.zarr`: [`crate::zarr`]).
 ///
 /// # Errors
 /// [`ReadMapError::Io`] if the file cannot be read, [`ReadMapError::Format`] naming the
@@ -284,7 +364,7 @@ pub fn read_map(
 /// with [`HeightMap::apply_intensity_cutoff`]. Values are returned as the file stores
 /// them, unit-less: `Offset + raw × Increment` for X3P, `raw × Zscale` for SDF, the
 /// numbers themselves for text (no unit is required or applied, `a.u.` or none is fine;
-/// `options.z_unit` is ignored). The pitch rules are those of [`read_map`].
+/// `options.z_unit` is ignored), the `intensity` array of a Zarr store. The pitch rules are those of [`read_map`].
 ///
 /// # Errors
 /// As [`read_map`].
@@ -329,6 +409,15 @@ pub fn list_channels(
     options: &ReadOptions,
 ) -> Result<(Vec<Channel>, MapFormat), ReadMapError> {
     let path = path.as_ref();
+    if crate::zarr::is_store(path) {
+        let mut buf = Vec::new();
+        return Source::open_path(path, &mut buf)?
+            .channels(options)
+            .map_err(|error| ReadMapError::Format {
+                path: path.to_path_buf(),
+                error,
+            });
+    }
     let bytes = std::fs::read(path).map_err(|source| ReadMapError::Io {
         path: path.to_path_buf(),
         source: crate::files::explain_open_error(path, source),

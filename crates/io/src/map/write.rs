@@ -13,7 +13,8 @@ use super::error::WriteMapError;
 use super::format::MapFormat;
 
 /// Writes an intensity image (unit-less values) to `path` as X3P (Z `Increment` 1), SDF
-/// (text, `Zscale` 1) or plain text (no value unit), so that
+/// (text, `Zscale` 1), plain text (no value unit) or a Zarr v3 store (its `intensity`
+/// array alone), so that
 /// [`read_intensity`](super::read_intensity) returns exactly the values written. The
 /// instrument formats cannot be written (an error says so).
 ///
@@ -30,7 +31,9 @@ pub fn write_intensity(
 /// Writes `map` to `path` as X3P (float64 heights in metres, `valid.bin` when some point
 /// is invalid), SDF (text `aISO-1.0`, exact decimals, `BAD` for invalid points; see
 /// [`sdf::write_sdf_text`], and [`sdf::write_sdf_binary`] for the binary form) or plain
-/// text (µm, with pitch header lines). A map whose [`HeightMap::quantity`] is an
+/// text (µm, with pitch header lines), or as a Zarr v3 store (the directory `path`,
+/// which must be missing or empty: [`crate::zarr::write_zarr`] with its default
+/// options). A map whose [`HeightMap::quantity`] is an
 /// intensity is written as [`write_intensity`] writes it (the quantity is carried,
 /// [`crate::quantity`]). The instrument formats cannot be written (an error says so).
 ///
@@ -54,6 +57,20 @@ fn write_with(
         path: path.to_path_buf(),
         source,
     };
+    if format == MapFormat::Zarr {
+        // Copied only when written as another quantity than it says it is.
+        let mut map = std::borrow::Cow::Borrowed(map);
+        if map.quantity() != kind {
+            map.to_mut().set_quantity(kind);
+        }
+        return crate::zarr::write_zarr(
+            &map,
+            None,
+            path,
+            &crate::zarr::ZarrWriteOptions::default(),
+        )
+        .map_err(WriteMapError::Zarr);
+    }
     let bytes = match (format, kind) {
         (MapFormat::X3p, ValueKind::Height) => x3p::write_x3p_bytes(map).map_err(archive)?,
         (MapFormat::X3p, ValueKind::Intensity) => {
@@ -71,7 +88,8 @@ fn write_with(
             | MapFormat::Opd
             | MapFormat::Sur
             | MapFormat::Al3d
-            | MapFormat::Frt,
+            | MapFormat::Frt
+            | MapFormat::Zarr,
             _,
         ) => {
             return Err(WriteMapError::Unsupported {

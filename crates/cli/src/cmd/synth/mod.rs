@@ -146,10 +146,12 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub height_noise_um: f64,
-    /// Height map output: `.x3p` (ISO 25178-72) or `.txt` (plain text).
+    /// Height map output: `.x3p` (ISO 25178-72), `.txt` (plain text) or `.zarr` (a Zarr
+    /// v3 store, a directory).
     #[arg(long, value_name = "MAP")]
     pub out: Option<PathBuf>,
-    /// Intensity map output: `.x3p` or `.txt`.
+    /// Intensity map output: `.x3p`, `.txt` or `.zarr` (a second store, holding the
+    /// `intensity` array alone).
     #[arg(long, value_name = "FILE")]
     pub intensity_out: Option<PathBuf>,
     /// Truth table (CSV, `-` = stdout): `id, x_um, y_um, nx, ny, nz, area_um2 (visible true
@@ -164,19 +166,29 @@ pub struct Args {
     pub json: bool,
 }
 
-/// Writes a map output through the output layer (X3P, or text for `.txt`).
-fn write_out(plan: &mut Plan, map: &HeightMap, path: &Path, intensity: bool) -> anyhow::Result<()> {
-    let is_txt = path
+/// Writes a map output through the output layer (X3P, text for `.txt`, a Zarr v3
+/// store for `.zarr`).
+fn write_out(
+    plan: &mut Plan,
+    flag: &str,
+    map: &HeightMap,
+    path: &Path,
+    intensity: bool,
+) -> anyhow::Result<()> {
+    let ext = path
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
-    let format = if is_txt {
-        MapFormat::Text
-    } else {
-        MapFormat::X3p
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let format = match ext.as_deref() {
+        Some("txt") => MapFormat::Text,
+        Some("zarr") => MapFormat::Zarr,
+        _ => MapFormat::X3p,
     };
     let detail = format!("{} x {}", map.nx(), map.ny());
-    plan.write_via_path(
+    plan.write_map_output(
+        flag,
         path,
+        "synth",
         |tmp| {
             if intensity {
                 write_intensity(map, tmp, format)?;
@@ -192,8 +204,13 @@ fn write_out(plan: &mut Plan, map: &HeightMap, path: &Path, intensity: bool) -> 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
-    plan.output("--out", args.out.as_deref(), Kind::Map);
-    plan.output("--intensity-out", args.intensity_out.as_deref(), Kind::Map);
+    plan.map_output("--out", args.out.as_deref(), Kind::Map, "synth");
+    plan.map_output(
+        "--intensity-out",
+        args.intensity_out.as_deref(),
+        Kind::Map,
+        "synth",
+    );
     let truth_out = plan.output("--truth-out", args.truth_out.as_deref(), Kind::Table);
     plan.output("--stack-out", args.stack.stack_out.as_deref(), Kind::Stack);
     if args.json {
@@ -252,10 +269,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
 
     if let Some(p) = &args.out {
-        write_out(&mut plan, &layer.height, p, false)?;
+        write_out(&mut plan, "--out", &layer.height, p, false)?;
     }
     if let Some(p) = &args.intensity_out {
-        write_out(&mut plan, &layer.intensity, p, true)?;
+        write_out(&mut plan, "--intensity-out", &layer.intensity, p, true)?;
     }
     if let (Some(path), Some(stack)) = (&args.stack.stack_out, &stack) {
         let order = args.stack.stack_first_page.order();

@@ -91,7 +91,10 @@ pub(super) fn build_report(
     files.extend(curve_files);
     files.extend(charts::overlays(a));
     files.extend(cache::files(&input.map_names, a.map_caches, a.models));
-    let summary = summary::summary(a, work, &warnings, map_info, paint_summary, &files);
+    let mut summary = summary::summary(a, work, &warnings, map_info, paint_summary, &files);
+    // Keys sorted at every level, whatever serde_json's `preserve_order` (turned on by
+    // zarrs) would keep.
+    summary.sort_all_objects();
     files.push(OutFile {
         path: "summary.json".into(),
         content: Content::Text(serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n"),
