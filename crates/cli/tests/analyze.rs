@@ -554,3 +554,31 @@ fn a_manifest_takes_interference_flakes() {
         assert!(e.contains(key), "{coating}: {e}");
     }
 }
+
+/// Every object of `summary.json` has its keys in sorted order, as every JSON output of
+/// the project (serde_json keeps insertion order in this build, a feature `zarrs` turns
+/// on, so each writer sorts; this checks the report's, with the preview section the
+/// command line adds).
+#[test]
+fn summary_keys_are_sorted() {
+    fn check(v: &Value, at: &str) {
+        match v {
+            Value::Object(m) => {
+                let keys: Vec<&String> = m.keys().collect();
+                let mut sorted = keys.clone();
+                sorted.sort();
+                assert_eq!(keys, sorted, "{at}");
+                for (k, x) in m {
+                    check(x, &format!("{at}.{k}"));
+                }
+            }
+            Value::Array(a) => a.iter().for_each(|x| check(x, at)),
+            _ => {}
+        }
+    }
+    let d = scratch("analyze", "sorted");
+    let out = d.join("report");
+    let summary = analyze(&fixtures().join("sample.toml"), &out);
+    assert!(summary.get("preview").is_some());
+    check(&summary, "summary");
+}

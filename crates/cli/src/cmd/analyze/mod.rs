@@ -240,6 +240,8 @@ fn render(
     if let Some(list) = summary["files"].as_array_mut() {
         list.extend(shown.files.iter().map(|(p, _)| json!(p)));
     }
+    // Keys sorted, as every JSON output (serde_json keeps insertion order here).
+    summary.sort_all_objects();
     for (path, bytes) in shown.files {
         if path.ends_with(".png") {
             images.push((path.clone(), bytes.clone()));
