@@ -372,6 +372,19 @@ fn a_paint_section_reports_the_fitted_paint() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// `head`, the fixture manifest's maps and map settings as command-line arguments (its
+/// two layers, their intensity suffix and cutoff), then `tail`: for `segment` and
+/// `stats --map`.
+fn with_fixture_maps(fx: &Path, head: &[&str], tail: &[&str]) -> Vec<String> {
+    let mut a: Vec<String> = head.iter().map(|x| (*x).to_owned()).collect();
+    for stem in ["synth-hwhm3-smooth", "synth-hwhm6-rough"] {
+        a.push(s(&fx.join(format!("{stem}.height.x3p"))).to_owned());
+    }
+    a.extend(["--intensity-suffix", ".intensity", "--cutoff", "0.49"].map(String::from));
+    a.extend(tail.iter().map(|x| (*x).to_owned()));
+    a
+}
+
 /// One writer for flake tables and histograms: `analyze`'s `flakes.csv` is what
 /// `segment --out` writes, and its `histogram.csv` what `stats --out` writes,
 /// for the same maps and settings (the manifest's `cutoff` and intensity suffix), byte
@@ -383,17 +396,7 @@ fn the_reports_flake_table_is_segments() {
     analyze(&fixtures().join("sample.toml"), &out);
     let seg = d.join("segment.csv");
     let fx = fixtures();
-    let o = run(&[
-        "segment",
-        s(&fx.join("synth-hwhm3-smooth.height.x3p")),
-        s(&fx.join("synth-hwhm6-rough.height.x3p")),
-        "--intensity-suffix",
-        ".intensity",
-        "--cutoff",
-        "0.49",
-        "--out",
-        s(&seg),
-    ]);
+    let o = run(&with_fixture_maps(&fx, &["segment"], &["--out", s(&seg)]));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // `segment` names a map as it was given.
     let mut segment = std::fs::read_to_string(&seg).unwrap();
@@ -406,18 +409,11 @@ fn the_reports_flake_table_is_segments() {
     assert_eq!(report, segment);
     // And its histogram is `stats --out`'s (one writer, one number format).
     let hist = d.join("histogram.csv");
-    let o = run(&[
-        "stats",
-        "--map",
-        s(&fx.join("synth-hwhm3-smooth.height.x3p")),
-        s(&fx.join("synth-hwhm6-rough.height.x3p")),
-        "--intensity-suffix",
-        ".intensity",
-        "--cutoff",
-        "0.49",
-        "--out",
-        s(&hist),
-    ]);
+    let o = run(&with_fixture_maps(
+        &fx,
+        &["stats", "--map"],
+        &["--out", s(&hist)],
+    ));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(
         std::fs::read_to_string(out.join("histogram.csv")).unwrap(),
@@ -435,17 +431,7 @@ fn the_reports_pooled_width_is_stats() {
     let out = d.join("report");
     let summary = analyze(&fixtures().join("sample.toml"), &out);
     let fx = fixtures();
-    let o = run(&[
-        "stats",
-        "--map",
-        s(&fx.join("synth-hwhm3-smooth.height.x3p")),
-        s(&fx.join("synth-hwhm6-rough.height.x3p")),
-        "--intensity-suffix",
-        ".intensity",
-        "--cutoff",
-        "0.49",
-        "--json",
-    ]);
+    let o = run(&with_fixture_maps(&fx, &["stats", "--map"], &["--json"]));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stats: Value = serde_json::from_slice(&o.stdout).unwrap();
     let report = &summary["statistics"];

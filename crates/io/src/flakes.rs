@@ -228,17 +228,9 @@ pub fn write_flakes(
     flakes: &[Flake],
 ) -> Result<(), FlakeTableError> {
     let mut w = csv::Writer::from_writer(writer);
-    w.write_record([
-        "x_um",
-        "y_um",
-        "nx",
-        "ny",
-        "nz",
-        "area_um2",
-        "theta_n_deg",
-        "phi_n_deg",
-    ])
-    .map_err(|e| write_err(file, e))?;
+    // The first eight columns of a segmented table: the same names, readable alike.
+    w.write_record(&SEGMENTED_COLUMNS[..8])
+        .map_err(|e| write_err(file, e))?;
     for f in flakes {
         let (t, p) = polar_from_normal(&f.normal);
         let (x, y) = f
