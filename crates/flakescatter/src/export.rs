@@ -78,6 +78,8 @@ pub const XYZ_TO_LINEAR_SRGB: [[f64; 3]; 3] = [
 #[derive(Debug, Clone)]
 pub struct SpectralSource {
     models: Vec<DistributionModel>,
+    /// Whether every wavelength's coat has the same index (one incidence serves all).
+    one_coat: bool,
     weights: Vec<[f64; 3]>,
     wavelengths_nm: Vec<f64>,
 }
@@ -128,8 +130,10 @@ impl SpectralSource {
                 Ok(m)
             })
             .collect::<Result<Vec<_>, PipelineError>>()?;
+        let one_coat = models.windows(2).all(|p| p[0].index() == p[1].index());
         Ok(Self {
             models,
+            one_coat,
             weights,
             wavelengths_nm: wavelengths_nm.to_vec(),
         })
@@ -217,9 +221,23 @@ pub fn bin_value(source: &BrdfSource<'_>, bin: Bin) -> Result<Option<[f64; 3]>, 
         }
         BrdfSource::Spectral(s) => {
             let mut out = [0.0; 3];
+            // What depends on the incidence alone (the coat's refraction and Fresnel
+            // factors) is the same at every wavelength when the coat does not disperse.
+            let shared = if s.one_coat {
+                Some(s.models[0].incidence(theta_i)?)
+            } else {
+                None
+            };
             for (m, w) in s.models.iter().zip(&s.weights) {
-                let inc = m.incidence(theta_i)?;
-                let f = m.brdf(&inc, &r);
+                let own;
+                let inc = match &shared {
+                    Some(i) => i,
+                    None => {
+                        own = m.incidence(theta_i)?;
+                        &own
+                    }
+                };
+                let f = m.brdf(inc, &r);
                 for c in 0..3 {
                     out[c] += w[c] * f;
                 }
