@@ -1,6 +1,5 @@
 //! `flakescatter export`: a model's BRDF as a table for renderers (MERL; formats.md).
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
@@ -152,21 +151,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, None, Some(m)) => BrdfSource::Distribution(m),
         (None, None, None) => unreachable!("a paint, a spectrum or the flakes"),
     };
-    let bar = std::io::stderr().is_terminal().then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "tabulating {bar:40} {pos}/{len} θh rows {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
+    let bar = crate::output::progress::bar("tabulating {bar:40} {pos}/{len} θh rows {eta}", true);
     let progress = |done: usize, total: usize| {
-        if let Some(b) = &bar {
-            b.set_length(total as u64);
-            b.set_position(done as u64);
-        }
+        crate::output::progress::show(bar.as_ref(), done as u64, total as u64);
     };
     let tabulated = merl_table(&source, &progress)?;
     let table = &tabulated.table;

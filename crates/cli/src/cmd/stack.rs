@@ -2,7 +2,6 @@
 //! the height, intensity and peak-width maps, by sub-step localisation of each pixel's
 //! axial peak ([`flakescatter::stack::localise_stack`], docs/physics.md §9).
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::bail;
@@ -230,20 +229,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let peak = peak_options(&args)?;
     plan.check()?;
 
-    let bar = std::io::stderr().is_terminal().then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("localising {bar:40} {pos}/{len} slices {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
+    let bar = crate::output::progress::bar("localising {bar:40} {pos}/{len} slices {eta}", true);
+    let progress = |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
     let maps = localise_stack(&args.stack, &read, &peak, &progress).map_err(explain)?;
     if let Some(b) = &bar {
         b.finish_and_clear();

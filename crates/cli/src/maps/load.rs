@@ -14,26 +14,17 @@ pub struct Input {
 /// Reads every source (progress on stderr for stacks when it is a terminal); errors
 /// name the file.
 pub fn load_all(sources: &[MapSource], options: &LoadOptions) -> anyhow::Result<Vec<Input>> {
-    use std::io::IsTerminal;
     let mut out = Vec::with_capacity(sources.len());
     for s in sources {
-        let bar = (s.kind == SourceKind::Stack && std::io::stderr().is_terminal()).then(|| {
-            let b = indicatif::ProgressBar::new(0);
-            b.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "localising {msg} {bar:40} {pos}/{len} slices",
-                )
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
+        let bar = crate::output::progress::bar(
+            "localising {msg} {bar:40} {pos}/{len} slices",
+            s.kind == SourceKind::Stack,
+        );
+        if let Some(b) = &bar {
             b.set_message(s.height.display().to_string());
-            b
-        });
-        let progress = |done: u64, total: u64| {
-            if let Some(b) = &bar {
-                b.set_length(total);
-                b.set_position(done);
-            }
-        };
+        }
+        let progress =
+            |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
         let loaded = load_map(s, options, &progress).map_err(|e| match e {
             LoadError::Cutoff {
                 map,

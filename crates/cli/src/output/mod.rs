@@ -26,6 +26,7 @@ pub mod batch;
 mod check;
 mod failure;
 pub mod owned;
+pub mod progress;
 pub mod scratch;
 mod stdout;
 mod write;

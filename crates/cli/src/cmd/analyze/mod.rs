@@ -18,7 +18,6 @@
 //! sample's directory of a batch is swapped in when that sample is complete, so an
 //! interrupted batch keeps the samples it finished and a rerun reuses their work.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
@@ -327,14 +326,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // The identity of this build (build.rs): part of every cache key.
     let build = env!("FLAKESCATTER_BUILD");
 
-    let bar = std::io::stderr().is_terminal().then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{prefix} {msg} {bar:30} {pos}/{len}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
+    let bar = crate::output::progress::bar("{prefix} {msg} {bar:30} {pos}/{len}", true);
     let renderer = (!args.no_preview).then(preview::probe);
     let mut previews: Vec<(String, Vec<u8>)> = Vec::new();
     let mut rows = Vec::new();

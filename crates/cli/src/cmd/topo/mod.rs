@@ -5,7 +5,6 @@
 mod spectral;
 mod summary;
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
@@ -201,12 +200,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let pixels: usize = maps.iter().map(HeightMap::len).sum();
     let work = pixels as f64 * instrument.theta_i().len() as f64;
     let bar = progress_bar(work);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
+    let progress = |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
     let context = || format!("--window {}, --tile-um {}", args.window, args.tile_um);
     let (curves, result, mueller) = match (&polarimetry, args.isotropic) {
         (None, true) => {
@@ -313,12 +307,5 @@ fn run_warnings(
 
 /// A progress bar on stderr when it is a terminal and `work` (pixels × runs) is large.
 fn progress_bar(work: f64) -> Option<indicatif::ProgressBar> {
-    (std::io::stderr().is_terminal() && work > 2e7).then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("tracing {bar:40} {pos}/{len} tiles {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    })
+    crate::output::progress::bar("tracing {bar:40} {pos}/{len} tiles {eta}", work > 2e7)
 }

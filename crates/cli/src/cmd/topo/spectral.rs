@@ -35,12 +35,7 @@ pub(super) fn spectral_curves(
     };
     let pixels: usize = maps.iter().map(HeightMap::len).sum();
     let bar = progress_bar(pixels as f64 * instrument.theta_i().len() as f64 * runs as f64);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
+    let progress = |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
     let topo = TopoSettings {
         window: args.window,
         tile_um: args.tile_um,
@@ -142,12 +137,7 @@ pub(super) fn multi_angle(
     };
     let pixels: usize = maps.iter().map(HeightMap::len).sum();
     let bar = progress_bar(pixels as f64 * set.incidences().len() as f64 * runs as f64);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
+    let progress = |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
     let topo = TopoSettings {
         window: args.window,
         tile_um: args.tile_um,

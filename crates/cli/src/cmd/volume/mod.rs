@@ -7,7 +7,6 @@ mod rows;
 mod settings;
 mod summary;
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::bail;
@@ -251,22 +250,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     // Progress on stderr when it is a terminal and the run is long.
     let rays_total = settings.rays as f64 * instrument.theta_i().len() as f64;
-    let bar = (std::io::stderr().is_terminal() && rays_total > 2e6).then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "tracing {bar:40} {pos}/{len} chunks of rays {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
+    let bar = crate::output::progress::bar(
+        "tracing {bar:40} {pos}/{len} chunks of rays {eta}",
+        rays_total > 2e6,
+    );
+    let progress = |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
     let curves = volume_curves(&coating, &instrument, &settings, &source, &progress)
         .map_err(|e| explain(e, &args))?;
     if let Some(b) = &bar {
