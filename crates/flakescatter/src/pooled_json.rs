@@ -6,11 +6,17 @@
 use flakescatter_stats::pool::PooledWidth;
 use serde_json::{Value, json};
 
+/// The ends of a hwhm interval (radians) in degrees, `None` for an infinite end.
+#[must_use]
+pub fn ci_deg_ends(ci: (f64, f64)) -> (Option<f64>, Option<f64>) {
+    let f = |x: f64| x.is_finite().then(|| x.to_degrees());
+    (f(ci.0), f(ci.1))
+}
+
 /// `[lo, hi]` of a hwhm interval (radians) in degrees, `null` for an infinite end.
 #[must_use]
 pub fn ci_deg(ci: (f64, f64)) -> Value {
-    let f = |x: f64| x.is_finite().then(|| x.to_degrees());
-    json!([f(ci.0), f(ci.1)])
+    json!(ci_deg_ends(ci))
 }
 
 /// The map-level interval (`null` with fewer than two maps with a fit): its hwhm

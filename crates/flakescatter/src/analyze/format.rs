@@ -24,10 +24,7 @@ pub(super) fn deg(rad: f64) -> f64 {
 }
 
 /// An interval in radians as degrees, `None` for an infinite end.
-pub(super) fn ci_deg(ci: (f64, f64)) -> (Option<f64>, Option<f64>) {
-    let f = |x: f64| x.is_finite().then(|| x.to_degrees());
-    (f(ci.0), f(ci.1))
-}
+pub(super) use crate::pooled_json::ci_deg_ends as ci_deg;
 
 /// An interval in degrees as `[lo, hi]` with two decimals, `∞` for an open end.
 pub(super) fn fmt_ci(ci: (Option<f64>, Option<f64>)) -> String {
