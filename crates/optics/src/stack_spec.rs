@@ -41,6 +41,14 @@ pub enum StackSpecError {
         /// The thickness text.
         value: String,
     },
+    /// A layer number that the stack does not have (layers are numbered from 1).
+    #[error("layer {layer}: the stack has {layers} layer(s), numbered from 1")]
+    NoSuchLayer {
+        /// The layer asked for.
+        layer: usize,
+        /// Layers in the stack.
+        layers: usize,
+    },
     /// The material is not known or its index is not valid.
     #[error("layer {layer} {text:?}: {source}")]
     Material {
@@ -116,6 +124,38 @@ impl StackSpec {
     #[must_use]
     pub fn layers(&self) -> &[(MaterialSpec, f64)] {
         &self.layers
+    }
+
+    /// The same stack with each layer of `layers` (numbered from 1) `thickness_nm` thick:
+    /// the layers a thickness fit moves together (e.g. the two TiO2 coats of a
+    /// TiO2/mica/TiO2 pigment).
+    ///
+    /// # Errors
+    /// [`StackSpecError::NoSuchLayer`] for a layer number outside `1..=len`,
+    /// [`StackSpecError::BadThickness`] unless `thickness_nm` is finite and > 0.
+    pub fn with_thickness(
+        &self,
+        layers: &[usize],
+        thickness_nm: f64,
+    ) -> Result<Self, StackSpecError> {
+        let mut out = self.clone();
+        for &layer in layers {
+            let Some((m, d)) = layer.checked_sub(1).and_then(|i| out.layers.get_mut(i)) else {
+                return Err(StackSpecError::NoSuchLayer {
+                    layer,
+                    layers: self.layers.len(),
+                });
+            };
+            if !(thickness_nm.is_finite() && thickness_nm > 0.0) {
+                return Err(StackSpecError::BadThickness {
+                    layer,
+                    text: format!("{}:{thickness_nm}", m.label()),
+                    value: thickness_nm.to_string(),
+                });
+            }
+            *d = thickness_nm;
+        }
+        Ok(out)
     }
 
     /// The wavelengths where every layer has an index, nm (the intersection of the

@@ -222,3 +222,35 @@ fn bad_specs_name_the_layer() {
     assert_eq!(s.at(550.0).unwrap().layers().len(), 2);
     assert_eq!(s.label(), "TiO2:100/anatase:50");
 }
+
+/// A thickness fit moves named layers together: the other layers, the materials and the
+/// order stay; layer numbers outside the stack and bad thicknesses are refused.
+#[test]
+fn with_thickness_moves_the_named_layers() {
+    let cat = Catalogue::builtin();
+    let s = StackSpec::parse("TiO2:120/mica:400/TiO2:120", &cat).unwrap();
+    let t = s.with_thickness(&[1, 3], 85.5).unwrap();
+    assert_eq!(t.label(), "TiO2:85.5/mica:400/TiO2:85.5");
+    assert_eq!(s.label(), "TiO2:120/mica:400/TiO2:120");
+    assert_eq!(
+        s.with_thickness(&[2], 10.0).unwrap().label(),
+        "TiO2:120/mica:10/TiO2:120"
+    );
+    assert_eq!(
+        s.with_thickness(&[4], 10.0).unwrap_err(),
+        StackSpecError::NoSuchLayer {
+            layer: 4,
+            layers: 3
+        }
+    );
+    assert!(matches!(
+        s.with_thickness(&[0], 10.0).unwrap_err(),
+        StackSpecError::NoSuchLayer { layer: 0, .. }
+    ));
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(matches!(
+            s.with_thickness(&[1], bad).unwrap_err(),
+            StackSpecError::BadThickness { layer: 1, .. }
+        ));
+    }
+}

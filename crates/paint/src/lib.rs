@@ -8,6 +8,7 @@
 //! * [`coat`]: the coat surface's reflection and its directional albedo;
 //! * [`layer`]: the flake layer's shadowing of its own flakes (Smith's `Λ`);
 //! * [`base`]: the base under the coat, internal reflections summed;
+//! * [`metal`]: what the flakes are made of (a metal or an interference stack);
 //! * [`model`]: the three together, [`PaintModel`].
 //!
 //! Conventions: radians; the frame of `flakescatter_optics` (`z` the coating normal into
@@ -48,10 +49,12 @@ pub mod coat;
 pub mod cone;
 pub mod fit;
 pub mod layer;
+pub mod metal;
 pub mod model;
 
 pub use channel::Channel;
 pub use coat::{CoatParams, CoatSurface};
+pub use metal::StackFlakes;
 pub use model::{ChannelParams, FlakeMetal, PaintIncidence, PaintModel, PaintParams, Terms};
 
 /// Errors of the paint model and its fit.

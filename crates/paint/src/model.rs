@@ -20,8 +20,6 @@
 //! (physics.md §12.4; tests integrate it).
 
 use flakescatter_gaussian::{DistributionModel, Incidence, ModelOptions};
-use flakescatter_optics::flake::FlakeReflectance;
-use flakescatter_optics::material::ComplexIndexTable;
 use flakescatter_optics::{Vec3, fresnel};
 use flakescatter_stats::Orientation;
 
@@ -30,46 +28,7 @@ use crate::base::base_brdf;
 use crate::channel::Channel;
 use crate::coat::{CoatParams, CoatSurface};
 use crate::layer::FlakeShadowing;
-
-/// What the flakes are made of.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum FlakeMetal {
-    /// Aluminium, the built-in optical constants (Rakić 1995) at each channel's
-    /// wavelength.
-    Aluminium,
-    /// A perfect conductor (`|r| = 1`, the paper's flakes).
-    PerfectConductor,
-    /// One complex index `n + ik` for every channel.
-    Index {
-        /// Real part.
-        n: f64,
-        /// Imaginary part (≥ 0).
-        k: f64,
-    },
-}
-
-impl FlakeMetal {
-    /// The flake reflectance in `channel`.
-    ///
-    /// # Errors
-    /// [`PaintError::Parameter`] for an invalid index or a wavelength outside the
-    /// aluminium table.
-    pub fn at(self, channel: &Channel) -> Result<FlakeReflectance, PaintError> {
-        match self {
-            Self::PerfectConductor => Ok(FlakeReflectance::PerfectConductor),
-            Self::Index { n, k } => FlakeReflectance::complex(n, k)
-                .map_err(|e| PaintError::Parameter(format!("flake index: {e}"))),
-            Self::Aluminium => ComplexIndexTable::aluminium()
-                .flake_at(channel.wavelength_nm)
-                .map_err(|e| {
-                    PaintError::Parameter(format!(
-                        "aluminium at channel `{}` ({} nm): {e}",
-                        channel.name, channel.wavelength_nm
-                    ))
-                }),
-        }
-    }
-}
+pub use crate::metal::FlakeMetal;
 
 /// The parameters of one channel.
 #[derive(Debug, Clone, PartialEq)]

@@ -52,10 +52,11 @@ struct IncidenceGeometry {
     t_in: f64,
 }
 
-/// All points at one coat index.
+/// All points at one coat index (and stack thickness, when fitted).
 #[derive(Debug)]
 struct Geometry {
     n: f64,
+    thickness: Option<f64>,
     incidences: Vec<IncidenceGeometry>,
     points: Vec<PointGeometry>,
 }
@@ -66,6 +67,8 @@ pub(crate) struct Engine<'a> {
     points: &'a [Point],
     layout: &'a Layout,
     metal: FlakeMetal,
+    /// The stack's layers whose thickness the layout's thickness entry sets.
+    thickness_layers: &'a [usize],
     /// `λ` of the log-linear penalty.
     smoothing: f64,
     /// Distinct incidence angles, and each row's index into them.
@@ -91,6 +94,7 @@ impl<'a> Engine<'a> {
         points: &'a [Point],
         layout: &'a Layout,
         metal: FlakeMetal,
+        thickness_layers: &'a [usize],
         smoothing: f64,
     ) -> Self {
         let mut thetas: Vec<f64> = Vec::new();
@@ -112,6 +116,7 @@ impl<'a> Engine<'a> {
             points,
             layout,
             metal,
+            thickness_layers,
             smoothing,
             thetas,
             row_incidence,
@@ -122,8 +127,13 @@ impl<'a> Engine<'a> {
         }
     }
 
-    /// The geometry at index `n`, built on first use and whenever `n` changes.
-    fn build_geometry(&self, n: f64) -> Result<Geometry, PaintError> {
+    /// The geometry at index `n` and stack thickness `thickness` (nm, when fitted),
+    /// built on first use and whenever either changes.
+    fn build_geometry(&self, n: f64, thickness: Option<f64>) -> Result<Geometry, PaintError> {
+        let metal = match thickness {
+            Some(d) => self.metal.with_thickness(self.thickness_layers, d)?,
+            None => self.metal.clone(),
+        };
         // The kernel does not depend on the distribution: any one will do.
         let any = Orientation::gaussian(GaussianWidth::Hwhm(0.1))
             .map_err(|e| PaintError::Fit(e.to_string()))?;
@@ -133,7 +143,7 @@ impl<'a> Engine<'a> {
             .iter()
             .map(|c| {
                 let options = ModelOptions {
-                    flake: self.metal.at(c)?,
+                    flake: metal.at(c)?,
                     ..ModelOptions::default()
                 };
                 DistributionModel::new(any.clone(), n, options)
@@ -185,6 +195,7 @@ impl<'a> Engine<'a> {
             .collect();
         Ok(Geometry {
             n,
+            thickness,
             incidences,
             points,
         })
@@ -194,10 +205,13 @@ impl<'a> Engine<'a> {
     pub(crate) fn values(&self, q: &[f64]) -> Result<Vec<f64>, PaintError> {
         let l = self.layout;
         let n = l.n(q);
+        let thickness = l.thickness(q);
         {
             let mut g = self.geometry.borrow_mut();
-            if g.as_ref().is_none_or(|g| g.n != n) {
-                *g = Some(self.build_geometry(n)?);
+            if g.as_ref()
+                .is_none_or(|g| g.n != n || g.thickness != thickness)
+            {
+                *g = Some(self.build_geometry(n, thickness)?);
             }
         }
         {

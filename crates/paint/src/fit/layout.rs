@@ -4,7 +4,8 @@
 //! Entries, in order: the orientation family's shape (Gaussian `ln hwhm`; Trowbridge–
 //! Reitz `ln α`; Pearson VII `ln α`, `ln γ`; log-linear `ln p̃` at every knot but the
 //! first, which is 0), the coat surface (`ln α`, then the haze fraction `h` and
-//! `ln αh` when the haze is fitted), the coat index `n` when fitted, then per channel the
+//! `ln αh` when the haze is fitted), the coat index `n` when fitted, the thickness (nm) of
+//! the flake stack's fitted layers when fitted, then per channel the
 //! flake and the base amplitude: `ln(c s_k)` and `ln((1 − c)² ρ_k)` when the coverage is
 //! free (the data fix only these products: physics.md §12.5), or `ln s_k` and `ln ρ_k`
 //! at a given coverage.
@@ -125,6 +126,7 @@ pub(crate) struct Layout {
     pub steps: Vec<f64>,
     coat: usize,
     n_index: Option<usize>,
+    thickness_index: Option<usize>,
     amp: usize,
 }
 
@@ -139,6 +141,7 @@ impl Layout {
         n: f64,
         channel_names: &[String],
         amplitudes: Amplitudes,
+        thickness: Option<(f64, f64)>,
     ) -> Self {
         let mut entries: Vec<(String, (f64, f64), f64)> = Vec::new();
         let mut push = |name: String, b: (f64, f64), h: f64| {
@@ -188,10 +191,12 @@ impl Layout {
         } else {
             None
         };
-        let amp = match n_index {
-            Some(i) => i + 1,
-            None => coat + if haze { 3 } else { 1 },
-        };
+        // nm: steps of 1e-3 nm resolve the model's change (an interference fringe moves
+        // over tens of nm).
+        let thickness_index = thickness.map(|b| push("thickness (nm)".into(), b, 1e-3) - 1);
+        let amp = thickness_index
+            .or(n_index)
+            .map_or(coat + if haze { 3 } else { 1 }, |i| i + 1);
         let (fa, ba) = match amplitudes {
             Amplitudes::Free => ("ln flake amplitude", "ln base amplitude"),
             Amplitudes::Coverage(_) => ("ln flake scale", "ln base albedo"),
@@ -216,6 +221,7 @@ impl Layout {
             steps,
             coat,
             n_index,
+            thickness_index,
             amp,
         }
     }
@@ -274,6 +280,16 @@ impl Layout {
     /// The coat index.
     pub(crate) fn n(&self, q: &[f64]) -> f64 {
         self.n_index.map_or(self.n_fixed, |i| q[i])
+    }
+
+    /// Index of the stack thickness, when fitted.
+    pub(crate) fn thickness_index(&self) -> Option<usize> {
+        self.thickness_index
+    }
+
+    /// The fitted stack thickness (nm), when fitted.
+    pub(crate) fn thickness(&self, q: &[f64]) -> Option<f64> {
+        self.thickness_index.map(|i| q[i])
     }
 
     /// The flake amplitude `c s_k` of channel `k`.

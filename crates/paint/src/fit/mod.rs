@@ -29,6 +29,7 @@ mod layout;
 pub mod report;
 mod result;
 mod solve;
+pub mod thickness;
 
 use crate::PaintError;
 use crate::coat::CoatParams;
@@ -40,6 +41,7 @@ pub use report::{Evidence, GroupResidual, Region, group_residuals};
 pub use result::{Candidate, CoverageChoice, Estimate, PaintFit, PaintFitWarning};
 use result::{Selected, finish};
 use solve::{Solved, solve};
+pub use thickness::ThicknessFit;
 
 /// Options of the joint fit.
 #[derive(Debug, Clone, PartialEq)]
@@ -61,6 +63,9 @@ pub struct FitOptions {
     pub haze: bool,
     /// `λ` of the log-linear table's smoothness penalty (default 0.01).
     pub smoothing: f64,
+    /// Fit the thickness of these layers of the flake stack (default none; needs
+    /// [`FlakeMetal::Stack`] flakes): [`thickness`].
+    pub thickness: Option<ThicknessFit>,
 }
 
 impl FitOptions {
@@ -77,6 +82,7 @@ impl FitOptions {
             selection: Selection::default(),
             haze: true,
             smoothing: 0.01,
+            thickness: None,
         }
     }
 }
@@ -111,9 +117,28 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
         )));
     }
     CoatParams::flat(opts.n).validate()?;
+    if let Some(t) = &opts.thickness {
+        thickness::check(t, &opts.flake_metal)?;
+    }
     let (points, have_u) = select(m, &opts.selection)?;
     let names: Vec<String> = m.channels.iter().map(|c| c.name.clone()).collect();
     let amplitudes = opts.coverage.map_or(Amplitudes::Free, Amplitudes::Coverage);
+    // A fitted thickness starts at the minimum of a scan (module docs of `thickness`).
+    let mut scanned = None;
+    let started;
+    let opts = match &opts.thickness {
+        Some(t) => {
+            let (profile, best) = thickness::scan(m, &points, have_u, opts, &names, amplitudes, t)?;
+            started = FitOptions {
+                flake_metal: opts.flake_metal.with_thickness(&t.layers, best)?,
+                ..opts.clone()
+            };
+            scanned = Some(profile);
+            &started
+        }
+        None => opts,
+    };
+    let range = opts.thickness.as_ref().map(|t| t.range_nm);
 
     // Families in order, each starting from the best result so far; the log-linear
     // table and Pearson VII start from a Trowbridge–Reitz fit when there is none.
@@ -141,6 +166,7 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
             opts.n,
             &names,
             amplitudes,
+            range,
         );
         match solve(m, &points, have_u, layout, opts, best.as_ref()) {
             Ok(s) => {
@@ -185,6 +211,7 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
                     opts.n,
                     &names,
                     Amplitudes::Coverage(c),
+                    range,
                 );
                 let refit = solve(m, &points, have_u, layout, opts, Some(&solved))?;
                 solved = refit;
@@ -198,6 +225,7 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
         coverage,
         candidates,
         warnings,
+        thickness_scan: scanned,
     };
     finish(m, points, have_u, selected, opts)
 }

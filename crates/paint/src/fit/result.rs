@@ -81,6 +81,16 @@ pub enum PaintFitWarning {
         /// Its name.
         parameter: String,
     },
+    /// Another thickness of the flake stack fits almost as well (module docs of
+    /// [`super::thickness`]): interference repeats with optical thickness.
+    AmbiguousThickness {
+        /// The thickness fitted, nm.
+        fitted_nm: f64,
+        /// The other local minimum of the scan, nm.
+        other_nm: f64,
+        /// Its scan `χ²` above the scan's lowest, in units of the fit's `χ²/dof`.
+        delta: f64,
+    },
     /// A parameter known to less than ±50 % (relative standard uncertainty).
     Shaky {
         /// Its name.
@@ -121,6 +131,14 @@ impl std::fmt::Display for PaintFitWarning {
             Self::Undetermined { parameter } => write!(
                 f,
                 "{parameter} is not determined by these points (other parameters explain its effect); its uncertainty is not given"
+            ),
+            Self::AmbiguousThickness {
+                fitted_nm,
+                other_nm,
+                delta,
+            } => write!(
+                f,
+                "the flake stack's thickness is ambiguous: in the scan, {other_nm:.0} nm fits almost as well as the order of the {fitted_nm:.1} nm fitted (chi2 higher by only {delta:.2} chi2/dof); interference repeats with thickness, so check the scan"
             ),
             Self::Shaky {
                 parameter,
@@ -178,6 +196,9 @@ pub struct PaintFit {
     pub groups: Vec<GroupResidual>,
     /// Levenberg–Marquardt iterations of the family kept.
     pub iterations: usize,
+    /// With a fitted stack thickness: the scan that started it, `(thickness nm, χ²)`
+    /// with the shape and coat held (module docs of [`super::thickness`]).
+    pub thickness_scan: Option<Vec<(f64, f64)>>,
     /// Cautions.
     pub warnings: Vec<PaintFitWarning>,
 }
@@ -324,6 +345,9 @@ fn physical_estimates(
     if let Some(i) = l.n_index() {
         physical.push(lin_of("n", i));
     }
+    if let Some(i) = l.thickness_index() {
+        physical.push(lin_of("thickness (nm)", i));
+    }
     let scaled = |e: &Estimate, f: f64, name: String| Estimate {
         name,
         value: e.value * f,
@@ -428,6 +452,8 @@ pub(super) struct Selected {
     pub(super) candidates: Vec<Candidate>,
     /// Warnings raised while selecting.
     pub(super) warnings: Vec<PaintFitWarning>,
+    /// The thickness scan, when the thickness is fitted.
+    pub(super) thickness_scan: Option<Vec<(f64, f64)>>,
 }
 
 /// Uncertainties, physical parameters, groups and warnings of the solution kept.
@@ -443,6 +469,7 @@ pub(super) fn finish(
         coverage,
         candidates,
         mut warnings,
+        thickness_scan,
     } = selected;
     let l = &s.layout;
     let q = &s.fit.x;
@@ -480,11 +507,26 @@ pub(super) fn finish(
     let (fitted, correlation) = fitted_estimates(l, q, &u);
     let (physical, channels) = physical_estimates(l, q, &u, m, coverage.used);
     warnings_of(l, q, &u, &physical, points.len(), &mut warnings);
+    let flake_metal = match (l.thickness(q), &opts.thickness) {
+        (Some(d), Some(t)) => {
+            if let Some(profile) = &thickness_scan {
+                for (other, delta) in super::thickness::ambiguous_minima(profile, d, reduced) {
+                    warnings.push(PaintFitWarning::AmbiguousThickness {
+                        fitted_nm: d,
+                        other_nm: other,
+                        delta,
+                    });
+                }
+            }
+            opts.flake_metal.with_thickness(&t.layers, d)?
+        }
+        _ => opts.flake_metal.clone(),
+    };
     let params = PaintParams {
         coat: l.coat(q),
         orientation: s.orientation.clone(),
         coverage: coverage.used,
-        flake_metal: opts.flake_metal,
+        flake_metal,
         channels,
     };
     let groups = group_residuals(m, &points, &s.model);
@@ -506,5 +548,6 @@ pub(super) fn finish(
         groups,
         iterations: s.fit.iterations,
         warnings,
+        thickness_scan,
     })
 }

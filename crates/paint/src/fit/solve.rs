@@ -39,8 +39,62 @@ pub(super) fn solve(
             points.len()
         )));
     }
-    let engine = Engine::new(m, points, &layout, opts.flake_metal, opts.smoothing);
-    let mut q0 = vec![0.0; np];
+    let layers = opts.thickness.as_ref().map_or(&[][..], |t| &t.layers[..]);
+    let engine = Engine::new(
+        m,
+        points,
+        &layout,
+        opts.flake_metal.clone(),
+        layers,
+        opts.smoothing,
+    );
+    let mut q0 = start_values(&layout, opts, start)?;
+    // Amplitudes: non-negative least squares on relative residuals per channel, with
+    // the shape and coat of q0 (the model is linear in them up to the base's small
+    // denominator), unless the start has them.
+    start_amplitudes(&engine, &layout, points, &mut q0, start)?;
+    let fit = lm::minimise(
+        |q: &[f64]| engine.residuals(q),
+        &q0,
+        &layout.bounds,
+        &layout.steps,
+        lm::Settings {
+            max_iterations: 400,
+            max_tries: 30,
+            // A thousandth of what one parameter fitting noise would take off χ².
+            min_relative_decrease: Some(1e-3 / (points.len() - np) as f64),
+        },
+    )
+    .map_err(|e| match e {
+        LmError::Model(e) => e,
+        LmError::NotConverged { iterations, .. } => PaintError::Fit(format!(
+            "the {} fit did not converge in {iterations} iterations",
+            layout.family.name()
+        )),
+        other => PaintError::Fit(format!("the {} fit failed: {other}", layout.family.name())),
+    })?;
+    let model = engine.values(&fit.x)?;
+    let chi2: f64 = fit.residuals[..points.len()].iter().map(|r| r * r).sum();
+    let orientation = layout.orientation(&fit.x)?;
+    let evidence = Evidence::new(chi2, points.len(), np, have_u);
+    Ok(Solved {
+        layout,
+        fit,
+        orientation,
+        model,
+        evidence,
+    })
+}
+
+/// Start values of the shape, the coat, `n` and the stack thickness (module docs of
+/// [`super::thickness`]): from `start` (another fit's result) or the defaults; the
+/// amplitudes are left 0 (see [`start_amplitudes`]).
+pub(super) fn start_values(
+    layout: &Layout,
+    opts: &FitOptions,
+    start: Option<&Solved>,
+) -> Result<Vec<f64>, PaintError> {
+    let mut q0 = vec![0.0; layout.len()];
     // Shape.
     let shape = match start {
         Some(s) => layout.shape_from(&s.orientation),
@@ -81,45 +135,16 @@ pub(super) fn solve(
             }
         }
     }
-    // Amplitudes: non-negative least squares on relative residuals per channel, with
-    // the shape and coat of q0 (the model is linear in them up to the base's small
-    // denominator), unless the start has them.
-    start_amplitudes(&engine, &layout, points, &mut q0, start)?;
-    let fit = lm::minimise(
-        |q: &[f64]| engine.residuals(q),
-        &q0,
-        &layout.bounds,
-        &layout.steps,
-        lm::Settings {
-            max_iterations: 400,
-            max_tries: 30,
-            // A thousandth of what one parameter fitting noise would take off χ².
-            min_relative_decrease: Some(1e-3 / (points.len() - np) as f64),
-        },
-    )
-    .map_err(|e| match e {
-        LmError::Model(e) => e,
-        LmError::NotConverged { iterations, .. } => PaintError::Fit(format!(
-            "the {} fit did not converge in {iterations} iterations",
-            layout.family.name()
-        )),
-        other => PaintError::Fit(format!("the {} fit failed: {other}", layout.family.name())),
-    })?;
-    let model = engine.values(&fit.x)?;
-    let chi2: f64 = fit.residuals[..points.len()].iter().map(|r| r * r).sum();
-    let orientation = layout.orientation(&fit.x)?;
-    let evidence = Evidence::new(chi2, points.len(), np, have_u);
-    Ok(Solved {
-        layout,
-        fit,
-        orientation,
-        model,
-        evidence,
-    })
+    if let (Some(i), Some(t)) = (layout.thickness_index(), &opts.thickness) {
+        q0[i] = start
+            .and_then(|s| s.layout.thickness(&s.fit.x))
+            .unwrap_or_else(|| super::thickness::start(t, &opts.flake_metal));
+    }
+    Ok(q0)
 }
 
 /// Start values of the amplitudes (see [`solve`]).
-fn start_amplitudes(
+pub(super) fn start_amplitudes(
     engine: &Engine<'_>,
     layout: &Layout,
     points: &[Point],

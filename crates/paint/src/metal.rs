@@ -1,0 +1,128 @@
+//! What the flakes are made of, and their reflectance in each colour channel: a metal
+//! (aluminium's tables, a perfect conductor, one complex index) or an interference
+//! flake, a thin-film stack on an optional opaque core (physics.md §13).
+//!
+//! A channel's flake optics are taken at the channel's one wavelength
+//! ([`Channel::wavelength_nm`]): 612, 547 and 464 nm for `r`, `g`, `b`. For a metal the
+//! per-channel flake scale absorbs what one wavelength cannot say about a broad channel;
+//! for a stack it also stands for the band: an interference flake's reflectance at the
+//! channel's wavelength is not its average over the channel's band, which varies more
+//! slowly with angle (physics.md §12.7 says what this means for the fits).
+//!
+//! The light a stack flake transmits (`T = 1 − R − A`) goes down to the base. The paint
+//! model does not follow it separately: the fitted base amplitude `(1 − c)² ρ_k` carries
+//! it with the light that passes between the flakes (its angular dependence through the
+//! flakes' `T` is neglected; physics.md §12.7).
+
+use std::sync::Arc;
+
+use flakescatter_optics::catalogue::MaterialSpec;
+use flakescatter_optics::flake::FlakeReflectance;
+use flakescatter_optics::material::ComplexIndexTable;
+use flakescatter_optics::stack_spec::StackSpec;
+
+use crate::PaintError;
+use crate::channel::Channel;
+
+/// An interference flake: its layers from the side light arrives on, in the coat's
+/// binder, and an optional opaque core under them (`None`: a free flake, the binder on
+/// both sides).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StackFlakes {
+    /// The layers (materials and thicknesses, nm).
+    pub stack: StackSpec,
+    /// The opaque core, if any.
+    pub core: Option<MaterialSpec>,
+}
+
+/// What the flakes are made of.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FlakeMetal {
+    /// Aluminium, the built-in optical constants (Rakić 1995) at each channel's
+    /// wavelength.
+    Aluminium,
+    /// A perfect conductor (`|r| = 1`, the paper's flakes).
+    PerfectConductor,
+    /// One complex index `n + ik` for every channel.
+    Index {
+        /// Real part.
+        n: f64,
+        /// Imaginary part (≥ 0).
+        k: f64,
+    },
+    /// Interference flakes, the stack taken at each channel's wavelength.
+    Stack(Arc<StackFlakes>),
+}
+
+impl FlakeMetal {
+    /// Interference flakes of `stack` on `core`.
+    #[must_use]
+    pub fn stack(stack: StackSpec, core: Option<MaterialSpec>) -> Self {
+        Self::Stack(Arc::new(StackFlakes { stack, core }))
+    }
+
+    /// The flake reflectance in `channel`.
+    ///
+    /// # Errors
+    /// [`PaintError::Parameter`] for an invalid index or a wavelength outside the
+    /// aluminium table or a layer's or the core's table (named).
+    pub fn at(&self, channel: &Channel) -> Result<FlakeReflectance, PaintError> {
+        let wl = channel.wavelength_nm;
+        let at = |what: &str, e: &dyn std::fmt::Display| {
+            PaintError::Parameter(format!(
+                "{what} at channel `{}` ({wl} nm): {e}",
+                channel.name
+            ))
+        };
+        match self {
+            Self::PerfectConductor => Ok(FlakeReflectance::PerfectConductor),
+            Self::Index { n, k } => FlakeReflectance::complex(*n, *k)
+                .map_err(|e| PaintError::Parameter(format!("flake index: {e}"))),
+            Self::Aluminium => ComplexIndexTable::aluminium()
+                .flake_at(wl)
+                .map_err(|e| at("aluminium", &e)),
+            Self::Stack(s) => {
+                let layers = s.stack.at(wl).map_err(|e| at("flake stack", &e))?;
+                let core = s
+                    .core
+                    .as_ref()
+                    .map(|c| c.index_at(wl))
+                    .transpose()
+                    .map_err(|e| at("flake core", &e))?;
+                FlakeReflectance::stack(layers, wl, core).map_err(|e| at("flake stack", &e))
+            }
+        }
+    }
+
+    /// The same flakes with the stack's `layers` (numbered from 1) `thickness_nm` thick.
+    ///
+    /// # Errors
+    /// [`PaintError::Parameter`] for flakes that are not a stack, a layer the stack
+    /// does not have or a thickness that is not finite and > 0.
+    pub fn with_thickness(&self, layers: &[usize], thickness_nm: f64) -> Result<Self, PaintError> {
+        let Self::Stack(s) = self else {
+            return Err(PaintError::Parameter(
+                "a layer thickness is a parameter of interference flakes only (a flake stack)"
+                    .into(),
+            ));
+        };
+        let stack = s
+            .stack
+            .with_thickness(layers, thickness_nm)
+            .map_err(|e| PaintError::Parameter(format!("flake stack: {e}")))?;
+        Ok(Self::stack(stack, s.core.clone()))
+    }
+
+    /// The thickness of layer `layer` (numbered from 1) of a stack, nm; `None` for a
+    /// metal or a layer the stack does not have.
+    #[must_use]
+    pub fn thickness(&self, layer: usize) -> Option<f64> {
+        match self {
+            Self::Stack(s) => layer
+                .checked_sub(1)
+                .and_then(|i| s.stack.layers().get(i))
+                .map(|(_, d)| *d),
+            _ => None,
+        }
+    }
+}
