@@ -124,3 +124,42 @@ fn reciprocity_of_the_tables() {
     let ilm = rms_of("ilm_l3_37_metallic_rgb.csv");
     assert!(ilm > 0.08, "ILM: {ilm}");
 }
+
+/// The colour-changing paint (MERL) with interference flakes: a free TiO2 film whose
+/// thickness is fitted (physics.md §12.7) follows it better than aluminium flakes
+/// (worst group / target 1.25 against 1.64 when this was written; the best generic
+/// model's 2.07, shared README), at a thickness of about 386 nm (a higher interference
+/// order), which the scan found from a start of 100 nm. Held so that it does not get
+/// worse unnoticed; the aluminium fit is redone here for the comparison.
+#[test]
+fn colour_changing_paint_with_a_fitted_film() {
+    use flakescatter::optics::catalogue::Catalogue;
+    use flakescatter::optics::stack_spec::StackSpec;
+    use flakescatter::paint::ThicknessFit;
+    use flakescatter::paint_model::FlakeMetal;
+
+    let m = table("color-changing-paint1.csv");
+    let aluminium = worst_ratio(&fit(&m, &trusted()).unwrap().groups);
+    let mut o = trusted();
+    o.flake_metal = FlakeMetal::stack(
+        StackSpec::parse("TiO2:100", &Catalogue::builtin()).unwrap(),
+        None,
+    );
+    o.thickness = Some(ThicknessFit {
+        layers: vec![1],
+        range_nm: (20.0, 400.0),
+    });
+    let f = fit(&m, &o).unwrap();
+    let worst = worst_ratio(&f.groups);
+    assert!(worst <= 1.30, "film: worst group / target {worst}");
+    assert!(
+        worst < aluminium - 0.2,
+        "film {worst} against aluminium {aluminium}"
+    );
+    let d = f
+        .physical
+        .iter()
+        .find(|e| e.name == "thickness (nm)")
+        .unwrap();
+    assert!((d.value - 386.0).abs() < 3.0, "{d:?}");
+}

@@ -28,9 +28,12 @@ fn to_python<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py,
 /// parameters with 95 % intervals, correlations, residual groups, warnings), `params`
 /// (the parameter file `paint_brdf` takes), `worst_ratio` (worst group rms / target),
 /// and `points` (columns `theta_i_deg, theta_r_deg, phi_r_deg, channel, measured,
-/// model`). Warnings are also emitted as `FlakescatterWarning`.
+/// model`). Warnings are also emitted as `FlakescatterWarning`. Interference flakes:
+/// `flake_stack` (and `flake_core`) as `--flake-stack`/`--flake-core`, with
+/// `fit_thickness` (layer numbers from 1) and `thickness_range_nm` as `--fit-thickness`
+/// and `--thickness-range`.
 #[pyfunction]
-#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None))]
+#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_paint<'py>(
     py: Python<'py>,
@@ -45,6 +48,10 @@ pub fn fit_paint<'py>(
     haze: bool,
     smoothing: f64,
     flake_index: Option<(f64, f64)>,
+    flake_stack: Option<&str>,
+    flake_core: Option<&str>,
+    fit_thickness: Option<Vec<usize>>,
+    thickness_range_nm: (f64, f64),
 ) -> PyResult<Bound<'py, PyDict>> {
     let path = path_of(py, "measured", measured)?;
     let families =
@@ -79,18 +86,54 @@ pub fn fit_paint<'py>(
         selection.min_value = v;
     }
     flakescatter::checks::coat_index(n).map_err(|e| input(py, format!("n={e}")))?;
+    let flake_metal = match (flake_stack, flake_index) {
+        (Some(_), Some(_)) => {
+            return Err(input(
+                py,
+                "flake_stack and flake_index: give one (the flakes are a stack or a metal)",
+            ));
+        }
+        (Some(stack), None) => {
+            flakescatter::paint::stack_flakes(stack, flake_core).map_err(|e| {
+                let key = match e {
+                    flakescatter::film::StackFlakeError::Core(_) => "flake_core",
+                    _ => "flake_stack",
+                };
+                input(py, format!("{key}: {e}"))
+            })?
+        }
+        (None, _) if flake_core.is_some() => {
+            return Err(input(py, "flake_core needs flake_stack"));
+        }
+        (None, Some((n, k))) => FlakeMetal::Index { n, k },
+        (None, None) => FlakeMetal::Aluminium,
+    };
+    let thickness = match fit_thickness {
+        None => None,
+        Some(layers) => {
+            let t = flakescatter::paint::ThicknessFit {
+                layers,
+                range_nm: thickness_range_nm,
+            };
+            if !matches!(flake_metal, FlakeMetal::Stack(_)) {
+                return Err(input(
+                    py,
+                    "fit_thickness needs interference flakes (flake_stack=...)",
+                ));
+            }
+            Some(t)
+        }
+    };
     let opts = FitOptions {
         families,
         n,
         fit_n,
         coverage,
-        flake_metal: match flake_index {
-            Some((n, k)) => FlakeMetal::Index { n, k },
-            None => FlakeMetal::Aluminium,
-        },
+        flake_metal,
         selection,
         haze,
         smoothing,
+        thickness,
     };
     let (m, fit) = released(py, || {
         let m = flakescatter::paint::read_measurement(&path, MeasuredKind::Brdf)?;

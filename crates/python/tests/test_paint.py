@@ -66,3 +66,42 @@ def test_bad_tables_name_file_line_and_column(tmp_path):
         fs.fit_paint(GOLD, family="cauchy")
     with pytest.raises(fs.InputError, match="not a paint parameter"):
         fs.paint_brdf({"format": "x"}, [30], [10], [0])
+
+
+COLOUR_CHANGING = FIXTURES / "real" / "paints" / "color-changing-paint1.csv"
+
+
+def test_fit_paint_with_a_fitted_film_matches_the_cli(cli):
+    """Interference flakes with a fitted thickness: the same fit as the CLI's."""
+    kw = dict(family="trowbridge-reitz", max_theta_r=80, min_value=1e-3)
+    got = fs.fit_paint(COLOUR_CHANGING, flake_stack="TiO2:100", fit_thickness=[1],
+                       thickness_range_nm=(20, 400), **kw)
+    want = cli.json(
+        "fit", "--measured", COLOUR_CHANGING, "--paint", "--family", "trowbridge-reitz",
+        "--max-theta-r", 80, "--min-value", 1e-3, "--flake-stack", "TiO2:100",
+        "--fit-thickness", 1, "--thickness-range", "20:400",
+    )["fit"]
+    assert got["fit"]["chi2"] == want["chi2"]
+    assert got["fit"]["thickness"] == want["thickness"]
+    thick = [e for e in got["fit"]["physical"] if e["name"] == "thickness (nm)"]
+    assert len(thick) == 1 and 20 < thick[0]["value"] < 400
+    # The parameter file carries the fitted stack.
+    assert got["params"]["flakes"]["metal"]["stack"].startswith("TiO2:")
+
+
+@pytest.mark.parametrize(
+    "kw, word",
+    [
+        (dict(flake_stack="TiO2:-4"), "flake_stack"),
+        (dict(flake_stack="TiO2:40", flake_core="unobtainium"), "flake_core"),
+        (dict(flake_core="aluminium"), "flake_core needs flake_stack"),
+        (dict(flake_stack="TiO2:40", flake_index=(1.0, 6.0)), "give one"),
+        (dict(fit_thickness=[1]), "fit_thickness needs interference flakes"),
+        (dict(flake_stack="TiO2:40", fit_thickness=[2]), "layer 2"),
+        (dict(flake_stack="TiO2:40", fit_thickness=[1], thickness_range_nm=(50, 20)),
+         "thickness range"),
+    ],
+)
+def test_bad_stack_keywords_are_named(kw, word):
+    with pytest.raises(fs.Error, match=word):
+        fs.fit_paint(COLOUR_CHANGING, **kw)

@@ -17,7 +17,7 @@ mod spectral;
 pub use colour::{ColourArgs, GeometryArgs};
 pub use instrument::{InstrumentArgs, MAX_ROWS, OpticsArgs};
 pub use measured::MeasuredArgs;
-pub use paint::{PaintFlags, flake_metal};
+pub use paint::{PaintFlags, flake_metal, paint_flakes};
 pub use polarization::PolarizationArgs;
 pub use source::{MapArgs, OrientationArgs, SegmentArgs, selector, width};
 pub use spectral::{DEFAULT_WAVELENGTHS, SpectralArgs};

@@ -85,6 +85,18 @@ pub fn flake_metal(optics: &super::OpticsArgs) -> anyhow::Result<FlakeMetal> {
     })
 }
 
+/// The flakes of a paint fit: interference flakes of `--flake-stack` (and
+/// `--flake-core`), taken at each channel's wavelength, else [`flake_metal`].
+pub fn paint_flakes(
+    optics: &super::OpticsArgs,
+    spectral: &super::SpectralArgs,
+) -> anyhow::Result<FlakeMetal> {
+    match spectral.stack_specs()? {
+        Some((stack, core)) => Ok(FlakeMetal::stack(stack, core)),
+        None => flake_metal(optics),
+    }
+}
+
 /// `n` values for `n` channels from a list of one or `n` numbers (`flag` for messages).
 fn per_channel(flag: &str, text: Option<&str>, n: usize, default: f64) -> anyhow::Result<Vec<f64>> {
     let Some(text) = text else {

@@ -143,6 +143,33 @@ impl SpectralArgs {
         self.wavelengths.is_some() || self.describes_a_spectrum()
     }
 
+    /// Whether a spectral flag other than `--flake-stack`/`--flake-core` is given (the
+    /// paint fit takes those two and takes the stack at each channel's wavelength).
+    pub fn any_besides_stack(&self) -> bool {
+        self.wavelengths.is_some()
+            || self.flake_material.is_some()
+            || self.flake_nk.is_some()
+            || self.coat_cauchy.is_some()
+            || self.coat_index.is_some()
+            || self.binder_absorption.is_some()
+    }
+
+    /// `--flake-stack` and `--flake-core` as parsed specs (`None` without a stack).
+    pub fn stack_specs(&self) -> anyhow::Result<Option<(StackSpec, Option<MaterialSpec>)>> {
+        let Some(text) = self.flake_stack.as_deref() else {
+            return Ok(None);
+        };
+        let catalogue = Catalogue::builtin();
+        let stack = StackSpec::parse(text, &catalogue).context("--flake-stack")?;
+        let core = self
+            .flake_core
+            .as_deref()
+            .map(|c| catalogue.parse(c))
+            .transpose()
+            .context("--flake-core")?;
+        Ok(Some((stack, core)))
+    }
+
     /// Whether a flag makes the coating depend on wavelength.
     pub fn describes_a_spectrum(&self) -> bool {
         self.flake_material.is_some()
@@ -240,15 +267,9 @@ impl SpectralArgs {
 
     /// `--flake-stack` (and `--flake-core`) as a flake spectrum, with its JSON echo.
     fn stack_flake(&self) -> anyhow::Result<(FlakeSpectrum, Value)> {
-        let catalogue = Catalogue::builtin();
-        let text = self.flake_stack.as_deref().unwrap_or_default();
-        let stack = StackSpec::parse(text, &catalogue).context("--flake-stack")?;
-        let core = self
-            .flake_core
-            .as_deref()
-            .map(|c| catalogue.parse(c))
-            .transpose()
-            .context("--flake-core")?;
+        let Some((stack, core)) = self.stack_specs()? else {
+            bail!("--flake-stack is not given");
+        };
         let echo = json!({
             "stack": stack.label(),
             "core": core.as_ref().map(MaterialSpec::label),

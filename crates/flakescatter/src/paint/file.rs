@@ -18,11 +18,15 @@
 //! `{"family": "trowbridge-reitz", "alpha": α}`, `{"family": "pearson-vii", "alpha": α,
 //! "shape": γ}`, `{"family": "table", "knots_deg": [...], "ln_p_tilde": [...]}` (a
 //! log-linear table) or `{"family": "histogram", "edges_deg": [...], "area_fractions":
-//! [...]}` (physics.md §3); `metal` is `"aluminium"`, `"perfect-conductor"` or `{"n": n, "k": k}`. Roughness
+//! [...]}` (physics.md §3); `metal` is `"aluminium"`, `"perfect-conductor"`, `{"n": n, "k": k}`
+//! or interference flakes `{"stack": "TiO2:120/mica:400/TiO2:120", "core": "aluminium"}`
+//! (`core` optional; physics.md §13). Roughness
 //! values are GGX slope scales (dimensionless); angles in degrees, wavelengths in nm.
 
 use std::path::Path;
 
+use flakescatter_optics::catalogue::{Catalogue, MaterialSpec};
+use flakescatter_optics::stack_spec::StackSpec;
 use flakescatter_paint::{Channel, ChannelParams, CoatParams, FlakeMetal, PaintParams};
 use flakescatter_stats::decimal::typed_degrees;
 use flakescatter_stats::{GaussianWidth, Orientation};
@@ -130,6 +134,15 @@ pub enum MetalSection {
         /// Imaginary part.
         k: f64,
     },
+    /// Interference flakes: a stack spec (`material:thickness_nm/…`, as `--flake-stack`)
+    /// and an optional opaque core (a material name or `n+ki`, as `--flake-core`).
+    Stack {
+        /// The layers, from the side light arrives on.
+        stack: String,
+        /// The core, if any.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        core: Option<String>,
+    },
 }
 
 /// One of `channels`.
@@ -167,10 +180,14 @@ impl ParamsFile {
             },
             orientation: orientation_section(&params.orientation),
             flakes: FlakesSection {
-                metal: match params.flake_metal {
+                metal: match &params.flake_metal {
                     FlakeMetal::Aluminium => MetalSection::Named("aluminium".into()),
                     FlakeMetal::PerfectConductor => MetalSection::Named("perfect-conductor".into()),
-                    FlakeMetal::Index { n, k } => MetalSection::Index { n, k },
+                    FlakeMetal::Index { n, k } => MetalSection::Index { n: *n, k: *k },
+                    FlakeMetal::Stack(s) => MetalSection::Stack {
+                        stack: s.stack.label(),
+                        core: s.core.as_ref().map(MaterialSpec::label),
+                    },
                 },
                 coverage: params.coverage,
             },
@@ -240,11 +257,22 @@ impl ParamsFile {
                 return Err(bad(
                     "flakes.metal",
                     format!(
-                        "\"{n}\": expected \"aluminium\", \"perfect-conductor\" or {{\"n\": .., \"k\": ..}}"
+                        "\"{n}\": expected \"aluminium\", \"perfect-conductor\", {{\"n\": .., \"k\": ..}} or {{\"stack\": .., \"core\": ..}}"
                     ),
                 ));
             }
             MetalSection::Index { n, k } => FlakeMetal::Index { n: *n, k: *k },
+            MetalSection::Stack { stack, core } => {
+                let catalogue = Catalogue::builtin();
+                let stack = StackSpec::parse(stack, &catalogue)
+                    .map_err(|e| bad("flakes.metal.stack", e.to_string()))?;
+                let core = core
+                    .as_deref()
+                    .map(|c| catalogue.parse(c))
+                    .transpose()
+                    .map_err(|e| bad("flakes.metal.core", e.to_string()))?;
+                FlakeMetal::stack(stack, core)
+            }
         };
         let channels = self
             .channels

@@ -19,12 +19,34 @@ use flakescatter_io::measured::{MeasuredCurve, read_measured};
 use flakescatter_paint::Channel;
 pub use flakescatter_paint::fit::{
     Estimate, Evidence, Family, FitOptions, GroupResidual, Measurement, Observation, PaintFit,
-    PaintFitWarning, Point, Region, Selection,
+    PaintFitWarning, Point, Region, Selection, ThicknessFit,
 };
 use flakescatter_paint::{PaintError, PaintModel};
 
 use crate::PipelineError;
 use crate::compare::MeasuredKind;
+use crate::film::StackFlakeError;
+
+/// Interference flakes for a paint from text, as `--flake-stack` and `--flake-core` give
+/// them (against the built-in catalogue): the stack is taken at each channel's
+/// wavelength when the paint is built (physics.md §12.7).
+///
+/// # Errors
+/// [`StackFlakeError::Spec`] for a stack that does not parse (naming the layer),
+/// [`StackFlakeError::Core`] for an unknown core.
+pub fn stack_flakes(
+    stack: &str,
+    core: Option<&str>,
+) -> Result<flakescatter_paint::FlakeMetal, StackFlakeError> {
+    let catalogue = flakescatter_optics::catalogue::Catalogue::builtin();
+    let stack = flakescatter_optics::stack_spec::StackSpec::parse(stack, &catalogue)
+        .map_err(StackFlakeError::Spec)?;
+    let core = core
+        .map(|c| catalogue.parse(c))
+        .transpose()
+        .map_err(StackFlakeError::Core)?;
+    Ok(flakescatter_paint::FlakeMetal::stack(stack, core))
+}
 
 /// Reads a measured table for the paint model: a BRDF table (`theta_r_deg`,
 /// `phi_r_deg`, `brdf_<channel>_per_sr` columns; [`flakescatter_io::brdf`]) or an

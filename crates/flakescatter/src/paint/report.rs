@@ -49,7 +49,7 @@ pub fn groups_json(groups: &[GroupResidual]) -> Value {
 #[must_use]
 pub fn fit_json(fit: &PaintFit, m: &Measurement, opts: &FitOptions) -> Value {
     let est = |e: &super::Estimate| json!({"name": e.name, "value": e.value, "std": e.std, "lo95": e.lo95, "hi95": e.hi95});
-    json!({
+    let mut report = json!({
         "file": m.file,
         "family": fit.family.name(),
         "families": fit.candidates.iter().map(|c| json!({
@@ -90,7 +90,21 @@ pub fn fit_json(fit: &PaintFit, m: &Measurement, opts: &FitOptions) -> Value {
         "residuals": groups_json(&fit.groups),
         "worst_ratio_to_target": worst_ratio(&fit.groups),
         "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
-    })
+    });
+    // A fitted stack thickness: the layers, the range and the scan that started the fit
+    // (physics.md §12.7), only when there is one (other reports keep their keys).
+    if let (Some(t), Some(scan)) = (&opts.thickness, &fit.thickness_scan) {
+        report["thickness"] = json!({
+            "layers": t.layers,
+            "range_nm": [t.range_nm.0, t.range_nm.1],
+            "scan": {
+                "note": "chi2 at each thickness with the shape and coat of a Trowbridge-Reitz fit at the spec's thickness held and the channel amplitudes refitted; its minimum started the joint fit",
+                "thickness_nm": scan.iter().map(|p| p.0).collect::<Vec<_>>(),
+                "chi2": scan.iter().map(|p| if p.1.is_finite() { json!(p.1) } else { Value::Null }).collect::<Vec<_>>(),
+            },
+        });
+    }
+    report
 }
 
 /// The selection as JSON.

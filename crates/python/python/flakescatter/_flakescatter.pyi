@@ -396,6 +396,10 @@ def fit_paint(
     haze: bool = True,
     smoothing: float = 0.01,
     flake_index: Optional[Tuple[float, float]] = None,
+    flake_stack: Optional[str] = None,
+    flake_core: Optional[str] = None,
+    fit_thickness: Optional[Sequence[int]] = None,
+    thickness_range_nm: Tuple[float, float] = (10.0, 600.0),
 ) -> dict[str, Any]:
     """Fit a paint (clear coat, flakes, base) to a measured BRDF table (as
     ``flakescatter fit --paint``): one parameter set for every incidence, row and
@@ -404,7 +408,12 @@ def fit_paint(
     region, warnings), ``params`` (the parameter file, for :func:`paint_brdf`),
     ``worst_ratio`` (worst group rms log10 / its target) and ``points`` (columns
     ``theta_i_deg``, ``theta_r_deg``, ``phi_r_deg``, ``channel``, ``measured``,
-    ``model``). Angles in degrees, BRDFs in 1/sr."""
+    ``model``). Angles in degrees, BRDFs in 1/sr. Interference flakes:
+    ``flake_stack`` (``"TiO2:100/mica:400/TiO2:100"``) and ``flake_core`` as
+    ``--flake-stack``/``--flake-core``, taken at each channel's wavelength;
+    ``fit_thickness`` (layer numbers from 1, moved together) fits their thickness from
+    the best point of a scan over ``thickness_range_nm`` (nm); the scan is in
+    ``fit["thickness"]``."""
 
 def paint_brdf(
     params: Union[PathLike, Mapping[str, Any]],

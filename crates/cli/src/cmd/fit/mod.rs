@@ -145,8 +145,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if args.measured.measured_multiangle.is_some() {
             bail!("--paint fits a BRDF table given with --measured, not --measured-multiangle");
         }
-        if args.spectral.any() || args.colour.any() {
-            bail!("the spectral and colour flags do not apply to --paint");
+        if args.spectral.any_besides_stack() || args.colour.any() {
+            bail!(
+                "the spectral and colour flags do not apply to --paint (but --flake-stack and --flake-core do)"
+            );
         }
         if args.json {
             plan.stdout("--json");

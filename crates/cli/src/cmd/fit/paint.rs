@@ -6,7 +6,8 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::paint::file::ParamsFile;
 use flakescatter::paint::report::{fit_json, fit_text, in_plane_chart, points_csv, residual_map};
-use flakescatter::paint::{Family, FitOptions, Measurement, PaintFit, Selection};
+use flakescatter::paint::{Family, FitOptions, Measurement, PaintFit, Selection, ThicknessFit};
+use flakescatter::paint_model::FlakeMetal;
 use serde_json::json;
 
 use super::Args;
@@ -56,6 +57,21 @@ pub struct PaintArgs {
     /// holding other files is refused.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+    /// --paint with --flake-stack: fit the thickness of these layers of the stack
+    /// (numbered from 1 on the side light arrives on; several move together, e.g. `1,3`
+    /// for both TiO2 coats of TiO2/mica/TiO2). The fit starts at the best point of a
+    /// scan over --thickness-range (physics.md §12.7).
+    #[arg(long, value_name = "LAYERS")]
+    pub fit_thickness: Option<String>,
+    /// --fit-thickness: the range scanned and the fit's bounds, nm, `LO:HI`
+    /// [default: 10:600].
+    #[arg(
+        long,
+        value_name = "LO:HI",
+        requires = "fit_thickness",
+        allow_hyphen_values = true
+    )]
+    pub thickness_range: Option<String>,
 }
 
 impl PaintArgs {
@@ -73,6 +89,7 @@ impl PaintArgs {
             (self.min_value.is_some(), "--min-value"),
             (self.params_out.is_some(), "--params-out"),
             (self.plot.is_some(), "--plot"),
+            (self.fit_thickness.is_some(), "--fit-thickness"),
         ]
         .into_iter()
         .find(|(set, _)| *set)
@@ -169,7 +186,8 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
         selection.min_value = v;
     }
     let coating = optics.coating()?;
-    let flake_metal = crate::flags::flake_metal(optics)?;
+    let flake_metal = crate::flags::paint_flakes(optics, &args.spectral)?;
+    let thickness = thickness(p, &flake_metal)?;
     Ok(FitOptions {
         families: Family::choice(&p.family)
             .map_err(|e| anyhow::anyhow!("--family {}: {e}", p.family))?,
@@ -180,7 +198,42 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
         selection,
         haze: !p.no_haze,
         smoothing: p.smoothing,
+        thickness,
     })
+}
+
+/// `--fit-thickness LAYERS` and `--thickness-range LO:HI` (checked against the stack).
+fn thickness(p: &PaintArgs, metal: &FlakeMetal) -> anyhow::Result<Option<ThicknessFit>> {
+    let Some(text) = p.fit_thickness.as_deref() else {
+        return Ok(None);
+    };
+    if !matches!(metal, FlakeMetal::Stack(_)) {
+        bail!("--fit-thickness {text}: needs interference flakes, --flake-stack SPEC");
+    }
+    let layers = text
+        .split(',')
+        .map(|v| v.trim().parse::<usize>().ok().filter(|&l| l > 0))
+        .collect::<Option<Vec<_>>>()
+        .with_context(|| {
+            format!("--fit-thickness {text}: expected layer numbers from 1 separated by commas, e.g. 1,3")
+        })?;
+    let range_text = p.thickness_range.as_deref().unwrap_or("10:600");
+    let range_nm = match range_text
+        .split_once(':')
+        .map(|(a, b)| (a.trim().parse::<f64>(), b.trim().parse::<f64>()))
+    {
+        Some((Ok(lo), Ok(hi))) if lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo => {
+            (lo, hi)
+        }
+        _ => bail!(
+            "--thickness-range {range_text}: expected LO:HI in nm with 0 < LO < HI (default 10:600)"
+        ),
+    };
+    let t = ThicknessFit { layers, range_nm };
+    metal
+        .with_thickness(&t.layers, range_nm.0)
+        .with_context(|| format!("--fit-thickness {text}"))?;
+    Ok(Some(t))
 }
 
 /// The owner recorded in a plot directory's marker (`output::owned`).
