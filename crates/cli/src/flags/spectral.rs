@@ -146,12 +146,9 @@ impl SpectralArgs {
     /// Whether a spectral flag other than `--flake-stack`/`--flake-core` is given (the
     /// paint fit takes those two and takes the stack at each channel's wavelength).
     pub fn any_besides_stack(&self) -> bool {
-        self.wavelengths.is_some()
-            || self.flake_material.is_some()
-            || self.flake_nk.is_some()
-            || self.coat_cauchy.is_some()
-            || self.coat_index.is_some()
-            || self.binder_absorption.is_some()
+        self.given()
+            .into_iter()
+            .any(|(flag, on)| on && flag != "--flake-stack")
     }
 
     /// `--flake-stack` and `--flake-core` as parsed specs (`None` without a stack).
@@ -172,16 +169,13 @@ impl SpectralArgs {
 
     /// Whether a flag makes the coating depend on wavelength.
     pub fn describes_a_spectrum(&self) -> bool {
-        self.flake_material.is_some()
-            || self.flake_nk.is_some()
-            || self.flake_stack.is_some()
-            || self.coat_cauchy.is_some()
-            || self.coat_index.is_some()
-            || self.binder_absorption.is_some()
+        self.given()
+            .into_iter()
+            .any(|(flag, on)| on && flag != "--wavelengths")
     }
 
-    /// The first spectral flag given, for messages.
-    pub fn first_flag(&self) -> Option<&'static str> {
+    /// The spectral flags in the order messages name them, and whether each is given.
+    fn given(&self) -> [(&'static str, bool); 7] {
         [
             ("--wavelengths", self.wavelengths.is_some()),
             ("--flake-material", self.flake_material.is_some()),
@@ -191,8 +185,11 @@ impl SpectralArgs {
             ("--coat-index", self.coat_index.is_some()),
             ("--binder-absorption", self.binder_absorption.is_some()),
         ]
-        .into_iter()
-        .find_map(|(f, on)| on.then_some(f))
+    }
+
+    /// The first spectral flag given, for messages.
+    pub fn first_flag(&self) -> Option<&'static str> {
+        self.given().into_iter().find_map(|(f, on)| on.then_some(f))
     }
 
     /// The `--wavelengths` list (or `default`), nm, checked: finite, > 0, strictly

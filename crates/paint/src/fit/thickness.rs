@@ -88,25 +88,19 @@ pub(super) fn scan(
 ) -> Result<(Vec<(f64, f64)>, f64), PaintError> {
     // Shape and coat from a Trowbridge–Reitz fit at the spec's thickness; when that
     // does not converge, the defaults a fit starts from.
-    let held = Layout::new(
-        Family::TrowbridgeReitz,
-        opts.haze,
-        opts.fit_n,
-        opts.n,
-        names,
-        amplitudes,
-        None,
-    );
-    let prefit = solve(m, points, have_u, held, opts, None).ok();
-    let layout = Layout::new(
-        Family::TrowbridgeReitz,
-        opts.haze,
-        opts.fit_n,
-        opts.n,
-        names,
-        amplitudes,
-        Some(t.range_nm),
-    );
+    let tr = |thickness: Option<(f64, f64)>| {
+        Layout::new(
+            Family::TrowbridgeReitz,
+            opts.haze,
+            opts.fit_n,
+            opts.n,
+            names,
+            amplitudes,
+            thickness,
+        )
+    };
+    let prefit = solve(m, points, have_u, tr(None), opts, None).ok();
+    let layout = tr(Some(t.range_nm));
     let ti = layout.thickness_index().expect("a thickness entry");
     let engine = Engine::new(
         m,
