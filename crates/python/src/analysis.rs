@@ -76,26 +76,26 @@ pub fn segment<'py>(
             .map(|x| i64::try_from(g(x)).unwrap_or(i64::MAX))
             .collect::<Vec<i64>>()
     };
+    // The names of the one flake table (`segment --out`, `analyze`'s `flakes.csv`), in
+    // its order; the last two (map, flake number) belong to files of several maps.
+    use flakescatter::io::flakes::SEGMENTED_COLUMNS as C;
     Ok(Columns::new(py)
-        .f64("x_um", col(|x| x.centre_um[0]))?
-        .f64("y_um", col(|x| x.centre_um[1]))?
-        .f64("nx", col(|x| x.normal.x))?
-        .f64("ny", col(|x| x.normal.y))?
-        .f64("nz", col(|x| x.normal.z))?
-        .f64("area_um2", col(|x| x.area_um2))?
-        .f64("theta_n_deg", col(|x| x.theta_n.to_degrees()))?
-        .f64("phi_n_deg", col(|x| x.phi_n.to_degrees()))?
-        .f64("projected_area_um2", col(|x| x.projected_area_um2))?
-        .f64("equivalent_diameter_um", col(|x| x.equivalent_diameter_um))?
-        .f64("rms_um", col(|x| x.rms_um))?
-        .f64("tilt_se_deg", col(|x| x.tilt_se.to_degrees()))?
-        .i64("pixels", int(|x| x.pixels))?
-        .i64("inliers", int(|x| x.inliers))?
-        .bool(
-            "touches_border",
-            f.iter().map(|x| x.touches_border).collect(),
-        )?
-        .f64("quality", col(|x| x.quality))?
+        .f64(C[0], col(|x| x.centre_um[0]))?
+        .f64(C[1], col(|x| x.centre_um[1]))?
+        .f64(C[2], col(|x| x.normal.x))?
+        .f64(C[3], col(|x| x.normal.y))?
+        .f64(C[4], col(|x| x.normal.z))?
+        .f64(C[5], col(|x| x.area_um2))?
+        .f64(C[6], col(|x| x.theta_n.to_degrees()))?
+        .f64(C[7], col(|x| x.phi_n.to_degrees()))?
+        .f64(C[8], col(|x| x.projected_area_um2))?
+        .f64(C[9], col(|x| x.equivalent_diameter_um))?
+        .f64(C[10], col(|x| x.rms_um))?
+        .f64(C[11], col(|x| x.tilt_se.to_degrees()))?
+        .i64(C[12], int(|x| x.pixels))?
+        .i64(C[13], int(|x| x.inliers))?
+        .bool(C[14], f.iter().map(|x| x.touches_border).collect())?
+        .f64(C[15], col(|x| x.quality))?
         .done())
 }
 
