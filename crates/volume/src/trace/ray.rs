@@ -2,7 +2,7 @@
 //! flake faces and rims, the substrate, the top interface from inside, and the tally
 //! of each escape into the detector cones and the energy balance; the ray's generator.
 //! A free stack flake's faces split the ray into reflection and transmission (module
-//! `stack`).
+//! `stack`); a tinted binder takes its share along each segment (module `binder`).
 
 use flakescatter_numerics::cone_grid::{ConeGrid, ConeSpec};
 use flakescatter_numerics::simd::{Kernels, dispatch};
@@ -12,6 +12,7 @@ use flakescatter_optics::{UnitVec3, Vec3, refraction};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::{SplitMix64, Xoshiro256PlusPlus};
 
+use super::binder;
 use super::stack::StackFaces;
 use super::{BATCHES, RimRule, Substrate, TraceOptions};
 use crate::grid::{FlakeGrid, Next, Surface};
@@ -25,7 +26,8 @@ pub(super) const E_SUB: usize = 3;
 pub(super) const E_FLAKES: usize = 4;
 pub(super) const E_RIMS: usize = 5;
 pub(super) const E_CUT: usize = 6;
-pub(super) const E_SLOTS: usize = 7;
+pub(super) const E_BINDER: usize = 7;
+pub(super) const E_SLOTS: usize = 8;
 
 /// Sums of one batch (or of a batch's rays within one chunk).
 pub(super) struct Partial {
@@ -252,8 +254,11 @@ impl Run<'_> {
         let mut via_substrate = false;
         let mut events = 0u32;
         let mut last: Option<u32> = None;
+        let alpha = opts.binder_alpha_per_um;
+        // Flake (not binder) at the start of the next segment, µm (module `binder`).
+        let mut in_flake = 0.0f64;
         loop {
-            let w = ws + wp;
+            let mut w = ws + wp;
             if w <= 0.0 {
                 return;
             }
@@ -277,6 +282,17 @@ impl Run<'_> {
                 opts.rims == RimRule::Ignore,
                 self.max_cells,
             );
+            if alpha > 0.0 {
+                let len = match next {
+                    Next::Flake(h) => h.tau,
+                    Next::Boundary => tau_max,
+                    Next::TooLong => 0.0,
+                };
+                let binder_len = (len - in_flake).max(0.0);
+                p.energy[E_BINDER] += binder::attenuate(alpha, binder_len, &mut ws, &mut wp);
+                w = ws + wp;
+                in_flake = 0.0;
+            }
             match next {
                 Next::TooLong => {
                     p.energy[E_CUT] += w;
@@ -352,6 +368,10 @@ impl Run<'_> {
                             } else {
                                 // On through the flake along the same line (`stack`).
                                 other_events += 1;
+                                if alpha > 0.0 {
+                                    let f = &self.flakes[h.flake as usize];
+                                    in_flake = binder::chord(f, &pos, &k, l);
+                                }
                             }
                         }
                         Surface::Rim => match opts.rims {
