@@ -20,13 +20,26 @@
 
 use flakescatter_optics::Vec3;
 
+use crate::grid::Next;
 use crate::layer::Flake;
 
+/// The length of the segment that ends at `next`: to the flake hit, or `tau_max` to the
+/// top or the substrate; 0 for a segment not traced (`TooLong`, whose weight is cut off).
+#[inline(always)]
+pub(super) fn length(next: &Next, tau_max: f64) -> f64 {
+    match next {
+        Next::Flake(h) => h.tau,
+        Next::Boundary => tau_max,
+        Next::TooLong => 0.0,
+    }
+}
+
 /// Multiplies the channel weights `(ws, wp)` by `exp(−α ℓ)` for a stretch of `len` µm
-/// of binder of coefficient `alpha` (µm⁻¹) and returns the power taken.
+/// of binder of coefficient `alpha` (µm⁻¹; a negative `len`, a segment shorter than the
+/// flake chord it starts with, counts as 0) and returns the power taken.
 #[inline(always)]
 pub(super) fn attenuate(alpha: f64, len: f64, ws: &mut f64, wp: &mut f64) -> f64 {
-    let keep = (-alpha * len).exp();
+    let keep = (-alpha * len.max(0.0)).exp();
     let (s, p) = (*ws * keep, *wp * keep);
     let taken = (*ws - s) + (*wp - p);
     *ws = s;
@@ -36,11 +49,14 @@ pub(super) fn attenuate(alpha: f64, len: f64, ws: &mut f64, wp: &mut f64) -> f64
 
 /// The length of the line `pos + τ k` (unit `k`) inside the solid cylinder of `flake`,
 /// from `pos` on one of its faces going into it, µm: the nearer of the opposite face
-/// (`t / |k·m|`) and the side wall. `pos` may lie on an image of the flake shifted by
-/// whole tiles of side `tile` (the nearest image is taken: a tile is wider than any
-/// flake).
+/// (`t / |k·m|`) and the side wall; 0 without absorption (`alpha = 0`, nothing
+/// computed). `pos` may lie on an image of the flake shifted by whole tiles of side
+/// `tile` (the nearest image is taken: a tile is wider than any flake).
 #[inline(always)]
-pub(super) fn chord(flake: &Flake, pos: &Vec3, k: &Vec3, tile: f64) -> f64 {
+pub(super) fn chord(alpha: f64, flake: &Flake, pos: &Vec3, k: &Vec3, tile: f64) -> f64 {
+    if alpha == 0.0 {
+        return 0.0;
+    }
     let m = flake.normal.into_inner();
     let mut d = pos - flake.centre;
     d.x -= tile * (d.x / tile).round();
@@ -87,17 +103,17 @@ mod tests {
     fn chords_of_a_flat_disc() {
         let f = flat();
         let top = Vec3::new(5.0, 5.0, -2.75);
-        assert!((chord(&f, &top, &Vec3::new(0.0, 0.0, -1.0), 20.0) - 0.5).abs() < 1e-15);
+        assert!((chord(1.0, &f, &top, &Vec3::new(0.0, 0.0, -1.0), 20.0) - 0.5).abs() < 1e-15);
         // 60° from the axis: t / cos 60° = 1 µm, the wall 2 µm away along x.
         let (s, c) = 60f64.to_radians().sin_cos();
         let k = Vec3::new(s, 0.0, -c);
-        assert!((chord(&f, &top, &k, 20.0) - 1.0).abs() < 1e-12);
+        assert!((chord(1.0, &f, &top, &k, 20.0) - 1.0).abs() < 1e-12);
         // 0.5 µm from the wall in x: the wall at 0.5 / sin 60°.
         let near = Vec3::new(6.5, 5.0, -2.75);
-        assert!((chord(&f, &near, &k, 20.0) - 0.5 / s).abs() < 1e-12);
+        assert!((chord(1.0, &f, &near, &k, 20.0) - 0.5 / s).abs() < 1e-12);
         // The same point on the image one tile to the right.
         let image = Vec3::new(26.5, 5.0, -2.75);
-        assert!((chord(&f, &image, &k, 20.0) - 0.5 / s).abs() < 1e-12);
+        assert!((chord(1.0, &f, &image, &k, 20.0) - 0.5 / s).abs() < 1e-12);
     }
 
     #[test]

@@ -283,15 +283,9 @@ impl Run<'_> {
                 self.max_cells,
             );
             if alpha > 0.0 {
-                let len = match next {
-                    Next::Flake(h) => h.tau,
-                    Next::Boundary => tau_max,
-                    Next::TooLong => 0.0,
-                };
-                let binder_len = (len - in_flake).max(0.0);
-                p.energy[E_BINDER] += binder::attenuate(alpha, binder_len, &mut ws, &mut wp);
-                w = ws + wp;
-                in_flake = 0.0;
+                let (len, skip) = (binder::length(&next, tau_max), in_flake);
+                p.energy[E_BINDER] += binder::attenuate(alpha, len - skip, &mut ws, &mut wp);
+                (w, in_flake) = (ws + wp, 0.0);
             }
             match next {
                 Next::TooLong => {
@@ -347,31 +341,23 @@ impl Run<'_> {
                     match h.surface {
                         Surface::Top | Surface::Bottom => {
                             let cos_iota = -k.dot(&h.normal);
-                            let reflect = if let Some(faces) = &self.stack {
-                                let top = h.surface == Surface::Top;
-                                let s = faces.split(top, cos_iota, n, ws, wp, rng.random());
-                                p.energy[E_FLAKES] += s.absorbed;
-                                (ws, wp) = (s.ws, s.wp);
-                                !s.transmitted
-                            } else {
-                                let (rs, rp) = opts.flake.power(cos_iota, n);
-                                p.energy[E_FLAKES] += ws * (1.0 - rs) + wp * (1.0 - rp);
-                                ws *= rs;
-                                wp *= rp;
-                                true
-                            };
-                            if reflect {
+                            let top = h.surface == Surface::Top;
+                            if self.face(top, cos_iota, &mut ws, &mut wp, rng, p) {
                                 k += 2.0 * cos_iota * h.normal;
                                 // Keep the direction a unit vector against rounding drift.
                                 k /= k.norm();
                                 flake_hits += 1;
                             } else {
-                                // On through the flake along the same line (`stack`).
+                                // On through the flake along the same line (`stack`),
+                                // flake and not binder over its chord (`binder`).
                                 other_events += 1;
-                                if alpha > 0.0 {
-                                    let f = &self.flakes[h.flake as usize];
-                                    in_flake = binder::chord(f, &pos, &k, l);
-                                }
+                                in_flake = binder::chord(
+                                    alpha,
+                                    &self.flakes[h.flake as usize],
+                                    &pos,
+                                    &k,
+                                    l,
+                                );
                             }
                         }
                         Surface::Rim => match opts.rims {
@@ -394,6 +380,35 @@ impl Run<'_> {
             // Back into the tile.
             pos.x = wrap(pos.x, l);
             pos.y = wrap(pos.y, l);
+        }
+    }
+
+    /// A hit on the top (`top`) or bottom face of a flake at local incidence cosine
+    /// `cos_iota`: the channel weights `(ws, wp)` become what the ray carries on, the rest
+    /// is tallied as `absorbed_flakes`; returns whether the ray is reflected (`false`: it
+    /// goes on through a free stack flake, module `stack`).
+    #[inline(always)]
+    fn face(
+        &self,
+        top: bool,
+        cos_iota: f64,
+        ws: &mut f64,
+        wp: &mut f64,
+        rng: &mut Xoshiro256PlusPlus,
+        p: &mut Partial,
+    ) -> bool {
+        let n = self.options.n;
+        if let Some(faces) = &self.stack {
+            let s = faces.split(top, cos_iota, n, *ws, *wp, rng.random());
+            p.energy[E_FLAKES] += s.absorbed;
+            (*ws, *wp) = (s.ws, s.wp);
+            !s.transmitted
+        } else {
+            let (rs, rp) = self.options.flake.power(cos_iota, n);
+            p.energy[E_FLAKES] += *ws * (1.0 - rs) + *wp * (1.0 - rp);
+            *ws *= rs;
+            *wp *= rp;
+            true
         }
     }
 
