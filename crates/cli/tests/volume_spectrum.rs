@@ -254,6 +254,10 @@ fn bad_wavelength_and_absorption_flags_exit_2_naming_the_flag() {
             "--wavelengths",
         ),
         (
+            vec!["--flake-stack", "TiO2:53", "--wavelengths", "380:780:0.1"],
+            "more than the limit of 1000",
+        ),
+        (
             vec![
                 "--flake-stack",
                 "TiO2:53",
