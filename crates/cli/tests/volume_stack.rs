@@ -109,7 +109,6 @@ fn an_opaque_aluminium_stack_is_the_aluminium_flake() {
 #[test]
 fn bad_stack_flags_exit_2_naming_the_flag() {
     for (extra, needle) in [
-        (vec!["--flake-stack", "TiO2:53"], "--wavelength"),
         (
             vec!["--flake-stack", "TiO2:53", "--wavelength", "0"],
             "--wavelength 0",

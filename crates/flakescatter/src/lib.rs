@@ -122,7 +122,10 @@ pub use pixels::{
 pub use polarimetry::{
     MuellerCurves, MuellerRow, Polarimetry, distribution_mueller, topographic_mueller,
 };
-pub use volume::{VolumeCurves, VolumeRow, VolumeSettings, volume_curves};
+pub use volume::{
+    SpectralVolumeCurves, VolumeCurves, VolumeRow, VolumeSettings, spectral_volume_curves,
+    volume_curves,
+};
 
 /// Errors of the pipeline.
 #[derive(Debug, thiserror::Error)]

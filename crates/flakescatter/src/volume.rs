@@ -10,8 +10,18 @@
 //! from it alone. The rays are shared among [`VolumeSettings::layers`] independent
 //! layers, and the standard errors are those of the mean over layers, which include the
 //! scatter between layers (crate `volume`, module `layers`).
+//!
+//! A tinted binder ([`VolumeSettings::binder_alpha_per_um`]) absorbs along every path
+//! inside the film (Beer–Lambert), reported as `absorbed_binder` in the energy balance.
+//! [`spectral_volume_curves`] runs the model at several wavelengths over the same layers
+//! with the same rays (common random numbers): each wavelength's curves are the bits of
+//! [`volume_curves`] with that wavelength's coating and absorption.
 
-use flakescatter_volume::{LayerParams, LayerSpec, TraceOptions, run_layers};
+use flakescatter_optics::dispersion::SpectralTable;
+use flakescatter_stats::Orientation;
+use flakescatter_volume::{
+    LayerParams, LayerSpec, LayeredResult, TraceOptions, run_layers, run_layers_each,
+};
 
 pub use flakescatter_volume::{
     Amount, Depth, Diameter, EnergyBalance, LayerStats, MAX_LAYERS, RimRule, Substrate, VolumeError,
@@ -20,6 +30,7 @@ pub use flakescatter_volume::{
 use crate::PipelineError;
 use crate::instrument::Instrument;
 use crate::pipeline::{Coating, OrientationSource};
+use crate::spectral::SpectralCoating;
 
 /// The layer and tracing settings of [`volume_curves`] (the coating's index and flake
 /// reflectance come from [`Coating`]).
@@ -55,6 +66,9 @@ pub struct VolumeSettings {
     pub max_events: u32,
     /// Weight below which a path ends, its rest tallied as cut-off (default 1e-6).
     pub min_weight: f64,
+    /// Napierian absorption coefficient of the binder for intensity, µm⁻¹ (default 0, a
+    /// clear binder), applied along every path inside the film.
+    pub binder_alpha_per_um: f64,
 }
 
 /// Default number of layers: enough for a between-layer spread on 7 degrees of freedom
@@ -79,6 +93,7 @@ impl Default for VolumeSettings {
             seed: 1,
             max_events: trace.max_events,
             min_weight: trace.min_weight,
+            binder_alpha_per_um: trace.binder_alpha_per_um,
         }
     }
 }
@@ -161,8 +176,8 @@ pub struct VolumeCurves {
 /// # Errors
 /// [`PipelineError::Instrument`] for point detectors (aperture 0);
 /// [`PipelineError::Orientation`] for a source that gives no distribution;
-/// [`PipelineError::Volume`] for invalid layer or tracing parameters, or a loading too
-/// high to place.
+/// [`PipelineError::Volume`] for invalid layer or tracing parameters (a negative or
+/// non-finite binder absorption among them), or a loading too high to place.
 pub fn volume_curves(
     coating: &Coating,
     instrument: &Instrument,
@@ -170,6 +185,119 @@ pub fn volume_curves(
     source: &OrientationSource,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<VolumeCurves, PipelineError> {
+    let (orientation, description) = prepare(instrument, source)?;
+    let result = run_layers(
+        &LayerParams::new(layer_spec(settings, orientation))?,
+        &trace_options(coating, settings),
+        settings.layers,
+        instrument.theta_i(),
+        instrument.cones(),
+        progress,
+    )?;
+    Ok(curves_of(
+        &result,
+        coating,
+        instrument,
+        settings,
+        description,
+    ))
+}
+
+/// The volume model at several wavelengths: one [`VolumeCurves`] per wavelength.
+#[derive(Debug, Clone)]
+pub struct SpectralVolumeCurves {
+    /// The wavelengths, nm (in vacuum).
+    pub wavelengths_nm: Vec<f64>,
+    /// The curves at each wavelength (same order), each with that wavelength's coating
+    /// and its settings (`binder_alpha_per_um` the coefficient at that wavelength).
+    pub curves: Vec<VolumeCurves>,
+}
+
+/// [`volume_curves`] at each wavelength of `wavelengths_nm` (nm) for `coating` (its
+/// clear coat's index and flakes at each wavelength), with the binder's absorption
+/// coefficient `binder_alpha_per_um` (µm⁻¹ versus nm) at each wavelength, or
+/// `settings.binder_alpha_per_um` at all of them when `None`.
+///
+/// All wavelengths share the layers (placed once from the seed) and the rays' random
+/// numbers (one seed for all: common random numbers), so the spectrum's shape is not
+/// blurred by independent noise per wavelength, and each wavelength's curves are the
+/// same bits as [`volume_curves`] with that wavelength's coating and absorption. When
+/// nothing depends on wavelength (constant index, fixed flakes, the same absorption at
+/// every wavelength) the model runs once and its curves are used at every wavelength,
+/// which changes no number. Results do not depend on the number of threads.
+/// `progress(done, total)` counts chunks of rays over all wavelengths.
+///
+/// # Errors
+/// [`PipelineError::Spectral`] for a wavelength list that
+/// [`crate::spectral::check_wavelengths`] refuses, a wavelength outside a table of the
+/// coating or of the absorption, or a coating with a depth-rule binder absorption
+/// ([`SpectralCoating::binder`], which the volume model has no use for: it follows each
+/// path in the binder); as [`volume_curves`].
+pub fn spectral_volume_curves(
+    coating: &SpectralCoating,
+    binder_alpha_per_um: Option<&SpectralTable>,
+    wavelengths_nm: &[f64],
+    instrument: &Instrument,
+    settings: &VolumeSettings,
+    source: &OrientationSource,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<SpectralVolumeCurves, PipelineError> {
+    if coating.binder.is_some() {
+        return Err(PipelineError::Spectral(
+            "the volume model follows each path in the binder: give its absorption as a coefficient versus wavelength (binder_alpha_per_um), not with a flake depth".into(),
+        ));
+    }
+    let at = coating.at_all(wavelengths_nm)?;
+    let alphas: Vec<f64> = match binder_alpha_per_um {
+        None => vec![settings.binder_alpha_per_um; wavelengths_nm.len()],
+        Some(t) => wavelengths_nm
+            .iter()
+            .map(|&w| {
+                t.value_at(w).map_err(|e| {
+                    PipelineError::Spectral(format!("binder absorption at {w} nm: {e}"))
+                })
+            })
+            .collect::<Result<_, _>>()?,
+    };
+    let (orientation, description) = prepare(instrument, source)?;
+    let params = LayerParams::new(layer_spec(settings, orientation))?;
+    let same = coating.is_wavelength_independent() && alphas.iter().all(|&a| a == alphas[0]);
+    let runs = if same { 1 } else { at.len() };
+    let per: Vec<VolumeSettings> = alphas
+        .iter()
+        .map(|&a| VolumeSettings {
+            binder_alpha_per_um: a,
+            ..settings.clone()
+        })
+        .collect();
+    let options: Vec<TraceOptions> = (0..runs)
+        .map(|j| trace_options(&at[j].coating, &per[j]))
+        .collect();
+    let results = run_layers_each(
+        &params,
+        &options,
+        settings.layers,
+        instrument.theta_i(),
+        instrument.cones(),
+        progress,
+    )?;
+    let curves = (0..at.len())
+        .map(|j| {
+            let r = &results[if same { 0 } else { j }];
+            curves_of(r, &at[j].coating, instrument, &per[j], description.clone())
+        })
+        .collect();
+    Ok(SpectralVolumeCurves {
+        wavelengths_nm: wavelengths_nm.to_vec(),
+        curves,
+    })
+}
+
+/// The checks common to every run and the orientation with its description.
+fn prepare(
+    instrument: &Instrument,
+    source: &OrientationSource,
+) -> Result<(Orientation, String), PipelineError> {
     if instrument.aperture() <= 0.0 {
         return Err(PipelineError::Instrument(
             "the volume model counts rays into detector cones: the aperture must be > 0".into(),
@@ -183,7 +311,12 @@ pub fn volume_curves(
     } else {
         format!("tabulated on [0, {:.6e}] rad", orientation.max_theta())
     };
-    let spec = LayerSpec {
+    Ok((orientation, description))
+}
+
+/// The layer the settings describe.
+fn layer_spec(settings: &VolumeSettings, orientation: Orientation) -> LayerSpec {
+    LayerSpec {
         film_um: settings.film_um,
         diameter: settings.diameter,
         thickness_um: settings.thickness_um,
@@ -193,8 +326,12 @@ pub fn volume_curves(
         tile_um: settings.tile_um,
         max_attempts: flakescatter_volume::params::DEFAULT_MAX_ATTEMPTS,
         seed: settings.seed,
-    };
-    let options = TraceOptions {
+    }
+}
+
+/// The tracer's options for `coating` and the settings.
+fn trace_options(coating: &Coating, settings: &VolumeSettings) -> TraceOptions {
+    TraceOptions {
         n: coating.n,
         flake: coating.flake.clone(),
         substrate: settings.substrate,
@@ -203,15 +340,18 @@ pub fn volume_curves(
         seed: settings.seed,
         max_events: settings.max_events,
         min_weight: settings.min_weight,
-    };
-    let result = run_layers(
-        &LayerParams::new(spec)?,
-        &options,
-        settings.layers,
-        instrument.theta_i(),
-        instrument.cones(),
-        progress,
-    )?;
+        binder_alpha_per_um: settings.binder_alpha_per_um,
+    }
+}
+
+/// The curves of a layered run.
+fn curves_of(
+    result: &LayeredResult,
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &VolumeSettings,
+    description: String,
+) -> VolumeCurves {
     let nd = instrument.cones().len();
     let rows = result
         .points
@@ -251,7 +391,7 @@ pub fn volume_curves(
         moved: result.layers.iter().map(|l| l.moved).sum(),
         resized_area_fraction: mean(|l| l.resized_area_fraction),
     };
-    Ok(VolumeCurves {
+    VolumeCurves {
         instrument: instrument.clone(),
         coating: coating.clone(),
         settings: settings.clone(),
@@ -262,14 +402,14 @@ pub fn volume_curves(
             .copied()
             .zip(result.energy.iter().copied())
             .collect(),
-        energy_std_err: result.energy_std_err,
+        energy_std_err: result.energy_std_err.clone(),
         layer,
-        layers: result.layers,
+        layers: result.layers.clone(),
         rays_per_incidence: result.rays_per_layer * u64::from(settings.layers),
         rays_per_layer: result.rays_per_layer,
         t975: result.t975,
         segments: result.segments,
         seed: settings.seed,
         source: description,
-    })
+    }
 }

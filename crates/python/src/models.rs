@@ -479,9 +479,11 @@ pub fn topographic_mueller<'py>(
 /// `layers − 1` degrees of freedom; NaN when `layers=1`). The dict also holds `energy`
 /// (per incidence: the shares of the beam reflected by the coat, escaped after one or
 /// more flake events, absorbed, cut off) and `layer` (what the layers realised: counts
-/// summed, fractions averaged). Interruptible with Ctrl-C.
+/// summed, fractions averaged). `binder_absorption` is the binder's Napierian absorption
+/// coefficient in 1/µm (default 0, a clear binder), applied along every path inside the
+/// film; its share is `energy["absorbed_binder"]`. Interruptible with Ctrl-C.
 #[pyfunction]
-#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, flake_index = None, film_um = 38.0, diameter_um = 16.0, diameter_rel_sd = 0.25, thickness_um = 1.0, mass_fraction = None, binder_density_g_cm3 = 1.2, volume_fraction = None, flakes = None, depth_um = None, tile_um = 1000.0, substrate = "black", substrate_albedo = 0.0, rims = "absorb", rays = 1_000_000, seed = 1, max_events = 1000, min_weight = 1e-6, layers = 8))]
+#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, flake_index = None, film_um = 38.0, diameter_um = 16.0, diameter_rel_sd = 0.25, thickness_um = 1.0, mass_fraction = None, binder_density_g_cm3 = 1.2, volume_fraction = None, flakes = None, depth_um = None, tile_um = 1000.0, substrate = "black", substrate_albedo = 0.0, rims = "absorb", rays = 1_000_000, seed = 1, max_events = 1000, min_weight = 1e-6, layers = 8, binder_absorption = 0.0))]
 pub fn volume_model<'py>(
     py: Python<'py>,
     n: f64,
@@ -512,6 +514,7 @@ pub fn volume_model<'py>(
     max_events: u32,
     min_weight: f64,
     layers: u32,
+    binder_absorption: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
     let coat = coating(py, n, flake_index)?;
@@ -547,6 +550,7 @@ pub fn volume_model<'py>(
         seed,
         max_events,
         min_weight,
+        binder_alpha_per_um: binder_absorption,
     };
     let curves = interruptible(py, |progress| {
         volume_curves(&coat, &instrument, &vs, &source, progress)
@@ -695,6 +699,7 @@ fn energy_dict<'py>(
         ("escaped_via_substrate", |b| b.escaped_via_substrate),
         ("absorbed_substrate", |b| b.absorbed_substrate),
         ("absorbed_flakes", |b| b.absorbed_flakes),
+        ("absorbed_binder", |b| b.absorbed_binder),
         ("absorbed_rims", |b| b.absorbed_rims),
         ("absorbed_other", |b| b.absorbed_other),
         ("cut_off", |b| b.cut_off),

@@ -73,6 +73,25 @@ def test_volume_model_without_flakes_is_the_clear_coat():
         assert np.all(refl[i, others] == 0.0)
 
 
+def test_volume_model_tinted_binder_without_flakes_is_beer_lambert():
+    # No flakes, black substrate: each channel enters with T_c(θi) and crosses the film
+    # once, d / cos θt, so the binder takes ½ Σ T_c (1 − exp(−α d / cos θt)) and the
+    # substrate the rest; nothing escapes.
+    alpha, d, n = 0.03, 20.0, 1.5
+    ti = [0.0, 45.0]
+    r = fs.volume_model(flakes=0, n=n, theta_i=ti, theta_s=[0.0], rays=6400, tile_um=200.0,
+                        film_um=d, binder_absorption=alpha, layers=2)
+    for i, t in enumerate(ti):
+        a = 1.0 - fresnel_unpolarised(t, n)
+        ct = np.sqrt(1.0 - (np.sin(np.radians(t)) / n) ** 2)
+        keep = np.exp(-alpha * d / ct)
+        assert r["energy"]["absorbed_binder"][i] == pytest.approx(a * (1.0 - keep), rel=1e-12)
+        assert r["energy"]["absorbed_substrate"][i] == pytest.approx(a * keep, rel=1e-12)
+    np.testing.assert_allclose(r["energy"]["total"], 1.0, rtol=1e-12)
+    with pytest.raises(fs.InputError, match="binder_absorption"):
+        fs.volume_model(binder_absorption=-0.1, rays=1000)
+
+
 def test_volume_model_conserves_energy_and_is_reproducible():
     kw = dict(hwhm=6.0, theta_i=[45], theta_s=np.arange(-70, 71, 5.0), rays=20000,
               tile_um=200.0, seed=7)

@@ -111,12 +111,13 @@ fn combine(x: &[f64], r: &[f64], t975: f64) -> (f64, LayeredError) {
 type EnergyField = fn(&mut EnergyBalance) -> &mut f64;
 
 /// Every field of [`EnergyBalance`].
-const ENERGY_FIELDS: [EnergyField; 9] = [
+const ENERGY_FIELDS: [EnergyField; 10] = [
     |b| &mut b.coat_reflected,
     |b| &mut b.escaped_single,
     |b| &mut b.escaped_multiple,
     |b| &mut b.absorbed_substrate,
     |b| &mut b.absorbed_flakes,
+    |b| &mut b.absorbed_binder,
     |b| &mut b.absorbed_other,
     |b| &mut b.absorbed_rims,
     |b| &mut b.cut_off,
@@ -157,6 +158,37 @@ pub fn run_layers(
     cones: &[Cone],
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<LayeredResult, VolumeError> {
+    let mut each = run_layers_each(
+        params,
+        std::slice::from_ref(options),
+        layers,
+        theta_i,
+        cones,
+        progress,
+    )?;
+    Ok(each.remove(0))
+}
+
+/// [`run_layers`] for each of several tracing options over the **same** layers (one
+/// result per entry of `options`, in order): each layer is placed once and traced with
+/// every option set in turn, and the result for `options[j]` is the same bits as
+/// [`run_layers`] with `options[j]` alone (the layers come from `params` alone, the rays
+/// from each option set's seed). A spectrum is one option set per wavelength with the
+/// same seed: its wavelengths share the layers and the rays' random numbers (common
+/// random numbers), so its shape is not blurred by independent noise at each
+/// wavelength. `progress(done, total)` counts chunks of rays over all layers and option
+/// sets.
+///
+/// # Errors
+/// [`VolumeError::Empty`] for no option set; as [`run_layers`].
+pub fn run_layers_each(
+    params: &LayerParams,
+    options: &[TraceOptions],
+    layers: u32,
+    theta_i: &[f64],
+    cones: &[Cone],
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Vec<LayeredResult>, VolumeError> {
     if layers == 0 || layers > MAX_LAYERS {
         return Err(VolumeError::Parameter {
             name: "layers",
@@ -164,20 +196,31 @@ pub fn run_layers(
             expected: "between 1 and 10000 layers",
         });
     }
-    let per_layer = TraceOptions {
-        rays: options.rays.div_ceil(u64::from(layers)).max(1),
-        ..options.clone()
-    };
-    let mut runs = Vec::with_capacity(layers as usize);
+    if options.is_empty() {
+        return Err(VolumeError::Empty("tracing options"));
+    }
+    let per_layer: Vec<TraceOptions> = options
+        .iter()
+        .map(|o| TraceOptions {
+            rays: o.rays.div_ceil(u64::from(layers)).max(1),
+            ..o.clone()
+        })
+        .collect();
+    let sets = per_layer.len() as u64;
+    let mut runs: Vec<Vec<VolumeResult>> =
+        vec![Vec::with_capacity(layers as usize); per_layer.len()];
     let mut stats = Vec::with_capacity(layers as usize);
     for k in 0..u64::from(layers) {
         let layer = Layer::generate_realisation(params, k)?;
-        let tracer = Tracer::new(&layer, per_layer.clone())?.with_realisation(k);
-        let result = tracer.run_with_progress(theta_i, cones, &|done, total| {
-            progress(k * total + done, u64::from(layers) * total);
-        })?;
+        for (j, opts) in per_layer.iter().enumerate() {
+            let tracer = Tracer::new(&layer, opts.clone())?.with_realisation(k);
+            let step = k * sets + j as u64;
+            let result = tracer.run_with_progress(theta_i, cones, &|done, total| {
+                progress(step * total + done, u64::from(layers) * sets * total);
+            })?;
+            runs[j].push(result);
+        }
         stats.push(*layer.stats());
-        runs.push(result);
     }
     let t975 = if layers > 1 {
         StudentsT::new(0.0, 1.0, f64::from(layers - 1))
@@ -186,6 +229,22 @@ pub fn run_layers(
     } else {
         f64::NAN
     };
+    Ok(runs
+        .iter()
+        .zip(options)
+        .map(|(r, o)| combine_layers(r, &stats, theta_i.len(), t975, o.seed))
+        .collect())
+}
+
+/// The layered result of one option set's `runs` (one per layer).
+fn combine_layers(
+    runs: &[VolumeResult],
+    stats: &[LayerStats],
+    incidences: usize,
+    t975: f64,
+    seed: u64,
+) -> LayeredResult {
+    let layers = runs.len() as u32;
     let first = &runs[0];
     let points = (0..first.points.len())
         .map(|j| {
@@ -220,19 +279,19 @@ pub fn run_layers(
             }
         })
         .collect();
-    let (energy, energy_std_err) = (0..theta_i.len())
-        .map(|i| combine_energy(&runs, i, t975))
+    let (energy, energy_std_err) = (0..incidences)
+        .map(|i| combine_energy(runs, i, t975))
         .unzip();
-    Ok(LayeredResult {
+    LayeredResult {
         points,
         energy,
         energy_std_err,
-        layers: stats,
+        layers: stats.to_vec(),
         rays_per_layer: first.rays_per_incidence,
         segments: runs.iter().map(|r| r.segments).sum(),
-        seed: options.seed,
+        seed,
         t975,
-    })
+    }
 }
 
 #[cfg(test)]

@@ -53,6 +53,10 @@
 //!   whole (`trace` module `stack`, physics.md §10). A stack on an opaque core reflects
 //!   like a metal: its transmitted share is absorbed by the core.
 //! * Rims: [`RimRule`] — absorb (the default), ignore (transparent), or diffuse.
+//! * A tinted binder ([`TraceOptions::binder_alpha_per_um`] `α > 0`) takes
+//!   `1 − exp(−α ℓ)` of the weight over every stretch `ℓ` of path inside the binder
+//!   (Beer–Lambert; the stretch a ray runs through a free stack flake is not binder),
+//!   tallied as `absorbed_binder`. With `α = 0` (the default) nothing is computed.
 //! * At the top interface from inside, Fresnel splits each channel into an escaping part
 //!   (tallied into the detectors, then gone) and an internally reflected part that the
 //!   path continues with (all of it beyond the critical angle, total internal
@@ -69,15 +73,17 @@
 //! nothing else, no internal reflection) and `multiple_bounce` (every other escaping
 //! history: two or more interactions, or any internal reflection at the top). The
 //! energy balance ([`EnergyBalance`]) gives `coat_reflected`, `escaped_single`,
-//! `escaped_multiple`, `absorbed_substrate`, `absorbed_flakes` and `absorbed_other`
-//! (`absorbed_rims + cut_off`), summing to 1. One layer's standard errors come from 64
+//! `escaped_multiple`, `absorbed_substrate`, `absorbed_flakes`, `absorbed_binder` and
+//! `absorbed_other` (`absorbed_rims + cut_off`), summing to 1. One layer's standard errors come from 64
 //! fixed batches of rays (module [`trace`]); every ray has its own generator
 //! (Xoshiro256++ from the seed and the ray's index), so a ray is the same whichever
 //! thread traces it, and results are bit-identical for any thread count. Those errors
 //! leave out the scatter between layers, which dominates cones fed by few flakes:
 //! [`run_layers`] traces several independent layers of one seed and states the standard
 //! error of their mean, split into its ray and between-layer parts, with Student's t
-//! intervals (module [`layers`]).
+//! intervals (module [`layers`]); [`run_layers_each`] traces the same layers with
+//! several option sets (one per wavelength of a spectrum, same seed: common random
+//! numbers).
 //!
 //! # Acceleration
 //! A periodic uniform grid of columns (module [`grid`]): the film is a thin slab, so a
@@ -116,7 +122,9 @@ pub mod trace;
 
 pub use flakescatter_numerics::simd::Kernels;
 pub use layer::{Flake, Layer, LayerStats};
-pub use layers::{LayeredError, LayeredPoint, LayeredResult, MAX_LAYERS, run_layers};
+pub use layers::{
+    LayeredError, LayeredPoint, LayeredResult, MAX_LAYERS, run_layers, run_layers_each,
+};
 pub use params::{
     ALUMINIUM_DENSITY_G_CM3, Amount, Depth, Diameter, LayerParams, LayerSpec,
     TYPICAL_BINDER_DENSITY_G_CM3,

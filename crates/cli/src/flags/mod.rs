@@ -20,7 +20,9 @@ pub use measured::MeasuredArgs;
 pub use paint::{PaintFlags, flake_metal, paint_flakes};
 pub use polarization::PolarizationArgs;
 pub use source::{MapArgs, OrientationArgs, SegmentArgs, selector, width};
-pub use spectral::{DEFAULT_WAVELENGTHS, SpectralArgs};
+pub use spectral::{
+    DEFAULT_WAVELENGTHS, SpectralArgs, binder_table, constant_alpha, parse_wavelengths,
+};
 
 /// Default incidences of `model` and `topo`, degrees.
 pub const DEFAULT_THETA_I: &str = "0,30,45,60,75";

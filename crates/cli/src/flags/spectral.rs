@@ -198,28 +198,7 @@ impl SpectralArgs {
         let Some(text) = self.wavelengths.as_deref().or(default) else {
             return Ok(None);
         };
-        let w = angles("--wavelengths", text)?;
-        if w.len() > MAX_WAVELENGTHS {
-            bail!(
-                "--wavelengths {text}: {} wavelengths is more than the limit of {MAX_WAVELENGTHS}",
-                w.len()
-            );
-        }
-        check_range_in(
-            "--wavelengths",
-            &w,
-            (0.0, f64::INFINITY),
-            (true, true),
-            (" nm", "nanometres"),
-        )?;
-        if let Some(p) = w.windows(2).find(|p| p[1] <= p[0]) {
-            bail!(
-                "--wavelengths {text}: {} nm does not follow {} nm; give strictly increasing wavelengths",
-                p[1],
-                p[0]
-            );
-        }
-        Ok(Some(w))
+        parse_wavelengths(text).map(Some)
     }
 
     /// The text of the wavelength list used (for echoes).
@@ -393,14 +372,41 @@ impl SpectralArgs {
     }
 }
 
+/// `--wavelengths LIST|START:STOP:STEP`, nm, checked: finite, > 0, strictly
+/// increasing, at most [`MAX_WAVELENGTHS`]; every error names the flag.
+pub fn parse_wavelengths(text: &str) -> anyhow::Result<Vec<f64>> {
+    let w = angles("--wavelengths", text)?;
+    if w.len() > MAX_WAVELENGTHS {
+        bail!(
+            "--wavelengths {text}: {} wavelengths is more than the limit of {MAX_WAVELENGTHS}",
+            w.len()
+        );
+    }
+    check_range_in(
+        "--wavelengths",
+        &w,
+        (0.0, f64::INFINITY),
+        (true, true),
+        (" nm", "nanometres"),
+    )?;
+    if let Some(p) = w.windows(2).find(|p| p[1] <= p[0]) {
+        bail!(
+            "--wavelengths {text}: {} nm does not follow {} nm; give strictly increasing wavelengths",
+            p[1],
+            p[0]
+        );
+    }
+    Ok(w)
+}
+
 /// `--binder-absorption` as a number (a constant coefficient), if it is one.
-fn constant_alpha(p: &std::path::Path) -> Option<f64> {
+pub fn constant_alpha(p: &std::path::Path) -> Option<f64> {
     p.to_str().and_then(|s| s.trim().parse::<f64>().ok())
 }
 
 /// `--binder-absorption ALPHA|FILE` as a table, with its JSON echo (`{"file": …}` or
 /// `{"constant_per_um": …}`).
-fn binder_table(path: &std::path::Path) -> anyhow::Result<(SpectralTable, Value)> {
+pub fn binder_table(path: &std::path::Path) -> anyhow::Result<(SpectralTable, Value)> {
     if let Some(a) = constant_alpha(path) {
         let t = SpectralTable::constant(a, "absorption coefficient", 0.0).map_err(|_| {
             anyhow::anyhow!(

@@ -308,6 +308,7 @@ def volume_model(
     max_events: int = 1000,
     min_weight: float = 1e-6,
     layers: int = 8,
+    binder_absorption: float = 0.0,
 ) -> dict[str, Any]:
     """The volume model: a 3-D layer of cylinder flakes with multiple scattering.
 

@@ -40,8 +40,9 @@
 //! run; `ray` the physics of one path and the tally of its escapes; `schedule` the
 //! sweeps, chunks and threads; `reduce` the ordered reduction of the batch sums and the
 //! values formed from it; `stack` the faces of interference flakes (reflection and
-//! transmission).
+//! transmission); `binder` the binder's absorption along each segment.
 
+mod binder;
 mod ray;
 mod reduce;
 mod schedule;
@@ -130,6 +131,11 @@ pub struct TraceOptions {
     /// Weight below which a path ends (default [`DEFAULT_MIN_WEIGHT`]); 0 keeps paths
     /// until `max_events` or absorption.
     pub min_weight: f64,
+    /// Napierian absorption coefficient of the binder for intensity, µm⁻¹ (default 0, a
+    /// clear binder): every stretch of path `ℓ` inside the binder multiplies both
+    /// channels by `exp(−α ℓ)` (Beer–Lambert; module `binder`), the rest tallied as
+    /// `absorbed_binder`. With 0 nothing is computed and every ray is as without it.
+    pub binder_alpha_per_um: f64,
 }
 
 impl Default for TraceOptions {
@@ -143,14 +149,16 @@ impl Default for TraceOptions {
             seed: 1,
             max_events: DEFAULT_MAX_EVENTS,
             min_weight: DEFAULT_MIN_WEIGHT,
+            binder_alpha_per_um: 0.0,
         }
     }
 }
 
 /// Fractions of the incident power at one incidence (estimates from the traced rays,
-/// except `coat_reflected`, which is exact). The six named in the sum
+/// except `coat_reflected`, which is exact). The seven named in the sum
 /// `coat_reflected + escaped_single + escaped_multiple + absorbed_substrate +
-/// absorbed_flakes + absorbed_other` add up to 1 (to rounding, about 1e-15).
+/// absorbed_flakes + absorbed_binder + absorbed_other` add up to 1 (to rounding, about
+/// 1e-15).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EnergyBalance {
     /// First-surface (clear coat) reflection `R_av(θi)`.
@@ -164,6 +172,9 @@ pub struct EnergyBalance {
     pub absorbed_substrate: f64,
     /// Absorbed by flake faces (complex index; 0 for perfect conductors).
     pub absorbed_flakes: f64,
+    /// Absorbed by the binder along the paths inside the film (0 for a clear binder,
+    /// [`TraceOptions::binder_alpha_per_um`] = 0).
+    pub absorbed_binder: f64,
     /// `absorbed_rims + cut_off`.
     pub absorbed_other: f64,
     /// Absorbed at flake rims (the rim rule, including the `1 − albedo` of diffuse rims).
@@ -176,7 +187,9 @@ pub struct EnergyBalance {
 }
 
 impl EnergyBalance {
-    /// The sum of the six disjoint fractions (should be 1).
+    /// The sum of the seven disjoint fractions (should be 1). `absorbed_binder` is
+    /// added last, so that with a clear binder (0) the sum is the same bits as without
+    /// the term.
     #[must_use]
     pub fn total(&self) -> f64 {
         self.coat_reflected
@@ -185,6 +198,7 @@ impl EnergyBalance {
             + self.absorbed_substrate
             + self.absorbed_flakes
             + self.absorbed_other
+            + self.absorbed_binder
     }
 }
 
@@ -257,7 +271,8 @@ impl<'a> Tracer<'a> {
     ///
     /// # Errors
     /// [`VolumeError::Parameter`] naming the invalid option (`n`,
-    /// `substrate_reflectance`, `rays`, `max_events`, `min_weight`);
+    /// `substrate_reflectance`, `rays`, `max_events`, `min_weight`,
+    /// `binder_absorption`);
     /// [`VolumeError::FlakeIndex`] for an invalid complex flake index;
     /// [`VolumeError::TooManyFlakes`] for a layer of `2²⁴` flakes or more;
     /// [`VolumeError::SimdSwitch`] when the environment variable `FLAKESCATTER_SIMD`
@@ -344,6 +359,14 @@ impl<'a> Tracer<'a> {
                 name: "min_weight",
                 value: options.min_weight,
                 expected: "a weight in [0, 1)",
+            });
+        }
+        let a = options.binder_alpha_per_um;
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(VolumeError::Parameter {
+                name: "binder_absorption",
+                value: a,
+                expected: "a finite absorption coefficient >= 0 per µm",
             });
         }
         Ok(())

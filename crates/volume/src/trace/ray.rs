@@ -2,7 +2,7 @@
 //! flake faces and rims, the substrate, the top interface from inside, and the tally
 //! of each escape into the detector cones and the energy balance; the ray's generator.
 //! A free stack flake's faces split the ray into reflection and transmission (module
-//! `stack`).
+//! `stack`); a tinted binder takes its share along each segment (module `binder`).
 
 use flakescatter_numerics::cone_grid::{ConeGrid, ConeSpec};
 use flakescatter_numerics::simd::{Kernels, dispatch};
@@ -12,6 +12,7 @@ use flakescatter_optics::{UnitVec3, Vec3, refraction};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::{SplitMix64, Xoshiro256PlusPlus};
 
+use super::binder;
 use super::stack::StackFaces;
 use super::{BATCHES, RimRule, Substrate, TraceOptions};
 use crate::grid::{FlakeGrid, Next, Surface};
@@ -25,7 +26,8 @@ pub(super) const E_SUB: usize = 3;
 pub(super) const E_FLAKES: usize = 4;
 pub(super) const E_RIMS: usize = 5;
 pub(super) const E_CUT: usize = 6;
-pub(super) const E_SLOTS: usize = 7;
+pub(super) const E_BINDER: usize = 7;
+pub(super) const E_SLOTS: usize = 8;
 
 /// Sums of one batch (or of a batch's rays within one chunk).
 pub(super) struct Partial {
@@ -252,8 +254,11 @@ impl Run<'_> {
         let mut via_substrate = false;
         let mut events = 0u32;
         let mut last: Option<u32> = None;
+        let alpha = opts.binder_alpha_per_um;
+        // Flake (not binder) at the start of the next segment, µm (module `binder`).
+        let mut in_flake = 0.0f64;
         loop {
-            let w = ws + wp;
+            let mut w = ws + wp;
             if w <= 0.0 {
                 return;
             }
@@ -277,6 +282,11 @@ impl Run<'_> {
                 opts.rims == RimRule::Ignore,
                 self.max_cells,
             );
+            if alpha > 0.0 {
+                let (len, skip) = (binder::length(&next, tau_max), in_flake);
+                p.energy[E_BINDER] += binder::attenuate(alpha, len - skip, &mut ws, &mut wp);
+                (w, in_flake) = (ws + wp, 0.0);
+            }
             match next {
                 Next::TooLong => {
                     p.energy[E_CUT] += w;
@@ -331,27 +341,23 @@ impl Run<'_> {
                     match h.surface {
                         Surface::Top | Surface::Bottom => {
                             let cos_iota = -k.dot(&h.normal);
-                            let reflect = if let Some(faces) = &self.stack {
-                                let top = h.surface == Surface::Top;
-                                let s = faces.split(top, cos_iota, n, ws, wp, rng.random());
-                                p.energy[E_FLAKES] += s.absorbed;
-                                (ws, wp) = (s.ws, s.wp);
-                                !s.transmitted
-                            } else {
-                                let (rs, rp) = opts.flake.power(cos_iota, n);
-                                p.energy[E_FLAKES] += ws * (1.0 - rs) + wp * (1.0 - rp);
-                                ws *= rs;
-                                wp *= rp;
-                                true
-                            };
-                            if reflect {
+                            let top = h.surface == Surface::Top;
+                            if self.face(top, cos_iota, &mut ws, &mut wp, rng, p) {
                                 k += 2.0 * cos_iota * h.normal;
                                 // Keep the direction a unit vector against rounding drift.
                                 k /= k.norm();
                                 flake_hits += 1;
                             } else {
-                                // On through the flake along the same line (`stack`).
+                                // On through the flake along the same line (`stack`),
+                                // flake and not binder over its chord (`binder`).
                                 other_events += 1;
+                                in_flake = binder::chord(
+                                    alpha,
+                                    &self.flakes[h.flake as usize],
+                                    &pos,
+                                    &k,
+                                    l,
+                                );
                             }
                         }
                         Surface::Rim => match opts.rims {
@@ -374,6 +380,35 @@ impl Run<'_> {
             // Back into the tile.
             pos.x = wrap(pos.x, l);
             pos.y = wrap(pos.y, l);
+        }
+    }
+
+    /// A hit on the top (`top`) or bottom face of a flake at local incidence cosine
+    /// `cos_iota`: the channel weights `(ws, wp)` become what the ray carries on, the rest
+    /// is tallied as `absorbed_flakes`; returns whether the ray is reflected (`false`: it
+    /// goes on through a free stack flake, module `stack`).
+    #[inline(always)]
+    fn face(
+        &self,
+        top: bool,
+        cos_iota: f64,
+        ws: &mut f64,
+        wp: &mut f64,
+        rng: &mut Xoshiro256PlusPlus,
+        p: &mut Partial,
+    ) -> bool {
+        let n = self.options.n;
+        if let Some(faces) = &self.stack {
+            let s = faces.split(top, cos_iota, n, *ws, *wp, rng.random());
+            p.energy[E_FLAKES] += s.absorbed;
+            (*ws, *wp) = (s.ws, s.wp);
+            !s.transmitted
+        } else {
+            let (rs, rp) = self.options.flake.power(cos_iota, n);
+            p.energy[E_FLAKES] += *ws * (1.0 - rs) + *wp * (1.0 - rp);
+            *ws *= rs;
+            *wp *= rp;
+            true
         }
     }
 

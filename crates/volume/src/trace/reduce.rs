@@ -6,7 +6,9 @@ use flakescatter_numerics::welford::Welford;
 use flakescatter_optics::detector::{self, Cone};
 use flakescatter_optics::fresnel;
 
-use super::ray::{E_CUT, E_FLAKES, E_MULTI, E_RIMS, E_SINGLE, E_SLOTS, E_SUB, E_VIA_SUB, Partial};
+use super::ray::{
+    E_BINDER, E_CUT, E_FLAKES, E_MULTI, E_RIMS, E_SINGLE, E_SLOTS, E_SUB, E_VIA_SUB, Partial,
+};
 use super::{BATCHES, EnergyBalance, VolumePoint};
 
 /// Ordered accumulation over batches: sums and Welford `M2` of the batch sums, in
@@ -133,6 +135,7 @@ pub(super) fn results(
             escaped_multiple: e(E_MULTI),
             absorbed_substrate: e(E_SUB),
             absorbed_flakes: e(E_FLAKES),
+            absorbed_binder: e(E_BINDER),
             absorbed_other: e(E_RIMS) + e(E_CUT),
             absorbed_rims: e(E_RIMS),
             cut_off: e(E_CUT),
@@ -144,6 +147,7 @@ pub(super) fn results(
             escaped_multiple: es(E_MULTI),
             absorbed_substrate: es(E_SUB),
             absorbed_flakes: es(E_FLAKES),
+            absorbed_binder: es(E_BINDER),
             absorbed_other: se(a.energy_m2(E_SLOTS)),
             absorbed_rims: es(E_RIMS),
             cut_off: es(E_CUT),

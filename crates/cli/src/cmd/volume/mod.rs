@@ -1,24 +1,28 @@
 //! `flakescatter volume`: the three-dimensional flake layer with multiple scattering
 //! (physics.md §10, issue 20), composed by [`flakescatter::volume_curves`]; this command
 //! parses and checks the flags, shows progress, and writes the curves, the energy
-//! balance and what the layer realised.
+//! balance and what the layer realised; at several wavelengths through
+//! [`flakescatter::spectral_volume_curves`] (module `spectrum`).
 
 mod rows;
 mod settings;
+mod spectrum;
 mod summary;
+mod waves;
 
 use std::path::PathBuf;
 
 use anyhow::bail;
 use flakescatter::chart::volume_chart;
-use flakescatter::{OrientationSource, volume_curves};
+use flakescatter::{Coating, Instrument, OrientationSource, VolumeSettings, volume_curves};
 use serde_json::json;
 
-use crate::flags::OrientationArgs;
+use crate::flags::{InstrumentArgs, OrientationArgs, constant_alpha};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
 use rows::{rows_json, volume_warnings, write_volume};
 use settings::explain;
 use summary::summary;
+use waves::{Binder, Waves};
 
 /// What a flake's rim does to a ray (physics.md §10).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -50,7 +54,9 @@ pub enum SubstrateKind {
 /// single_bounce_brdf_per_sr (one flake reflection) and multiple_bounce_brdf_per_sr
 /// (everything else), with standard errors; then ray_std_err_per_sr,
 /// layer_std_err_per_sr (the two parts of std_err_per_sr) and ci95_per_sr (half-width of
-/// the 95 % interval). The values are means over --layers independent layers. The
+/// the 95 % interval). With --wavelengths (or a stack without --wavelength) a first
+/// column wavelength_nm, the rows of every wavelength, traced through the same layers with
+/// the same rays. The values are means over --layers independent layers. The
 /// defaults are the paper's coating: 38 µm film, 16 µm flakes (relative sd 0.25), 1 µm
 /// thick, 5 % aluminium by mass.
 #[derive(Debug, clap::Args)]
@@ -79,7 +85,7 @@ pub struct Args {
     /// arrives on, `material:thickness_nm` separated by `/` (e.g.
     /// `TiO2:120/mica:400/TiO2:120`; materials as in `film`), in the binder (--n) on both
     /// sides; the light it transmits goes on through the flake (physics.md §10, §13).
-    /// Needs --wavelength.
+    /// Runs at --wavelength, or at --wavelengths [default 380:780:10].
     #[arg(
         long,
         value_name = "SPEC",
@@ -96,14 +102,27 @@ pub struct Args {
         requires = "flake_stack"
     )]
     pub flake_core: Option<String>,
-    /// With --flake-stack: the vacuum wavelength of the run, nm (one per run).
+    /// With --flake-stack or a --binder-absorption table: the one vacuum wavelength of
+    /// the run, nm (the CSV and JSON as without it).
     #[arg(
         long,
         value_name = "NM",
-        requires = "flake_stack",
-        allow_negative_numbers = true
+        allow_negative_numbers = true,
+        conflicts_with = "wavelengths"
     )]
     pub wavelength: Option<f64>,
+    /// With --flake-stack or --binder-absorption: the run's wavelengths in nm, a list or
+    /// an inclusive range `start:stop:step` (e.g. `400:700:20`); the same layers and rays
+    /// at each (one seed), a `wavelength_nm` column first [default with --flake-stack
+    /// and no --wavelength: 380:780:10].
+    #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+    pub wavelengths: Option<String>,
+    /// A tinted binder: its absorption coefficient in 1/µm (Napierian, for intensity,
+    /// e.g. 0.05), or a CSV `wavelength_nm,alpha_per_um` (needs --wavelength or
+    /// --wavelengths); applied along every path inside the film, its share reported as
+    /// absorbed_binder (physics.md §10).
+    #[arg(long, value_name = "ALPHA|FILE", allow_negative_numbers = true)]
+    pub binder_absorption: Option<PathBuf>,
     /// Mean flake diameter, µm.
     #[arg(
         long = "diameter-um",
@@ -221,20 +240,43 @@ pub struct Args {
     pub plot: Option<PathBuf>,
 }
 
+/// Everything a run needs once the flags are checked.
+pub(super) struct Ready {
+    pub(super) instrument_args: InstrumentArgs,
+    /// Where the CSV goes (`None`: into the JSON).
+    pub(super) table: Option<Dest>,
+    pub(super) coating: Coating,
+    pub(super) settings: VolumeSettings,
+    pub(super) instrument: Instrument,
+    pub(super) source: OrientationSource,
+    pub(super) orientation_echo: serde_json::Value,
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
     let instrument_args = args.instrument_args();
     instrument_args.inputs(&mut plan);
     args.source.inputs(&mut plan);
+    if let Some(p) = &args.binder_absorption
+        && constant_alpha(p).is_none()
+    {
+        plan.input("--binder-absorption", p);
+    }
     let table = plan.table("--out", args.out.as_deref(), args.json);
     if args.json {
         plan.stdout("--json");
     }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     args.source.validate()?;
+    let binder = args.binder()?;
+    let waves = args.waves(binder.as_ref())?;
     let mut coating = instrument_args.optics.coating()?;
-    if let Some(flake) = args.stack_flake()? {
+    if let Waves::Many { .. } = waves {
+        if plot.is_some() {
+            bail!("--plot draws the curves of one wavelength; it does not apply to --wavelengths");
+        }
+    } else if let Some(flake) = args.stack_flake()? {
         coating.flake = flake;
     }
     if instrument_args.optics.aperture_rad()? <= 0.0 {
@@ -242,12 +284,50 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--aperture 0: the volume model counts rays into detector cones; give a half-angle > 0"
         );
     }
-    let settings = args.settings()?;
+    let mut settings = args.settings()?;
+    if let (Some(b), Waves::One(_) | Waves::None) = (&binder, &waves) {
+        settings.binder_alpha_per_um = args.alpha_at(b, waves.one())?;
+    }
     let instrument = instrument_args.instrument()?;
+    if let Waves::Many { nm, .. } = &waves {
+        spectrum::check_rows(&instrument, nm.len())?;
+    }
     plan.check()?;
     let (orientation, orientation_echo) = args.source.orientation()?;
-    let source = OrientationSource::Distribution(orientation);
+    let ready = Ready {
+        instrument_args,
+        table,
+        coating,
+        settings,
+        instrument,
+        source: OrientationSource::Distribution(orientation),
+        orientation_echo,
+    };
+    match &waves {
+        Waves::Many { nm, text } => {
+            spectrum::run_many(&args, ready, plan, binder.as_ref(), nm, text)
+        }
+        _ => run_one(&args, ready, plan, plot, binder.as_ref()),
+    }
+}
 
+/// A run at one wavelength (or none): the curves, the plot, the JSON.
+fn run_one(
+    args: &Args,
+    ready: Ready,
+    mut plan: Plan,
+    plot: Option<Dest>,
+    binder: Option<&Binder>,
+) -> anyhow::Result<()> {
+    let Ready {
+        instrument_args,
+        table,
+        coating,
+        settings,
+        instrument,
+        source,
+        orientation_echo,
+    } = ready;
     // Progress on stderr when it is a terminal and the run is long.
     let rays_total = settings.rays as f64 * instrument.theta_i().len() as f64;
     let bar = crate::output::progress::bar(
@@ -256,7 +336,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let progress = |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
     let curves = volume_curves(&coating, &instrument, &settings, &source, &progress)
-        .map_err(|e| explain(e, &args))?;
+        .map_err(|e| explain(e, args))?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -281,13 +361,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     plan.finish()?;
     if args.json {
-        let mut s = summary(&args, &instrument_args, &curves, orientation_echo);
+        let mut s = summary(args, &instrument_args, &curves, orientation_echo);
         s["warnings"] = json!(warnings);
         if let Some(stack) = &args.flake_stack {
             s["inputs"]["flake_index"] = serde_json::Value::Null;
             s["inputs"]["flake_stack"] = json!(stack);
             s["inputs"]["flake_core"] = json!(args.flake_core);
             s["inputs"]["wavelength_nm"] = json!(args.wavelength);
+        }
+        if let Some(b) = binder {
+            s["inputs"]["wavelength_nm"] = json!(args.wavelength);
+            s["inputs"]["binder_absorption"] = b.echo.clone();
+            s["binder_alpha_per_um"] = json!(settings.binder_alpha_per_um);
         }
         if table.is_none() {
             s["rows"] = rows_json(&curves);

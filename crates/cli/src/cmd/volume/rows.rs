@@ -48,6 +48,14 @@ fn se_opt(rays: u64, x: Option<f64>) -> String {
 pub(super) fn write_volume(out: &mut dyn Write, c: &VolumeCurves) -> anyhow::Result<()> {
     let mut text = COLUMNS.join(",");
     text.push('\n');
+    push_rows(&mut text, c, None);
+    out.write_all(text.as_bytes())?;
+    Ok(())
+}
+
+/// Appends the CSV lines of `c`'s rows to `text`, each after `prefix` and a comma when
+/// given (the wavelength of a spectral run).
+pub(super) fn push_rows(text: &mut String, c: &VolumeCurves, prefix: Option<&str>) {
     let aperture = deg(c.instrument.aperture());
     for r in &c.rows {
         let (ts, ps) = detector_rad(&c.instrument, r.detector);
@@ -70,11 +78,13 @@ pub(super) fn write_volume(out: &mut dyn Write, c: &VolumeCurves) -> anyhow::Res
             se_opt(r.rays, r.layer_std_err),
             se_opt(r.rays, r.ci95),
         ];
+        if let Some(p) = prefix {
+            text.push_str(p);
+            text.push(',');
+        }
         text.push_str(&cells.join(","));
         text.push('\n');
     }
-    out.write_all(text.as_bytes())?;
-    Ok(())
 }
 
 /// Rows as JSON objects (undefined values `null`).
@@ -166,9 +176,10 @@ pub(super) fn volume_warnings(c: &VolumeCurves) -> Vec<String> {
     out
 }
 
-/// The energy balance of one incidence as JSON (fractions of the incident beam).
-pub(super) fn energy_json(e: &EnergyBalance) -> Value {
-    json!({
+/// The energy balance of one incidence as JSON (fractions of the incident beam), with
+/// `absorbed_binder` when the binder absorbs (`binder`).
+pub(super) fn energy_json(e: &EnergyBalance, binder: bool) -> Value {
+    let mut v = json!({
         "coat_reflected": e.coat_reflected,
         "escaped_single": e.escaped_single,
         "escaped_multiple": e.escaped_multiple,
@@ -178,5 +189,9 @@ pub(super) fn energy_json(e: &EnergyBalance) -> Value {
         "absorbed_rims": e.absorbed_rims,
         "cut_off": e.cut_off,
         "escaped_via_substrate": e.escaped_via_substrate,
-    })
+    });
+    if binder {
+        v["absorbed_binder"] = json!(e.absorbed_binder);
+    }
+    v
 }

@@ -9,6 +9,31 @@ use super::rows::energy_json;
 use crate::flags::InstrumentArgs;
 use crate::parse::deg_num;
 
+/// The energy balance of each incidence of `c` as JSON (`absorbed_binder` with
+/// `binder`).
+pub(super) fn energy_list(c: &VolumeCurves, binder: bool) -> Vec<Value> {
+    c.energy
+        .iter()
+        .zip(&c.energy_std_err)
+        .map(|((ti, e), se)| {
+            let mut v = energy_json(e, binder);
+            v["theta_i_deg"] = json!(deg_num(*ti));
+            v["total"] = json!(e.total());
+            v["std_err"] = energy_json(se, binder);
+            v
+        })
+        .collect()
+}
+
+/// What the energy balance holds, for `units.energy`.
+fn energy_units(binder: bool) -> &'static str {
+    if binder {
+        "fractions of the incident power per incidence, means over the layers (std_err: over the layers): coat_reflected (exact) + escaped_single + escaped_multiple + absorbed_substrate + absorbed_flakes + absorbed_binder + absorbed_other = 1; absorbed_binder is what the tinted binder took along the paths inside the film (Beer-Lambert); absorbed_other = absorbed_rims + cut_off; escaped_via_substrate is the part of escaped_multiple whose path met the substrate (not in the sum)"
+    } else {
+        "fractions of the incident power per incidence, means over the layers (std_err: over the layers): coat_reflected (exact) + escaped_single + escaped_multiple + absorbed_substrate + absorbed_flakes + absorbed_other = 1; absorbed_other = absorbed_rims + cut_off; escaped_via_substrate is the part of escaped_multiple whose path met the substrate (not in the sum)"
+    }
+}
+
 /// The `--json` summary (without the rows).
 pub(super) fn summary(
     args: &Args,
@@ -16,18 +41,8 @@ pub(super) fn summary(
     c: &VolumeCurves,
     orientation: Value,
 ) -> Value {
-    let energy: Vec<Value> = c
-        .energy
-        .iter()
-        .zip(&c.energy_std_err)
-        .map(|((ti, e), se)| {
-            let mut v = energy_json(e);
-            v["theta_i_deg"] = json!(deg_num(*ti));
-            v["total"] = json!(e.total());
-            v["std_err"] = energy_json(se);
-            v
-        })
-        .collect();
+    let binder = args.binder_absorption.is_some();
+    let energy = energy_list(c, binder);
     let s = &c.settings;
     let amount = match s.amount {
         Amount::VolumeFraction(v) => json!({"volume_fraction": v}),
@@ -125,7 +140,7 @@ pub(super) fn summary(
                 "single_bounce_brdf_per_sr": "1/sr, light that met exactly one flake face and nothing else",
                 "multiple_bounce_brdf_per_sr": "1/sr, every other escaping history: two or more interactions, or an internal reflection at the top interface",
             },
-            "energy": "fractions of the incident power per incidence, means over the layers (std_err: over the layers): coat_reflected (exact) + escaped_single + escaped_multiple + absorbed_substrate + absorbed_flakes + absorbed_other = 1; absorbed_other = absorbed_rims + cut_off; escaped_via_substrate is the part of escaped_multiple whose path met the substrate (not in the sum)",
+            "energy": energy_units(binder),
             "layer": "over all layers (per_layer: each): counts summed, fractions averaged; flakes placed; volume fractions (flake volume per film volume); projected_coverage = sum of pi r^2 cos(theta_n) over the tile area, area_coverage = sum of pi r^2 over the tile area (overlaps in projection counted twice); flakes_resized: flakes taller than the film at their tilt, given a diameter that fits (normal kept), resized_area_fraction the flake area they lost over all flake area as drawn; flakes_moved: flakes --depth-um could not put inside the film, placed at the nearest depth that is (physics.md §10)",
             "segments": "straight ray segments traced, all incidences and layers",
             "layers": "every value is the mean over the --layers independent layers of the seed, each traced with rays_per_layer rays per incidence (rays_per_incidence in all); t975 is Student's t quantile on layers - 1 degrees of freedom (null with one layer)",
