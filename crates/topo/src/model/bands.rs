@@ -140,7 +140,7 @@ impl TopoModel {
                     .map(|&r| count_valid(&band, r))
                     .sum::<u64>();
                 for part in rects.chunks(per_batch) {
-                    batch(mi, &*band, part);
+                    batch(mi, &band, part);
                 }
                 row = end;
             }
