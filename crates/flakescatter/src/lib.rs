@@ -97,6 +97,7 @@ pub mod reproduce;
 pub mod sample;
 pub mod spectral;
 pub mod stack;
+pub mod streaming;
 pub mod volume;
 
 pub use flakescatter_colour as colour;

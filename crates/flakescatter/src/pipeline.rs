@@ -345,6 +345,36 @@ pub(crate) fn topographic_curves_of(
     }
     let result =
         model.run_with_progress(maps, instrument.theta_i(), instrument.cones(), progress)?;
+    Ok((plain_curves(coating, instrument, settings, &result), result))
+}
+
+/// The model of [`topographic_curves`] and [`crate::streaming`]'s plain runs.
+///
+/// # Errors
+/// [`PipelineError::Instrument`] for point detectors, [`PipelineError::Topo`] for
+/// invalid options.
+pub(crate) fn plain_model(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    topo: &TopoSettings,
+) -> Result<TopoModel, PipelineError> {
+    if instrument.aperture() <= 0.0 {
+        return Err(PipelineError::Instrument(
+            "the topographic model counts rays into detector cones: the aperture must be > 0"
+                .into(),
+        ));
+    }
+    topo_model(coating, settings, topo)
+}
+
+/// The curves of a plain topographic result.
+pub(crate) fn plain_curves(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    result: &TopoResult,
+) -> Curves {
     let nd = instrument.cones().len();
     let rows = result
         .points
@@ -360,7 +390,7 @@ pub(crate) fn topographic_curves_of(
             std_err: p.brdf_std_err,
         })
         .collect();
-    let curves = Curves {
+    Curves {
         model: "topographic",
         instrument: instrument.clone(),
         coating: coating.clone(),
@@ -368,12 +398,9 @@ pub(crate) fn topographic_curves_of(
         rows,
         source: format!(
             "{} height map(s), {} usable of {} pixels",
-            maps.len(),
-            result.usable_pixels,
-            result.pixels
+            result.maps, result.usable_pixels, result.pixels
         ),
-    };
-    Ok((curves, result))
+    }
 }
 
 /// The topographic model averaged over the sample's rotation about its normal
@@ -411,6 +438,19 @@ pub fn isotropic_curves(
         &IsotropicOptions { node_spacing },
         progress,
     )?;
+    Ok((
+        isotropic_curves_of(coating, instrument, settings, &result),
+        result,
+    ))
+}
+
+/// The curves of an isotropic result.
+pub(crate) fn isotropic_curves_of(
+    coating: &Coating,
+    instrument: &Instrument,
+    settings: &Settings,
+    result: &IsotropicResult,
+) -> Curves {
     let nd = instrument.cones().len();
     let rows = result
         .points
@@ -426,7 +466,7 @@ pub fn isotropic_curves(
             std_err: p.brdf_std_err,
         })
         .collect();
-    let curves = Curves {
+    Curves {
         model: "topographic-isotropic",
         instrument: instrument.clone(),
         coating: coating.clone(),
@@ -434,12 +474,9 @@ pub fn isotropic_curves(
         rows,
         source: format!(
             "{} height map(s), {} usable of {} pixels, averaged over the sample's rotation",
-            maps.len(),
-            result.usable_pixels,
-            result.pixels
+            result.maps, result.usable_pixels, result.pixels
         ),
-    };
-    Ok((curves, result))
+    }
 }
 
 /// The topographic model for a coating, settings and topographic options.

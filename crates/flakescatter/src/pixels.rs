@@ -167,7 +167,7 @@ fn width_of(t: &PixelTilts) -> Result<PixelWidth, PipelineError> {
     })
 }
 
-fn model(topo: &TopoSettings) -> Result<TopoModel, PipelineError> {
+pub(crate) fn model(topo: &TopoSettings) -> Result<TopoModel, PipelineError> {
     Ok(TopoModel::new(TopoOptions {
         window: topo.window,
         ..TopoOptions::default()
@@ -189,6 +189,14 @@ pub fn pixel_orientation(
     bin_width: f64,
 ) -> Result<PixelOrientation, PipelineError> {
     let tilts = model(topo)?.pixel_tilts(maps, bin_width)?;
+    orientation_of(tilts, bin_width)
+}
+
+/// The distribution, its histogram and widths from the pixel tilts.
+pub(crate) fn orientation_of(
+    tilts: PixelTilts,
+    bin_width: f64,
+) -> Result<PixelOrientation, PipelineError> {
     let orientation = tilts
         .orientation()
         .map_err(|e| PipelineError::Orientation(e.to_string()))?;

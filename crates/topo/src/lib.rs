@@ -67,15 +67,18 @@ pub mod mueller;
 pub mod normals;
 pub mod pixels;
 mod simd;
+pub mod source;
 
 pub use isotropic::{DEFAULT_NODES_PER_APERTURE, IsotropicOptions, IsotropicResult};
 pub use model::{
-    DEFAULT_BLOCK_UM, MIN_TILES, TopoModel, TopoOptions, TopoPoint, TopoResult, TopoWarning,
+    DEFAULT_BLOCK_UM, MIN_TILES, TileSums, TileSumsKind, TopoModel, TopoOptions, TopoPoint,
+    TopoResult, TopoWarning,
 };
 pub use mueller::{TopoMuellerPoint, TopoMuellerResult};
 pub use normals::{Normals, normal_from_slopes};
 pub use pixels::{PixelTilts, TileTilts};
 pub use simd::Kernels;
+pub use source::{BoxedError, HeightSource, SourceError};
 
 /// Errors of the topographic model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -155,4 +158,17 @@ pub enum TopoError {
         "environment variable FLAKESCATTER_SIMD={0:?} is not valid: expected `auto` (or unset) for the processor's best instruction set, or `portable` for the portable code"
     )]
     SimdSwitch(String),
+    /// A [`HeightSource`] could not give a band of map `map` (0-based): its reader's
+    /// error, which names the file.
+    #[error("map {map} (0-based): {error}")]
+    Source {
+        /// Which map (0-based).
+        map: usize,
+        /// The reader's error.
+        error: SourceError,
+    },
+    /// Partial sums given to a `finish` that do not make up the run: not in tile order,
+    /// overlapping, leaving tiles out, or of another model or detector set.
+    #[error("partial sums: {0}")]
+    Partials(String),
 }

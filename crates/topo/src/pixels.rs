@@ -24,6 +24,10 @@ use rayon::prelude::*;
 use crate::TopoError;
 use crate::model::TopoModel;
 use crate::normals::{DirectRow, Scratch, tile_usable};
+use crate::source::HeightSource;
+
+/// Tiles whose pixels' bins are held at once (a few MB for tiles of 64² pixels).
+const TILT_BATCH: usize = 256;
 
 /// Sums of one statistics tile.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -132,55 +136,88 @@ impl TopoModel {
         for (i, map) in maps.iter().enumerate() {
             self.check_map(i, map)?;
         }
-        let nb = edges.len() - 1;
-        let h = self.options().window / 2;
-        let jobs: Vec<(usize, crate::normals::Rect)> = maps
-            .iter()
-            .enumerate()
-            .flat_map(|(i, m)| self.tiles(m).into_iter().map(move |r| (i, r)))
-            .collect();
-        let per_tile: Vec<(TileTilts, Vec<(usize, f64)>)> = jobs
-            .par_iter()
-            .map_init(
-                || (Scratch::default(), DirectRow::default()),
-                |(scratch, direct), &(mi, rect)| {
-                    let map = maps[mi];
-                    let mut direct = direct.tile(map, h, rect, self.kernels());
-                    let pixel_area = map.dx() * map.dy();
-                    let mut t = TileTilts::default();
-                    let mut bins = Vec::new();
-                    tile_usable(map, h, rect, scratch, |row, col| {
-                        let (a, b) = direct.slopes(row, col);
-                        let r2 = a * a + b * b;
-                        let theta = r2.sqrt().atan();
-                        let area = pixel_area * (1.0 + r2).sqrt();
-                        t.pixels += 1;
-                        t.area_um2 += area;
-                        t.area_theta2 += area * theta * theta;
-                        bins.push((((theta / bin_width) as usize).min(nb - 1), area));
-                    });
-                    (t, bins)
-                },
-            )
-            .collect();
-        let mut bin_area_um2 = vec![0.0; nb];
-        let mut tiles = Vec::with_capacity(per_tile.len());
-        let mut usable = 0;
-        for (t, bins) in per_tile {
-            usable += t.pixels;
-            tiles.push(t);
-            for (i, a) in bins {
-                bin_area_um2[i] += a;
+        let sources: Vec<&dyn HeightSource> = maps.iter().map(|&m| m as _).collect();
+        self.tilts_of(&sources, edges, bin_width)
+    }
+
+    /// As [`TopoModel::pixel_tilts`] over maps read band by band from `sources`
+    /// (module docs of [`crate::model`], "Streaming"): the same numbers, bit for bit.
+    ///
+    /// # Errors
+    /// As [`TopoModel::pixel_tilts`], [`TopoError::NoValidPixels`] once a map has been
+    /// read and held no valid point, and [`TopoError::Source`] when a source cannot
+    /// give a band.
+    pub fn pixel_tilts_sources(
+        &self,
+        sources: &[&dyn HeightSource],
+        bin_width: f64,
+    ) -> Result<PixelTilts, TopoError> {
+        if sources.is_empty() {
+            return Err(TopoError::Empty("height map"));
+        }
+        let edges = bin_edges(bin_width).map_err(|_| TopoError::BinWidth(bin_width))?;
+        let k = self.options().window;
+        for (i, s) in sources.iter().enumerate() {
+            let (nx, ny) = s.size();
+            if k > nx || k > ny {
+                return Err(TopoError::WindowTooLarge {
+                    window: k,
+                    map: i,
+                    nx,
+                    ny,
+                });
             }
         }
-        let pixels: u64 = maps.iter().map(|m| m.len() as u64).sum();
-        if usable == 0 {
-            return Err(TopoError::NoUsablePixels {
-                window: self.options().window,
-                valid: maps.iter().map(|m| m.valid_count()).sum(),
-                pixels: pixels as usize,
-            });
-        }
+        self.tilts_of(sources, edges, bin_width)
+    }
+
+    /// The tilts of every tile of `sources`, band by band, each batch of tiles in
+    /// parallel and reduced in tile order (pixels in raster order within a tile).
+    fn tilts_of(
+        &self,
+        sources: &[&dyn HeightSource],
+        edges: Vec<f64>,
+        bin_width: f64,
+    ) -> Result<PixelTilts, TopoError> {
+        let nb = edges.len() - 1;
+        let h = self.options().window / 2;
+        let mut bin_area_um2 = vec![0.0; nb];
+        let mut tiles = Vec::new();
+        let mut usable = 0;
+        let total = self.tile_count(sources);
+        let valid = self.for_each_batch(sources, 0..total, TILT_BATCH, |_, map, batch| {
+            let per_tile: Vec<(TileTilts, Vec<(usize, f64)>)> = batch
+                .par_iter()
+                .map_init(
+                    || (Scratch::default(), DirectRow::default()),
+                    |(scratch, direct), &rect| {
+                        let mut direct = direct.tile(map, h, rect, self.kernels());
+                        let pixel_area = map.dx() * map.dy();
+                        let mut t = TileTilts::default();
+                        let mut bins = Vec::new();
+                        tile_usable(map, h, rect, scratch, |row, col| {
+                            let (a, b) = direct.slopes(row, col);
+                            let r2 = a * a + b * b;
+                            let theta = r2.sqrt().atan();
+                            let area = pixel_area * (1.0 + r2).sqrt();
+                            t.pixels += 1;
+                            t.area_um2 += area;
+                            t.area_theta2 += area * theta * theta;
+                            bins.push((((theta / bin_width) as usize).min(nb - 1), area));
+                        });
+                        (t, bins)
+                    },
+                )
+                .collect();
+            for (t, bins) in per_tile {
+                usable += t.pixels;
+                tiles.push(t);
+                for (i, a) in bins {
+                    bin_area_um2[i] += a;
+                }
+            }
+        })?;
+        let pixels = self.check_valid(sources, &valid, usable)?;
         Ok(PixelTilts {
             edges,
             bin_area_um2,

@@ -23,12 +23,15 @@
 //!   crate failing to build) shows as "not measured" with the path that was expected;
 //!   the task exits non-zero only when a `cargo bench` command itself failed.
 //! * The full run also measures the peak memory of whole CLI commands on a 4096² map
-//!   ([`memory`]) and adds that table to `docs/benchmarks.md`.
+//!   ([`memory`]) and of `topo` streaming a 16,384² Zarr store ([`streamed`]) and adds
+//!   those tables to `docs/benchmarks.md`; `--streamed` measures the streamed rows alone
+//!   and prints them (no criterion bench, no file written).
 
 mod format;
 pub mod memory;
 mod rows;
 mod runner;
+pub mod streamed;
 
 use std::time::{Instant, SystemTime};
 
@@ -53,6 +56,16 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     let criterion_dir = std::env::var_os("CRITERION_HOME")
         .map_or_else(|| target.join("criterion"), |d| root.join(d));
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
+    if opts.streamed {
+        if opts.quick || opts.report_only {
+            bail!("--streamed runs alone: leave out --quick and --report-only");
+        }
+        println!(
+            "{}",
+            streamed::render(&streamed::measure(&cargo, &root, &target)?)
+        );
+        return Ok(());
+    }
     let start = SystemTime::now();
     let clock = Instant::now();
     let failed = if opts.report_only {
@@ -74,6 +87,10 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     if !opts.quick && !opts.report_only {
         let mem = memory::measure(&cargo, &root, &target)?;
         let section = memory::render(&mem);
+        println!("{section}");
+        doc.push_str(&section);
+        let big = streamed::measure(&cargo, &root, &target)?;
+        let section = streamed::render(&big);
         println!("{section}");
         doc.push_str(&section);
     }

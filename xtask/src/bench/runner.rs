@@ -182,6 +182,8 @@ pub fn utc_date(t: SystemTime) -> String {
 pub(super) struct Options {
     pub(super) quick: bool,
     pub(super) report_only: bool,
+    /// Only the streamed-memory rows ([`super::streamed`]).
+    pub(super) streamed: bool,
 }
 
 pub(super) fn parse(args: &[String]) -> anyhow::Result<Options> {
@@ -190,9 +192,10 @@ pub(super) fn parse(args: &[String]) -> anyhow::Result<Options> {
         match a.as_str() {
             "--quick" => o.quick = true,
             "--report-only" => o.report_only = true,
+            "--streamed" => o.streamed = true,
             other => bail!(
                 "unknown option `{other}` for `cargo xtask bench` \
-                 (expected --quick and/or --report-only)"
+                 (expected --quick and/or --report-only, or --streamed alone)"
             ),
         }
     }

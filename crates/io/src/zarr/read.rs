@@ -172,6 +172,29 @@ impl ZarrMap {
         self.to_map(nx, ny, z)
     }
 
+    /// The `intensity` values (as stored, NaN = no value; the mask is not applied) of
+    /// the window of `ny` rows × `nx` columns whose first point is row `y0`, column
+    /// `x0`, row-major as [`ZarrMap::read_window`]; `None` when the store has no
+    /// `intensity` array. Only the chunks the window touches are read.
+    ///
+    /// # Errors
+    /// As [`ZarrMap::read_window`].
+    pub fn read_intensity_window(
+        &self,
+        y0: usize,
+        x0: usize,
+        ny: usize,
+        nx: usize,
+    ) -> Result<Option<Vec<f64>>, ZarrError> {
+        let Some(intensity) = &self.intensity else {
+            return Ok(None);
+        };
+        let window = self.window(y0, x0, ny, nx)?;
+        retrieve(intensity, &window)
+            .map(Some)
+            .map_err(|r| self.array(INTENSITY, within(&window, &r)))
+    }
+
     /// The whole height map (µm, mask applied), with the metadata `zarr.chunks`.
     ///
     /// # Errors

@@ -104,8 +104,14 @@
 use flakescatter_optics::detector::{self, Cone};
 use flakescatter_stats::HeightMap;
 
+use std::ops::Range;
+
 use crate::TopoError;
-use crate::model::{TopoModel, TopoPoint, TopoWarning, aperture_index, tile_warnings};
+use crate::model::split::{check_parts, check_range};
+use crate::model::{
+    TileSums, TileSumsKind, TopoModel, TopoPoint, TopoWarning, aperture_index, tile_warnings,
+};
+use crate::source::HeightSource;
 
 mod response;
 mod ring;
@@ -115,6 +121,17 @@ mod table;
 
 use response::IsoSetup;
 use schedule::IsoSums;
+
+/// What is fixed during an isotropic run.
+struct IsoRun<'a> {
+    setup: IsoSetup<'a>,
+    /// The distinct apertures of the user's cones.
+    apertures: Vec<f64>,
+    /// Internal detectors per incidence.
+    ndet: usize,
+    /// Node spacing, radians.
+    delta: f64,
+}
 
 /// Default number of `θn` nodes per radian of the smallest aperture: the node spacing
 /// is `δ = α_min / DEFAULT_NODES_PER_APERTURE` (0.0117° for α = 1.5°).
@@ -157,6 +174,9 @@ pub struct IsotropicResult {
     pub rings_lost_down: f64,
     /// Statistics tiles over all maps.
     pub tiles: u64,
+    /// Valid points of each map (measured and passing any intensity cutoff), maps in
+    /// order.
+    pub valid_pixels: Vec<u64>,
     /// Tile side, µm.
     pub block_um: f64,
     /// Node spacing `δ` used, radians.
@@ -212,13 +232,147 @@ impl TopoModel {
         options: &IsotropicOptions,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<IsotropicResult, TopoError> {
+        self.refuse_absorption()?;
+        self.check_run(maps, theta_i, cones)?;
+        let sources: Vec<&dyn HeightSource> = maps.iter().map(|&m| m as _).collect();
+        self.isotropic_of(&sources, theta_i, cones, options, progress)
+    }
+
+    /// As [`TopoModel::run_isotropic_with`] over maps read band by band from `sources`
+    /// (module docs of [`crate::model`], "Streaming"): the same numbers, bit for bit,
+    /// as the maps in memory.
+    ///
+    /// # Errors
+    /// As [`TopoModel::run_isotropic_with`] and [`TopoModel::run_sources`].
+    pub fn run_isotropic_sources(
+        &self,
+        sources: &[&dyn HeightSource],
+        theta_i: &[f64],
+        cones: &[Cone],
+        options: &IsotropicOptions,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<IsotropicResult, TopoError> {
+        self.refuse_absorption()?;
+        self.check_sources(sources, theta_i, cones)?;
+        self.isotropic_of(sources, theta_i, cones, options, progress)
+    }
+
+    /// Traces the tiles numbered `tiles` (of [`TopoModel::tile_count`]) with the
+    /// isotropic model and returns their per-tile sums, for
+    /// [`TopoModel::finish_isotropic`] (as [`TopoModel::trace_tiles`] for the plain
+    /// model).
+    ///
+    /// # Errors
+    /// As [`TopoModel::run_isotropic_sources`] (but for the checks that need all tiles,
+    /// made by the finish); [`TopoError::Partials`] for a range that is empty or reaches
+    /// past the last tile.
+    pub fn trace_tiles_isotropic(
+        &self,
+        sources: &[&dyn HeightSource],
+        theta_i: &[f64],
+        cones: &[Cone],
+        options: &IsotropicOptions,
+        tiles: Range<u64>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<TileSums, TopoError> {
+        self.refuse_absorption()?;
+        self.check_sources(sources, theta_i, cones)?;
+        check_range(&tiles, self.tile_count(sources))?;
+        let run = self.isotropic_setup(theta_i, cones, options)?;
+        let nslots = theta_i.len() * run.ndet;
+        let mut out = TileSums::empty(
+            TileSumsKind::Isotropic,
+            tiles.clone(),
+            2 * nslots + 2,
+            nslots,
+            sources.len(),
+        );
+        let (valid, nodes) = {
+            let TileSums {
+                rows,
+                counts,
+                usable,
+                ..
+            } = &mut out;
+            schedule::trace_range(
+                self,
+                sources,
+                &run.setup,
+                run.ndet,
+                run.delta,
+                tiles,
+                progress,
+                &mut |p| {
+                    p.append_to(rows, counts);
+                    *usable += p.usable();
+                },
+            )?
+        };
+        out.valid = valid;
+        out.nodes = nodes;
+        Ok(out)
+    }
+
+    /// The isotropic result of a run from its parts ([`TopoModel::trace_tiles_isotropic`]
+    /// over consecutive ranges covering every tile, in tile order), reduced in tile
+    /// order exactly as one call, so bit for bit the same (but `nodes`, the sum of the
+    /// parts' table nodes: each part builds the table it needs). As
+    /// [`TopoModel::finish`], `sources` give only their sizes and pitches.
+    ///
+    /// # Errors
+    /// As [`TopoModel::run_isotropic_sources`]; [`TopoError::Partials`] as
+    /// [`TopoModel::finish`].
+    pub fn finish_isotropic(
+        &self,
+        sources: &[&dyn HeightSource],
+        theta_i: &[f64],
+        cones: &[Cone],
+        options: &IsotropicOptions,
+        parts: &[TileSums],
+    ) -> Result<IsotropicResult, TopoError> {
+        self.refuse_absorption()?;
+        self.check_sources(sources, theta_i, cones)?;
+        let run = self.isotropic_setup(theta_i, cones, options)?;
+        let nslots = theta_i.len() * run.ndet;
+        let valid = check_parts(
+            parts,
+            TileSumsKind::Isotropic,
+            (2 * nslots + 2, nslots),
+            self.tile_count(sources),
+            sources.len(),
+        )?;
+        let mut sums = IsoSums::new(nslots);
+        for p in parts {
+            for row in p.rows.chunks_exact(2 * nslots + 2) {
+                let (s, rest) = row.split_at(nslots);
+                let (d, lost) = rest.split_at(nslots);
+                sums.add_floats(s, d, lost[0], lost[1]);
+            }
+            sums.usable += p.usable;
+            for (r, &c) in sums.rays.iter_mut().zip(&p.counts) {
+                *r += c;
+            }
+            sums.nodes += p.nodes;
+        }
+        self.isotropic_result(sources, &run, sums, &valid, theta_i, cones)
+    }
+
+    fn refuse_absorption(&self) -> Result<(), TopoError> {
         if self.absorption().is_some() {
             return Err(TopoError::Unsupported(
                 "the isotropic average does not include binder absorption (its weight is integrated around each ring without the path factor); use the plain topographic model",
             ));
         }
-        self.check_run(maps, theta_i, cones)?;
-        let opts = self.options();
+        Ok(())
+    }
+
+    /// The node spacing, internal detectors and setup of an isotropic run.
+    fn isotropic_setup<'a>(
+        &'a self,
+        theta_i: &[f64],
+        cones: &[Cone],
+        options: &IsotropicOptions,
+    ) -> Result<IsoRun<'a>, TopoError> {
         let alpha_min = cones
             .iter()
             .map(Cone::half_angle)
@@ -232,36 +386,73 @@ impl TopoModel {
             }
             None => alpha_min / DEFAULT_NODES_PER_APERTURE,
         };
-
         // Internal detectors per incidence: the user's cones, then a specular cone per
         // distinct aperture (for `relative`).
         let apertures = flakescatter_optics::detector::distinct_apertures(cones);
         let ndet = cones.len() + apertures.len();
-        let setup = IsoSetup::new(opts, theta_i, cones, &apertures, delta)?;
-        let sums = schedule::accumulate(self, maps, &setup, ndet, delta, progress);
-        let pixels: u64 = maps.iter().map(|m| m.len() as u64).sum();
-        if sums.usable == 0 {
-            return Err(TopoError::NoUsablePixels {
-                window: opts.window,
-                valid: maps.iter().map(|m| m.valid_count()).sum(),
-                pixels: pixels as usize,
-            });
-        }
+        let setup = IsoSetup::new(self.options(), theta_i, cones, &apertures, delta)?;
+        Ok(IsoRun {
+            setup,
+            apertures,
+            ndet,
+            delta,
+        })
+    }
+
+    /// The isotropic run over `sources` after the checks.
+    fn isotropic_of(
+        &self,
+        sources: &[&dyn HeightSource],
+        theta_i: &[f64],
+        cones: &[Cone],
+        options: &IsotropicOptions,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<IsotropicResult, TopoError> {
+        let run = self.isotropic_setup(theta_i, cones, options)?;
+        let mut sums = IsoSums::new(theta_i.len() * run.ndet);
+        let total = self.tile_count(sources);
+        let (valid, nodes) = schedule::trace_range(
+            self,
+            sources,
+            &run.setup,
+            run.ndet,
+            run.delta,
+            0..total,
+            progress,
+            &mut |p| sums.add_partial(&p),
+        )?;
+        sums.nodes = nodes;
+        self.isotropic_result(sources, &run, sums, &valid, theta_i, cones)
+    }
+
+    /// The result from the reduced sums, after the checks that need the data.
+    fn isotropic_result(
+        &self,
+        sources: &[&dyn HeightSource],
+        run: &IsoRun<'_>,
+        sums: IsoSums,
+        valid: &[u64],
+        theta_i: &[f64],
+        cones: &[Cone],
+    ) -> Result<IsotropicResult, TopoError> {
+        let pixels = self.check_valid(sources, valid, sums.usable)?;
         let (points, interpolation_error) =
-            self.isotropic_points(&setup, &sums, pixels, theta_i, cones, &apertures);
+            self.isotropic_points(&run.setup, &sums, pixels, theta_i, cones, &run.apertures);
+        let tiles = sums.tiles();
         Ok(IsotropicResult {
             points,
             interpolation_error,
-            maps: maps.len(),
+            maps: sources.len(),
             pixels,
             usable_pixels: sums.usable,
             rings_traced: sums.usable * theta_i.len() as u64,
             rings_lost_tir: sums.lost_tir,
             rings_lost_down: sums.lost_down,
-            tiles: sums.tiles,
+            tiles,
+            valid_pixels: valid.to_vec(),
             block_um: self.block_um(),
-            node_spacing: delta,
-            warnings: tile_warnings(sums.tiles),
+            node_spacing: run.delta,
+            warnings: tile_warnings(tiles),
             nodes: sums.nodes,
         })
     }
@@ -281,7 +472,7 @@ impl TopoModel {
         let (stats, rays, defect) = (&sums.stats, &sums.rays, &sums.defect);
         let ndet = cones.len() + apertures.len();
         let ninc = theta_i.len();
-        let total_tiles = sums.tiles;
+        let total_tiles = sums.tiles();
         let inv_n = 1.0 / pixels as f64;
         let t = total_tiles as f64;
         // No spread to estimate from with one tile, nor in a detector no ring reached

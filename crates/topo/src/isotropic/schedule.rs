@@ -6,8 +6,9 @@
 //! table under the kernel layer's dispatch; and the tile sums reduced in tile order
 //! while the next batch's deposits are made.
 
+use std::ops::Range;
+
 use flakescatter_optics::polarization::Weighting;
-use flakescatter_stats::HeightMap;
 use rayon::prelude::*;
 
 use super::response::{IsoSetup, RingScratch};
@@ -17,8 +18,8 @@ use super::table::{
 };
 use crate::TopoModel;
 use crate::model::TileStats;
-use crate::normals::Rect;
 use crate::simd::{Kernels, LANES, Lanes, dispatch};
+use crate::source::HeightSource;
 
 /// Tiles traced between two progress reports.
 const BATCH: usize = 256;
@@ -34,7 +35,8 @@ pub(crate) struct IsoPartial {
     lost_down: f64,
 }
 
-/// What the tiles of a run add up to, per (incidence, internal detector) slot.
+/// What the tiles of a run add up to, per (incidence, internal detector) slot: the
+/// ordered reduction of the tile sums.
 pub(crate) struct IsoSums {
     /// The tile sums' total and Welford `m2`.
     pub stats: TileStats,
@@ -50,8 +52,66 @@ pub(crate) struct IsoSums {
     pub usable: u64,
     /// Table nodes evaluated, summed over incidences.
     pub nodes: usize,
-    /// Statistics tiles over all maps.
-    pub tiles: u64,
+}
+
+impl IsoSums {
+    /// Nothing yet, in `nslots` slots.
+    pub fn new(nslots: usize) -> Self {
+        Self {
+            stats: TileStats::new(nslots),
+            defect: vec![0.0; nslots],
+            rays: vec![0u64; nslots],
+            lost_tir: 0.0,
+            lost_down: 0.0,
+            usable: 0,
+            nodes: 0,
+        }
+    }
+
+    /// Statistics tiles reduced.
+    pub fn tiles(&self) -> u64 {
+        self.stats.count()
+    }
+
+    /// The next tile's sums, interpolation-error sums and lost fractions, in tile
+    /// order (one slot per sum).
+    pub fn add_floats(&mut self, sums: &[f64], defect: &[f64], lost_tir: f64, lost_down: f64) {
+        let nslots = self.defect.len();
+        self.stats.add(&sums[..nslots]);
+        self.lost_tir += lost_tir;
+        self.lost_down += lost_down;
+        for (d, &v) in self.defect.iter_mut().zip(&defect[..nslots]) {
+            *d += v;
+        }
+    }
+
+    /// The next tile, in tile order.
+    pub fn add_partial(&mut self, p: &IsoPartial) {
+        self.add_floats(&p.sums, &p.defect, p.lost_tir, p.lost_down);
+        self.usable += p.usable;
+        for (r, &c) in self.rays.iter_mut().zip(&p.counts) {
+            *r += u64::from(c);
+        }
+    }
+}
+
+impl IsoPartial {
+    /// The tile's row of a `TileSums` (sums, interpolation-error sums, lost
+    /// fractions) appended to `rows`, and its counts added to `counts`.
+    pub fn append_to(&self, rows: &mut Vec<f64>, counts: &mut [u64]) {
+        let nslots = counts.len();
+        rows.extend_from_slice(&self.sums[..nslots]);
+        rows.extend_from_slice(&self.defect[..nslots]);
+        rows.extend_from_slice(&[self.lost_tir, self.lost_down]);
+        for (r, &c) in counts.iter_mut().zip(&self.counts) {
+            *r += u64::from(c);
+        }
+    }
+
+    /// Usable pixels of the tile.
+    pub fn usable(&self) -> u64 {
+        self.usable
+    }
 }
 
 /// The table, per incidence, and what the contraction needs per fine cell and odd
@@ -201,58 +261,44 @@ impl Table {
     }
 }
 
-/// Deposits every tile of `maps`, computes the table nodes they need, contracts each
-/// tile with the table and reduces the tile sums in tile order (module docs), for
-/// `ndet` internal detectors per incidence of `setup` and node spacing `delta`;
-/// `progress` as in [`TopoModel::run_isotropic_with`].
-pub(crate) fn accumulate(
+/// Deposits the tiles numbered `range` of `sources` (band by band, module docs of
+/// [`crate::model`], "Streaming"), computes the table nodes they need, contracts each
+/// tile with the table and hands the tile sums to `take` in tile order (module docs),
+/// for `ndet` internal detectors per incidence of `setup` and node spacing `delta`;
+/// `progress` as in [`TopoModel::run_isotropic_with`], in tiles of the range. Returns
+/// the valid points of each map's tiles of the range and the table nodes evaluated.
+///
+/// # Errors
+/// [`crate::TopoError::Source`] when a source cannot give a band.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn trace_range(
     model: &TopoModel,
-    maps: &[&HeightMap],
+    sources: &[&dyn HeightSource],
     setup: &IsoSetup<'_>,
     ndet: usize,
     delta: f64,
+    range: Range<u64>,
     progress: &(dyn Fn(u64, u64) + Sync),
-) -> IsoSums {
+    take: &mut (dyn FnMut(IsoPartial) + Send),
+) -> Result<(Vec<u64>, usize), crate::TopoError> {
     let opts = model.options();
     let kernels = model.kernels();
     let ninc = setup.incs.len();
     // Nodes 0..=kmax cover θ up to π/2 with the neighbours the deposits use.
     let kmax = (std::f64::consts::FRAC_PI_2 * setup.inv_delta).ceil() as usize + 4;
     let mut table = Table::new(ninc);
-    let jobs: Vec<(usize, Rect)> = maps
-        .iter()
-        .enumerate()
-        .flat_map(|(i, m)| model.tiles(m).into_iter().map(move |r| (i, r)))
-        .collect();
-    let total_tiles = jobs.len() as u64;
+    let total = range.end - range.start;
     let h = opts.window / 2;
     let physical = opts.weighting == Weighting::Physical;
-
-    let nslots = ninc * ndet;
-    let mut sums = IsoSums {
-        stats: TileStats::new(nslots),
-        defect: vec![0.0; nslots],
-        rays: vec![0u64; nslots],
-        lost_tir: 0.0,
-        lost_down: 0.0,
-        usable: 0,
-        nodes: 0,
-        tiles: total_tiles,
-    };
     // The ordered reduction of a batch's tile sums, run while the next batch's
     // deposits are made (`rayon::join`); returns the tiles reduced so far.
+    let mut reduced = 0u64;
     let mut reduce = |partials: Vec<IsoPartial>| {
         for p in partials {
-            sums.stats.add(&p.sums[..nslots]);
-            sums.usable += p.usable;
-            sums.lost_tir += p.lost_tir;
-            sums.lost_down += p.lost_down;
-            for s in 0..nslots {
-                sums.defect[s] += p.defect[s];
-                sums.rays[s] += u64::from(p.counts[s]);
-            }
+            take(p);
+            reduced += 1;
         }
-        sums.stats.count()
+        reduced
     };
     let rule = DepositRule {
         h,
@@ -262,21 +308,21 @@ pub(crate) fn accumulate(
         kernels,
     };
     let mut pending = Vec::new();
-    for batch in jobs.chunks(BATCH) {
+    let valid = model.for_each_batch(sources, range, BATCH, |_, map, batch| {
         // 1. Deposits of the batch's tiles (and the previous batch's reduction).
         let done = std::mem::take(&mut pending);
-        let (reduced, deposits): (u64, Vec<TileDeposit>) = rayon::join(
+        let (r, deposits): (u64, Vec<TileDeposit>) = rayon::join(
             || reduce(done),
             || {
                 batch
                     .par_iter()
-                    .map_init(TileScratch::default, |ts, &(mi, rect)| {
-                        deposit_tile(maps[mi], rect, &rule, ts)
+                    .map_init(TileScratch::default, |ts, &rect| {
+                        deposit_tile(map, rect, &rule, ts)
                     })
                     .collect()
             },
         );
-        progress(reduced, total_tiles);
+        progress(r, total);
         // 2. The table nodes they need that are not computed yet.
         table.compute_nodes(&deposits, setup, delta);
         // 3. What the contraction needs per cell and odd node.
@@ -284,10 +330,9 @@ pub(crate) fn accumulate(
         // 4. Contraction with the table (reduced with the next batch's deposits, or
         // after the last batch).
         pending = table.contract(&deposits, ndet, kernels);
-    }
-    progress(reduce(pending), total_tiles);
-    sums.nodes = table.nodes;
-    sums
+    })?;
+    progress(reduce(pending), total);
+    Ok((valid, table.nodes))
 }
 
 /// Contracts one tile's deposits with the table rows (`rows[ii][k]`): per detector the

@@ -46,6 +46,38 @@
 //! of the same operations, no fused multiply–add); every (incidence, detector) sum still
 //! takes its rays in pixel order, so neither the chunking nor the processor changes a
 //! bit.
+//!
+//! # Streaming
+//! **Tile decomposition.** Each map of `nx × ny` pixels is cut into tiles of
+//! `tc × tr` pixels, `tc = max(1, round(block_um/dx))`, `tr = max(1, round(block_um/dy))`,
+//! the last column and row of tiles cut by the map's edge. Tiles are numbered row-major
+//! within a map (tile `t` is tile row `t / ⌈nx/tc⌉`, column `t mod ⌈nx/tc⌉`), maps in the
+//! order given, one number sequence over all maps ([`TopoModel::tile_count`]).
+//!
+//! **Reduction order.** Every tile's sums are formed on its own (its pixels in raster
+//! order) and the tile sums are reduced in tile number order, per slot: the total and
+//! Welford's running mean and `M2` (`flakescatter_numerics::welford`); the integer
+//! counts (rays, usable pixels, lost rays) are plain sums.
+//!
+//! **Bands.** A run over [`HeightSource`]s ([`TopoModel::run_sources`],
+//! [`TopoModel::run_isotropic_sources`], [`TopoModel::pixel_tilts_sources`]) reads each
+//! map a band at a time: whole tile rows, as many as fit in
+//! [`HeightSource::band_rows`], with the window's `⌊k/2⌋` rows of halo above and below
+//! (clipped at the map's edges) and every column. The band's tiles are traced in
+//! parallel and reduced in tile order, then the next band is read, so a run holds one
+//! band (plus the tile sums of two batches) whatever the map's size. A band gives every
+//! tile the same points, window sums and reference height as the whole map, so the
+//! result is the in-memory result bit for bit (`model/bands.rs` says why; a map in memory
+//! is a source whose one band is the map itself, borrowed). `N_pixels` comes from the
+//! maps' sizes; the valid points are counted per tile as the bands are read, and a map
+//! without any is refused once traced ([`TopoError::NoValidPixels`], as in memory).
+//!
+//! **Ranges and finish.** [`TopoModel::trace_tiles`] traces a range of tile numbers and
+//! returns their per-tile sums ([`TileSums`]); [`TopoModel::finish`] takes the parts of a
+//! run, in tile order, and reduces them exactly as one call does, so that workers can
+//! each trace a block of tile rows and a client merge them into the same result, bit
+//! for bit ([`TopoModel::trace_tiles_isotropic`] and
+//! [`TopoModel::finish_isotropic`] for the isotropic model).
 
 use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::detector::{self, Cone};
@@ -57,13 +89,17 @@ use rayon::prelude::*;
 use crate::TopoError;
 use crate::normals::{Normals, Rect, Scratch, tile_slopes};
 use crate::simd::Kernels;
+use crate::source::HeightSource;
 
+mod bands;
 mod chunk;
 mod physics;
+pub(crate) mod split;
 mod tiles;
 
 use physics::Scalar;
 pub(crate) use physics::{Accumulator, Inc, Ray, path_factor_of, printed_scale, ray_path};
+pub use split::{TileSums, TileSumsKind};
 pub(crate) use tiles::TileStats;
 
 /// Side of the square statistics tiles, µm (see the module docs on uncertainty).
@@ -202,6 +238,9 @@ pub struct TopoResult {
     pub rays_lost_down: u64,
     /// Statistics tiles over all maps.
     pub tiles: u64,
+    /// Valid points of each map (measured and passing any intensity cutoff), maps in
+    /// order.
+    pub valid_pixels: Vec<u64>,
     /// Tile side, µm.
     pub block_um: f64,
     /// Cautions about the uncertainties (empty when none).
@@ -382,6 +421,34 @@ impl TopoModel {
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<TopoResult, TopoError> {
         let acc = self.accumulate(maps, theta_i, cones, progress, &Scalar)?;
+        Ok(self.result_of(acc, theta_i, cones))
+    }
+
+    /// As [`TopoModel::run_with_progress`] over maps read band by band from `sources`
+    /// (module docs, "Streaming"): the same numbers, bit for bit, as the maps in
+    /// memory, holding about one band of each map at a time.
+    ///
+    /// # Errors
+    /// As [`TopoModel::run`]; [`TopoError::NoValidPixels`] once a map has been traced
+    /// and held no valid point; [`TopoError::Source`] when a source cannot give a band.
+    pub fn run_sources(
+        &self,
+        sources: &[&dyn HeightSource],
+        theta_i: &[f64],
+        cones: &[Cone],
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<TopoResult, TopoError> {
+        let acc = self.accumulate_sources(sources, theta_i, cones, progress, &Scalar)?;
+        Ok(self.result_of(acc, theta_i, cones))
+    }
+
+    /// The rows of a run from its accumulated sums.
+    pub(crate) fn result_of(
+        &self,
+        acc: tiles::Accumulated,
+        theta_i: &[f64],
+        cones: &[Cone],
+    ) -> TopoResult {
         let (inv_n, ndet, all, apertures) = (acc.inv_n, acc.ndet, &acc.all, &acc.apertures);
         let ncones = cones.len();
         let mut points = Vec::with_capacity(theta_i.len() * ncones);
@@ -420,10 +487,10 @@ impl TopoModel {
                 });
             }
         }
-        Ok(TopoResult {
+        TopoResult {
             points,
             ..acc.totals
-        })
+        }
     }
 }
 

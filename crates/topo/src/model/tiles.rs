@@ -4,6 +4,8 @@
 //! tiles traced with rayon while the previous batch is reduced in tile order, Welford
 //! sums of the tile sums ([`TileStats`]).
 
+use std::ops::Range;
+
 use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::detector::{Cone, distinct_apertures, with_specular_cones};
 use flakescatter_stats::HeightMap;
@@ -16,6 +18,7 @@ use crate::TopoError;
 use crate::index::ConeIndex;
 use crate::normals::{Rect, Scratch, tile_slopes};
 use crate::simd::{Kernels, LANES, dispatch};
+use crate::source::HeightSource;
 
 /// Tiles traced between two progress reports. Two batches' partial sums are held in
 /// memory at once: one being reduced while the next is traced.
@@ -102,45 +105,76 @@ impl TopoModel {
         theta_i: &[f64],
         cones: &[Cone],
     ) -> Result<(), TopoError> {
-        if maps.is_empty() {
-            return Err(TopoError::Empty("height map"));
-        }
-        if theta_i.is_empty() {
-            return Err(TopoError::Empty("incidence angle"));
-        }
-        if cones.is_empty() {
-            return Err(TopoError::Empty("detector"));
-        }
-        for &t in theta_i {
-            if !(t.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&t)) {
-                return Err(TopoError::Incidence(t));
-            }
-        }
-        if let Some(j) = cones.iter().position(|c| c.half_angle() <= 0.0) {
-            return Err(TopoError::PointDetector(j));
-        }
+        check_lists(maps.len(), theta_i, cones)?;
         for (i, map) in maps.iter().enumerate() {
             self.check_map(i, map)?;
         }
         Ok(())
     }
 
-    /// The statistics tiles of a map, row-major.
-    pub(crate) fn tiles(&self, map: &HeightMap) -> Vec<Rect> {
-        let tc = ((self.block_um / map.dx()).round() as usize).max(1);
-        let tr = ((self.block_um / map.dy()).round() as usize).max(1);
-        let mut out = Vec::new();
-        for r0 in (0..map.ny()).step_by(tr) {
-            for c0 in (0..map.nx()).step_by(tc) {
-                out.push(Rect {
-                    r0,
-                    r1: (r0 + tr).min(map.ny()),
-                    c0,
-                    c1: (c0 + tc).min(map.nx()),
+    /// The input checks of a run over sources that need no data: the lists, angles and
+    /// apertures, and each map's size against the window ([`TopoError::WindowTooLarge`]).
+    /// Maps without a valid point are found as they are traced.
+    pub(crate) fn check_sources(
+        &self,
+        sources: &[&dyn HeightSource],
+        theta_i: &[f64],
+        cones: &[Cone],
+    ) -> Result<(), TopoError> {
+        check_lists(sources.len(), theta_i, cones)?;
+        let k = self.options.window;
+        for (i, s) in sources.iter().enumerate() {
+            let (nx, ny) = s.size();
+            if k > nx || k > ny {
+                return Err(TopoError::WindowTooLarge {
+                    window: k,
+                    map: i,
+                    nx,
+                    ny,
                 });
             }
         }
-        out
+        Ok(())
+    }
+
+    /// The statistics tiles of a map, row-major (`bands::TileGrid`).
+    pub(crate) fn tiles(&self, map: &HeightMap) -> Vec<Rect> {
+        let grid = self.grid((map.nx(), map.ny()), (map.dx(), map.dy()));
+        (0..grid.count() as usize).map(|t| grid.rect(t)).collect()
+    }
+
+    /// The internal detectors of a run at `theta_i` with the user's `cones`.
+    pub(crate) fn detectors(
+        &self,
+        theta_i: &[f64],
+        cones: &[Cone],
+    ) -> Result<Detectors, TopoError> {
+        // The user's cones, then one specular cone per incidence and distinct aperture
+        // (for `relative`).
+        let apertures = distinct_apertures(cones);
+        let all = with_specular_cones(cones, theta_i, &apertures).map_err(TopoError::Detector)?;
+        Ok(Detectors { all, apertures })
+    }
+
+    /// What is fixed during a run over the detectors `det` at `theta_i`.
+    pub(crate) fn setup<'a>(&'a self, det: &'a Detectors, theta_i: &[f64]) -> Setup<'a> {
+        let n = self.options.n;
+        let scale: Vec<f64> = det
+            .all
+            .iter()
+            .map(|c| printed_scale(self.options.weighting, c, n))
+            .collect();
+        Setup {
+            incs: theta_i.iter().map(|&t| Inc::new(t, n)).collect(),
+            index: ConeIndex::new(&det.all),
+            cones: &det.all,
+            unit: self.absorption.is_none() && scale.iter().all(|&s| s == 1.0),
+            scale,
+            ndet: det.all.len(),
+            options: &self.options,
+            absorption: self.absorption,
+            kernels: self.kernels,
+        }
     }
 
     /// Validates the input, builds the internal detectors (the user's cones, then one
@@ -158,111 +192,227 @@ impl TopoModel {
         acc: &A,
     ) -> Result<Accumulated, TopoError> {
         self.check_run(maps, theta_i, cones)?;
-        let n = self.options.n;
+        let sources: Vec<&dyn HeightSource> = maps.iter().map(|&m| m as _).collect();
+        self.accumulate_sources(&sources, theta_i, cones, progress, acc)
+    }
 
-        // Internal detectors: the user's cones, then one specular cone per incidence and
-        // distinct aperture (for `relative`).
-        let apertures = distinct_apertures(cones);
-        let all = with_specular_cones(cones, theta_i, &apertures).map_err(TopoError::Detector)?;
-        let ndet = all.len();
-        let scale: Vec<f64> = all
-            .iter()
-            .map(|c| printed_scale(self.options.weighting, c, n))
-            .collect();
-        let incs: Vec<Inc> = theta_i.iter().map(|&t| Inc::new(t, n)).collect();
-        let setup = Setup {
-            incs,
-            index: ConeIndex::new(&all),
-            cones: &all,
-            unit: self.absorption.is_none() && scale.iter().all(|&s| s == 1.0),
-            scale,
-            ndet,
-            options: &self.options,
-            absorption: self.absorption,
-            kernels: self.kernels,
-        };
+    /// As [`TopoModel::accumulate`] over sources read band by band (module docs,
+    /// "Streaming"); a map without a valid point is refused once traced.
+    ///
+    /// # Errors
+    /// As [`TopoModel::run_sources`].
+    pub(crate) fn accumulate_sources<A: Accumulator>(
+        &self,
+        sources: &[&dyn HeightSource],
+        theta_i: &[f64],
+        cones: &[Cone],
+        progress: &(dyn Fn(u64, u64) + Sync),
+        acc: &A,
+    ) -> Result<Accumulated, TopoError> {
+        self.check_sources(sources, theta_i, cones)?;
+        let det = self.detectors(theta_i, cones)?;
+        let setup = self.setup(&det, theta_i);
+        let nslots = theta_i.len() * setup.ndet * acc.channels();
+        let mut red = Reduction::new(nslots, theta_i.len() * setup.ndet);
+        let total = self.tile_count(sources);
+        let valid = self.trace_range(sources, &setup, 0..total, progress, acc, &mut |p| {
+            red.add_partial(&p);
+        })?;
+        let incs = setup.incs;
+        self.accumulated(sources, det, incs, red, &valid)
+    }
 
-        let jobs: Vec<(usize, Rect)> = maps
-            .iter()
-            .enumerate()
-            .flat_map(|(i, m)| self.tiles(m).into_iter().map(move |r| (i, r)))
-            .collect();
-        let total_tiles = jobs.len() as u64;
-        let channels = acc.channels();
-        let nslots = theta_i.len() * ndet * channels;
-        // Ordered reduction: plain sums, Welford mean/M2 of the tile sums, ray counts.
-        let mut stats = TileStats::new(nslots);
-        let mut rays = vec![0u64; theta_i.len() * ndet];
-        let (mut usable, mut lost_tir, mut lost_down) = (0u64, 0u64, 0u64);
+    /// Traces the tiles numbered `range` (module docs, "Streaming") with `acc`, band by
+    /// band, each band's tiles in parallel in batches, and hands every tile's sums to
+    /// `take` in tile order (each batch while the next is traced); `progress(done,
+    /// total)` in tiles of the range, from the calling thread. Returns the valid points
+    /// of each map's tiles of the range.
+    pub(crate) fn trace_range<A: Accumulator>(
+        &self,
+        sources: &[&dyn HeightSource],
+        setup: &Setup<'_>,
+        range: Range<u64>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        acc: &A,
+        take: &mut (dyn FnMut(Partial) + Send),
+    ) -> Result<Vec<u64>, TopoError> {
+        let total = range.end - range.start;
+        let mut reduced = 0u64;
         // Each batch's partial sums are reduced, in tile order, while the next batch is
         // traced (`rayon::join`), so that the reduction does not leave the other cores
-        // idle; `progress` is called between the joins, on the calling thread
-        // (`run_with_progress`), with the tiles reduced so far.
+        // idle; `progress` is called between the joins, on the calling thread, with the
+        // tiles reduced so far.
         let mut reduce = |partials: Vec<Partial>| {
             for p in partials {
-                stats.add(&p.sums[..nslots]);
-                usable += p.usable;
-                lost_tir += p.lost_tir;
-                lost_down += p.lost_down;
-                for (r, &c) in rays.iter_mut().zip(&p.counts) {
-                    *r += u64::from(c);
-                }
+                take(p);
+                reduced += 1;
             }
-            stats.count()
+            reduced
         };
-        let trace = |batch: &[(usize, Rect)]| -> Vec<Partial> {
+        let trace = |map: &HeightMap, batch: &[Rect]| -> Vec<Partial> {
             batch
                 .par_iter()
-                .map_init(TraceScratch::default, |scratch, &(mi, rect)| {
-                    trace_tile(&setup, maps[mi], rect, scratch, acc)
+                .map_init(TraceScratch::default, |scratch, &rect| {
+                    trace_tile(setup, map, rect, scratch, acc)
                 })
                 .collect()
         };
         let mut pending = Vec::new();
-        for batch in jobs.chunks(BATCH) {
+        let valid = self.for_each_batch(sources, range, BATCH, |_, map, batch| {
             let done = std::mem::take(&mut pending);
-            let reduced;
-            (reduced, pending) = rayon::join(|| reduce(done), || trace(batch));
-            progress(reduced, total_tiles);
-        }
-        progress(reduce(pending), total_tiles);
+            let r;
+            (r, pending) = rayon::join(|| reduce(done), || trace(map, batch));
+            progress(r, total);
+        })?;
+        progress(reduce(pending), total);
+        Ok(valid)
+    }
 
-        let pixels: u64 = maps.iter().map(|m| m.len() as u64).sum();
-        if usable == 0 {
-            return Err(TopoError::NoUsablePixels {
-                window: self.options.window,
-                valid: maps.iter().map(|m| m.valid_count()).sum(),
-                pixels: pixels as usize,
-            });
-        }
+    /// The sums of a run reduced into `red`, with the totals, after the checks that
+    /// need the data: a map without a valid point (`valid` per map), no usable pixel.
+    pub(crate) fn accumulated(
+        &self,
+        sources: &[&dyn HeightSource],
+        det: Detectors,
+        incs: Vec<Inc>,
+        red: Reduction,
+        valid: &[u64],
+    ) -> Result<Accumulated, TopoError> {
+        let pixels = self.check_valid(sources, valid, red.usable)?;
+        let ninc = incs.len() as u64;
+        let total_tiles = red.stats.count();
         let t = total_tiles as f64;
         // No spread to estimate from with one tile (module docs): None, not NaN.
         let se_factor = (total_tiles > 1).then(|| t / (t - 1.0));
-        let incs = setup.incs;
-        let (sum, m2) = stats.into_sum_and_m2();
+        let ndet = det.all.len();
+        let (sum, m2) = red.stats.into_sum_and_m2();
         Ok(Accumulated {
-            all,
-            apertures,
+            all: det.all,
+            apertures: det.apertures,
             ndet,
             sum,
             m2,
-            rays,
+            rays: red.rays,
             incs,
             inv_n: 1.0 / pixels as f64,
             se_factor,
             totals: TopoResult {
                 points: Vec::new(),
-                maps: maps.len(),
+                maps: sources.len(),
                 pixels,
-                usable_pixels: usable,
-                rays_traced: usable * theta_i.len() as u64,
-                rays_lost_tir: lost_tir,
-                rays_lost_down: lost_down,
+                usable_pixels: red.usable,
+                rays_traced: red.usable * ninc,
+                rays_lost_tir: red.lost_tir,
+                rays_lost_down: red.lost_down,
                 tiles: total_tiles,
+                valid_pixels: valid.to_vec(),
                 block_um: self.block_um,
                 warnings: tile_warnings(total_tiles),
             },
         })
+    }
+
+    /// The checks of a run that need the data, once traced: a map whose tiles held no
+    /// valid point ([`TopoError::NoValidPixels`], the first in map order), no usable
+    /// pixel at all ([`TopoError::NoUsablePixels`]). Returns `N_pixels`, all pixels of
+    /// all maps (from their sizes).
+    pub(crate) fn check_valid(
+        &self,
+        sources: &[&dyn HeightSource],
+        valid: &[u64],
+        usable: u64,
+    ) -> Result<u64, TopoError> {
+        let sizes: Vec<u64> = sources
+            .iter()
+            .map(|s| {
+                let (nx, ny) = s.size();
+                (nx * ny) as u64
+            })
+            .collect();
+        if let Some(map) = valid.iter().position(|&v| v == 0) {
+            return Err(TopoError::NoValidPixels {
+                map,
+                pixels: sizes[map] as usize,
+            });
+        }
+        let pixels: u64 = sizes.iter().sum();
+        if usable == 0 {
+            return Err(TopoError::NoUsablePixels {
+                window: self.options.window,
+                valid: valid.iter().sum::<u64>() as usize,
+                pixels: pixels as usize,
+            });
+        }
+        Ok(pixels)
+    }
+}
+
+/// The checks of the lists and angles of a run over `maps` maps.
+fn check_lists(maps: usize, theta_i: &[f64], cones: &[Cone]) -> Result<(), TopoError> {
+    if maps == 0 {
+        return Err(TopoError::Empty("height map"));
+    }
+    if theta_i.is_empty() {
+        return Err(TopoError::Empty("incidence angle"));
+    }
+    if cones.is_empty() {
+        return Err(TopoError::Empty("detector"));
+    }
+    for &t in theta_i {
+        if !(t.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&t)) {
+            return Err(TopoError::Incidence(t));
+        }
+    }
+    if let Some(j) = cones.iter().position(|c| c.half_angle() <= 0.0) {
+        return Err(TopoError::PointDetector(j));
+    }
+    Ok(())
+}
+
+/// The internal detectors of a run: the user's cones, then one specular cone per
+/// incidence and distinct aperture.
+pub(crate) struct Detectors {
+    pub all: Vec<Cone>,
+    /// The distinct apertures of the user's cones, in order of appearance.
+    pub apertures: Vec<f64>,
+}
+
+/// The ordered reduction of a run's tile sums: plain sums and Welford mean/M2 of the
+/// tile sums per slot, ray counts, usable pixels and lost rays.
+pub(crate) struct Reduction {
+    pub stats: TileStats,
+    pub rays: Vec<u64>,
+    pub usable: u64,
+    pub lost_tir: u64,
+    pub lost_down: u64,
+}
+
+impl Reduction {
+    /// Nothing yet, for `nslots` sums and `nrays` ray counts.
+    pub fn new(nslots: usize, nrays: usize) -> Self {
+        Self {
+            stats: TileStats::new(nslots),
+            rays: vec![0; nrays],
+            usable: 0,
+            lost_tir: 0,
+            lost_down: 0,
+        }
+    }
+
+    /// The next tile's sums (`sums`, one per slot), in tile order.
+    pub fn add_sums(&mut self, sums: &[f64]) {
+        self.stats.add(&sums[..self.stats.sum().len()]);
+    }
+
+    /// The next tile, in tile order.
+    pub fn add_partial(&mut self, p: &Partial) {
+        self.add_sums(&p.sums);
+        self.usable += p.usable;
+        self.lost_tir += p.lost_tir;
+        self.lost_down += p.lost_down;
+        for (r, &c) in self.rays.iter_mut().zip(&p.counts) {
+            *r += u64::from(c);
+        }
     }
 }
 
@@ -285,7 +435,7 @@ pub(crate) struct TraceScratch {
 ///
 /// The sums of each (incidence, detector) take the rays in pixel order whatever the
 /// chunking, so the result is that of one ray at a time, bit for bit.
-fn trace_tile<A: Accumulator>(
+pub(crate) fn trace_tile<A: Accumulator>(
     setup: &Setup<'_>,
     map: &HeightMap,
     rect: Rect,

@@ -3,14 +3,16 @@
 //! sample's rotation about its normal (§5.1).
 
 mod spectral;
+pub mod stream;
 mod summary;
 
 use std::path::PathBuf;
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 use flakescatter::chart::topographic_chart;
 use flakescatter::inputs::MapSource;
 use flakescatter::stats::heightmap::HeightMap;
+use flakescatter::streaming::{isotropic_curves_streamed, topographic_curves_streamed};
 use flakescatter::topo::{DEFAULT_BLOCK_UM, TopoWarning};
 use flakescatter::{
     Curves, MuellerCurves, TopoSettings, isotropic_curves, topographic_curves, topographic_mueller,
@@ -21,6 +23,7 @@ use crate::maps::{MapInputArgs, Repeats, load_all};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
 use crate::tables::{curve_warnings, write_curves, write_curves_with};
 use spectral::{multi_angle, spectral_curves};
+use stream::Loaded;
 use summary::{Outcome, Totals, report};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
@@ -193,42 +196,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         window: args.window,
         tile_um: args.tile_um,
     };
-    let maps = load_maps(&args, &sources)?;
-    let refs: Vec<&HeightMap> = maps.iter().collect();
+    let loaded = match &polarimetry {
+        None => stream::stores(&args.input, &sources, args.window)?,
+        Some(_) => None,
+    };
+    let loaded = match loaded {
+        Some(stores) => Loaded::Stores(stores),
+        None => Loaded::Memory(load_maps(&args, &sources)?),
+    };
 
     // Progress on stderr when it is a terminal and the run is long.
-    let pixels: usize = maps.iter().map(HeightMap::len).sum();
-    let work = pixels as f64 * instrument.theta_i().len() as f64;
+    let work = loaded.pixels() as f64 * instrument.theta_i().len() as f64;
     let bar = progress_bar(work);
     let progress = |done: u64, total: u64| crate::output::progress::show(bar.as_ref(), done, total);
-    let context = || format!("--window {}, --tile-um {}", args.window, args.tile_um);
-    let (curves, result, mueller) = match (&polarimetry, args.isotropic) {
-        (None, true) => {
-            let spacing = args.node_spacing_deg.map(f64::to_radians);
-            let (c, r) = isotropic_curves(
-                &coating,
-                &instrument,
-                &settings,
-                &topo,
-                spacing,
-                &refs,
-                &progress,
-            )
-            .with_context(context)?;
-            (c, Totals::Isotropic(r), None)
-        }
-        (None, false) => {
-            let (c, r) =
-                topographic_curves(&coating, &instrument, &settings, &topo, &refs, &progress)
-                    .with_context(context)?;
-            (c, Totals::Plain(r), None)
-        }
-        (Some(p), _) => {
-            let (mu, r) =
-                topographic_mueller(&coating, &instrument, &settings, &topo, &refs, p, &progress)
-                    .with_context(context)?;
-            (mu.detected_curves(), Totals::Plain(r), Some(mu))
-        }
+    let run = Run {
+        args: &args,
+        sources: &sources,
+        loaded: &loaded,
+        coating: &coating,
+        instrument: &instrument,
+        settings: &settings,
+        topo: &topo,
+    };
+    let (curves, result, mueller) = run.model(polarimetry.as_ref(), &progress)?;
+    let infos = match &loaded {
+        Loaded::Memory(maps) => summary::infos(maps),
+        Loaded::Stores(_) => summary::source_infos(&loaded.sources(), &result),
     };
     let elements = args.polarization.elements();
     if let Some(b) = &bar {
@@ -267,7 +260,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         let outcome = Outcome {
             sources: &sources,
-            maps: &maps,
+            maps: &infos,
             totals: &result,
             curves: &curves,
             polarimetry: polarimetry.as_ref(),
@@ -277,6 +270,103 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print_json(&report(&args, &outcome, table.is_none()))?;
     }
     Ok(())
+}
+
+/// What the model run of a single-angle `topo` needs.
+struct Run<'a> {
+    args: &'a Args,
+    sources: &'a [MapSource],
+    loaded: &'a Loaded,
+    coating: &'a flakescatter::Coating,
+    instrument: &'a flakescatter::Instrument,
+    settings: &'a flakescatter::Settings,
+    topo: &'a TopoSettings,
+}
+
+impl Run<'_> {
+    /// Runs the plain, isotropic or Mueller model over the maps in memory or streamed.
+    fn model(
+        &self,
+        polarimetry: Option<&flakescatter::Polarimetry>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> anyhow::Result<(Curves, Totals, Option<MuellerCurves>)> {
+        let Self {
+            args,
+            sources,
+            loaded,
+            coating,
+            instrument,
+            settings,
+            topo,
+        } = *self;
+        let refs: Vec<&HeightMap> = match loaded {
+            Loaded::Memory(maps) => maps.iter().collect(),
+            Loaded::Stores(_) => Vec::new(),
+        };
+        let streams = loaded.sources();
+        let fail = |e: flakescatter::PipelineError| run_error(e, args, sources, loaded);
+        Ok(match (polarimetry, args.isotropic) {
+            (None, true) => {
+                let spacing = args.node_spacing_deg.map(f64::to_radians);
+                let (c, r) = match loaded {
+                    Loaded::Memory(_) => isotropic_curves(
+                        coating, instrument, settings, topo, spacing, &refs, progress,
+                    ),
+                    Loaded::Stores(_) => isotropic_curves_streamed(
+                        coating, instrument, settings, topo, spacing, &streams, progress,
+                    ),
+                }
+                .map_err(fail)?;
+                (c, Totals::Isotropic(r), None)
+            }
+            (None, false) => {
+                let (c, r) = match loaded {
+                    Loaded::Memory(_) => {
+                        topographic_curves(coating, instrument, settings, topo, &refs, progress)
+                    }
+                    Loaded::Stores(_) => topographic_curves_streamed(
+                        coating, instrument, settings, topo, &streams, progress,
+                    ),
+                }
+                .map_err(fail)?;
+                (c, Totals::Plain(r), None)
+            }
+            (Some(p), _) => {
+                let (mu, r) =
+                    topographic_mueller(coating, instrument, settings, topo, &refs, p, progress)
+                        .map_err(fail)?;
+                (mu.detected_curves(), Totals::Plain(r), Some(mu))
+            }
+        })
+    }
+}
+
+/// A failed model run as the command reports it: a streamed map without a valid pixel
+/// as the in-memory loader says it, a band that could not be read naming the map (its
+/// reader's error names the store and the array), anything else under the flags.
+fn run_error(
+    e: flakescatter::PipelineError,
+    args: &Args,
+    sources: &[MapSource],
+    loaded: &Loaded,
+) -> anyhow::Error {
+    use flakescatter::PipelineError::Topo;
+    use flakescatter::topo::TopoError;
+    match (loaded, e) {
+        (Loaded::Stores(_), Topo(TopoError::NoValidPixels { map, pixels })) => {
+            stream::no_valid_pixel(sources, map, pixels, args.input.cutoff)
+        }
+        (_, Topo(TopoError::Source { map, error })) => anyhow::anyhow!(
+            "reading height map {}: {error}",
+            sources
+                .get(map)
+                .map_or_else(|| format!("{map}"), |s| s.height.display().to_string())
+        ),
+        (_, e) => anyhow::Error::from(e).context(format!(
+            "--window {}, --tile-um {}",
+            args.window, args.tile_um
+        )),
+    }
 }
 
 /// The warnings of a single-angle run, in the order they are printed: the model's

@@ -79,7 +79,7 @@ pub(super) fn spectral_curves(
         let mut j = summary(
             args,
             sources,
-            &maps,
+            &super::summary::infos(&maps),
             &Totals::Plain(s.topo[0].clone()),
             &s.curves[0],
         );

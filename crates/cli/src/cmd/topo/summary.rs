@@ -3,7 +3,7 @@
 
 use flakescatter::inputs::MapSource;
 use flakescatter::stats::heightmap::HeightMap;
-use flakescatter::topo::{IsotropicResult, TopoResult, TopoWarning};
+use flakescatter::topo::{HeightSource, IsotropicResult, TopoResult, TopoWarning};
 use flakescatter::{Curves, MuellerCurves, Polarimetry};
 use serde_json::{Value, json};
 
@@ -17,7 +17,56 @@ pub(super) enum Totals {
     Isotropic(IsotropicResult),
 }
 
+/// What the `--json` summary says of each map.
+pub(super) struct MapInfo {
+    nx: usize,
+    ny: usize,
+    dx: f64,
+    dy: f64,
+    valid: u64,
+}
+
+/// The summary's description of maps in memory.
+pub(super) fn infos(maps: &[HeightMap]) -> Vec<MapInfo> {
+    maps.iter()
+        .map(|m| MapInfo {
+            nx: m.nx(),
+            ny: m.ny(),
+            dx: m.dx(),
+            dy: m.dy(),
+            valid: m.valid_count() as u64,
+        })
+        .collect()
+}
+
+/// The summary's description of streamed maps: sizes and pitches from the sources,
+/// the valid points as the run counted them.
+pub(super) fn source_infos(sources: &[&dyn HeightSource], totals: &Totals) -> Vec<MapInfo> {
+    sources
+        .iter()
+        .zip(totals.valid_pixels())
+        .map(|(s, &valid)| {
+            let ((nx, ny), (dx, dy)) = (s.size(), s.pitch());
+            MapInfo {
+                nx,
+                ny,
+                dx,
+                dy,
+                valid,
+            }
+        })
+        .collect()
+}
+
 impl Totals {
+    /// Valid points per map, as the run counted them.
+    pub(super) fn valid_pixels(&self) -> &[u64] {
+        match self {
+            Self::Plain(r) => &r.valid_pixels,
+            Self::Isotropic(r) => &r.valid_pixels,
+        }
+    }
+
     pub(super) fn warnings(&self) -> &[TopoWarning] {
         match self {
             Self::Plain(r) => &r.warnings,
@@ -77,7 +126,7 @@ fn interpolation_summary(r: &IsotropicResult) -> Value {
 pub(super) fn summary(
     args: &Args,
     sources: &[MapSource],
-    maps: &[HeightMap],
+    maps: &[MapInfo],
     r: &Totals,
     curves: &Curves,
 ) -> Value {
@@ -87,11 +136,11 @@ pub(super) fn summary(
         .map(|(p, m)| {
             json!({
                 "file": p.height.display().to_string(),
-                "nx": m.nx(),
-                "ny": m.ny(),
-                "dx_um": m.dx(),
-                "dy_um": m.dy(),
-                "valid_pixels": m.valid_count(),
+                "nx": m.nx,
+                "ny": m.ny,
+                "dx_um": m.dx,
+                "dy_um": m.dy,
+                "valid_pixels": m.valid,
             })
         })
         .collect();
@@ -144,7 +193,7 @@ pub(super) fn summary(
 /// What a single-angle run gives, as the `--json` report describes it.
 pub(super) struct Outcome<'a> {
     pub sources: &'a [MapSource],
-    pub maps: &'a [HeightMap],
+    pub maps: &'a [MapInfo],
     pub totals: &'a Totals,
     pub curves: &'a Curves,
     /// The incident and analyser states, with --polarization/--incident/--analyzer.
