@@ -89,33 +89,13 @@ pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<Me
             bail!("flakescatter synth failed");
         }
     }
-    let time = Path::new("/usr/bin/time");
     let mut rows = Vec::new();
     for (label, args) in COMMANDS {
         let command = args
             .replace("{map}", "map.x3p")
             .replace("{intensity}", "intensity.x3p")
             .replace("{dir}", ".");
-        let peak_bytes = if time.exists() {
-            let out = Command::new(time)
-                .arg("-v")
-                .arg(&cli)
-                .args(command.split(' '))
-                .current_dir(&dir)
-                .output()
-                .context("cannot run /usr/bin/time")?;
-            let report = String::from_utf8_lossy(&out.stderr);
-            if out.status.success() {
-                parse_time_v(&report).ok_or_else(|| "no peak in /usr/bin/time's report".to_owned())
-            } else {
-                Err(format!(
-                    "the command failed: {}",
-                    report.lines().next().unwrap_or("")
-                ))
-            }
-        } else {
-            Err("/usr/bin/time (GNU time) not found".to_owned())
-        };
+        let peak_bytes = peak_rss(&cli, &command, &dir)?;
         rows.push(MemoryRow {
             label,
             command: format!("flakescatter {command}"),
@@ -123,6 +103,40 @@ pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<Me
         });
     }
     Ok(rows)
+}
+
+/// Peak resident memory of `cli command` (arguments split at spaces) run in `dir`, bytes,
+/// as GNU time's `-v` report gives it; `Err(why)` (a row's text) when `/usr/bin/time` is
+/// missing, the command fails or the report has no peak.
+///
+/// # Errors
+/// The outer error when `/usr/bin/time` exists but cannot be run.
+pub(super) fn peak_rss(
+    cli: &Path,
+    command: &str,
+    dir: &Path,
+) -> anyhow::Result<Result<f64, String>> {
+    use anyhow::Context as _;
+    let time = Path::new("/usr/bin/time");
+    if !time.exists() {
+        return Ok(Err("/usr/bin/time (GNU time) not found".to_owned()));
+    }
+    let out = Command::new(time)
+        .arg("-v")
+        .arg(cli)
+        .args(command.split(' '))
+        .current_dir(dir)
+        .output()
+        .context("cannot run /usr/bin/time")?;
+    let report = String::from_utf8_lossy(&out.stderr);
+    Ok(if out.status.success() {
+        parse_time_v(&report).ok_or_else(|| "no peak in /usr/bin/time's report".to_owned())
+    } else {
+        Err(format!(
+            "the command failed: {}",
+            report.lines().next().unwrap_or("")
+        ))
+    })
 }
 
 /// The memory section of `docs/benchmarks.md`.

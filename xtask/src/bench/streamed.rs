@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::process::Command;
 
-use super::memory::{MemoryRow, parse_time_v};
+use super::memory::MemoryRow;
 
 /// Map side of the streamed runs, pixels.
 pub const SIDE: usize = 16_384;
@@ -99,30 +99,10 @@ pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<Me
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let store = dir.join("big.zarr");
     write_store(&store).with_context(|| format!("cannot write {}", store.display()))?;
-    let time = Path::new("/usr/bin/time");
     let mut rows = Vec::new();
     for (label, args) in COMMANDS {
         let command = args.replace("{map}", "big.zarr").replace("{dir}", ".");
-        let peak_bytes = if time.exists() {
-            let out = Command::new(time)
-                .arg("-v")
-                .arg(&cli)
-                .args(command.split(' '))
-                .current_dir(&dir)
-                .output()
-                .context("cannot run /usr/bin/time")?;
-            let report = String::from_utf8_lossy(&out.stderr);
-            if out.status.success() {
-                parse_time_v(&report).ok_or_else(|| "no peak in /usr/bin/time's report".to_owned())
-            } else {
-                Err(format!(
-                    "the command failed: {}",
-                    report.lines().next().unwrap_or("")
-                ))
-            }
-        } else {
-            Err("/usr/bin/time (GNU time) not found".to_owned())
-        };
+        let peak_bytes = super::memory::peak_rss(&cli, &command, &dir)?;
         rows.push(MemoryRow {
             label,
             command: format!("flakescatter {command}"),
