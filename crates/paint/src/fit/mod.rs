@@ -118,7 +118,7 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
     }
     CoatParams::flat(opts.n).validate()?;
     if let Some(t) = &opts.thickness {
-        thickness::check(t, &opts.flake_metal)?;
+        t.check(&opts.flake_metal)?;
     }
     let (points, have_u) = select(m, &opts.selection)?;
     let names: Vec<String> = m.channels.iter().map(|c| c.name.clone()).collect();

@@ -44,23 +44,26 @@ pub fn scan_grid(range_nm: (f64, f64)) -> Vec<f64> {
     (0..n).map(|j| (lo + j as f64 * step).min(hi)).collect()
 }
 
-/// Checks `t` against the flakes of `opts`.
-///
-/// # Errors
-/// [`PaintError::Parameter`] naming what is wrong.
-pub(super) fn check(t: &ThicknessFit, metal: &FlakeMetal) -> Result<(), PaintError> {
-    let (lo, hi) = t.range_nm;
-    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi) {
-        return Err(PaintError::Parameter(format!(
-            "thickness range {lo}:{hi} nm: expected 0 < low < high, finite"
-        )));
+impl ThicknessFit {
+    /// Checks the range (`0 < lo < hi`, finite), that there is a layer, and that
+    /// `metal` is a stack having every layer named.
+    ///
+    /// # Errors
+    /// [`PaintError::Parameter`] naming what is wrong.
+    pub fn check(&self, metal: &FlakeMetal) -> Result<(), PaintError> {
+        let (lo, hi) = self.range_nm;
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi) {
+            return Err(PaintError::Parameter(format!(
+                "thickness range {lo}:{hi} nm: expected 0 < low < high, finite"
+            )));
+        }
+        if self.layers.is_empty() {
+            return Err(PaintError::Parameter(
+                "a thickness fit needs at least one layer of the flake stack".into(),
+            ));
+        }
+        metal.with_thickness(&self.layers, lo).map(|_| ())
     }
-    if t.layers.is_empty() {
-        return Err(PaintError::Parameter(
-            "a thickness fit needs at least one layer of the flake stack".into(),
-        ));
-    }
-    metal.with_thickness(&t.layers, lo).map(|_| ())
 }
 
 /// The thickness a fit starts from: the spec's thickness of the first fitted layer,

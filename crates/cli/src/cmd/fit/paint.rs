@@ -218,21 +218,21 @@ fn thickness(p: &PaintArgs, metal: &FlakeMetal) -> anyhow::Result<Option<Thickne
             format!("--fit-thickness {text}: expected layer numbers from 1 separated by commas, e.g. 1,3")
         })?;
     let range_text = p.thickness_range.as_deref().unwrap_or("10:600");
-    let range_nm = match range_text
+    let Some((Ok(lo), Ok(hi))) = range_text
         .split_once(':')
         .map(|(a, b)| (a.trim().parse::<f64>(), b.trim().parse::<f64>()))
-    {
-        Some((Ok(lo), Ok(hi))) if lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo => {
-            (lo, hi)
-        }
-        _ => bail!(
+    else {
+        bail!(
             "--thickness-range {range_text}: expected LO:HI in nm with 0 < LO < HI (default 10:600)"
-        ),
+        );
     };
-    let t = ThicknessFit { layers, range_nm };
-    metal
-        .with_thickness(&t.layers, range_nm.0)
-        .with_context(|| format!("--fit-thickness {text}"))?;
+    let t = ThicknessFit {
+        layers,
+        range_nm: (lo, hi),
+    };
+    // The paint fit's own check (range, layers of the stack), named by the flags.
+    t.check(metal)
+        .with_context(|| format!("--fit-thickness {text} --thickness-range {range_text}"))?;
     Ok(Some(t))
 }
 
