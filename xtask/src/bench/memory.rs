@@ -8,7 +8,7 @@
 //! KiB). The allowance is [`FIXED_ALLOWANCE`] bytes above 1.5× the map.
 
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// Map side of the memory runs, pixels.
@@ -65,15 +65,7 @@ pub fn parse_time_v(report: &str) -> Option<f64> {
 /// The CLI does not build or the maps cannot be written.
 pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<MemoryRow>> {
     use anyhow::{Context, bail};
-    let status = Command::new(cargo)
-        .args(["build", "--release", "-p", "flakescatter-cli"])
-        .current_dir(root)
-        .status()
-        .context("cannot run cargo build for the CLI")?;
-    if !status.success() {
-        bail!("cargo build --release -p flakescatter-cli failed");
-    }
-    let cli = target.join("release").join("flakescatter");
+    let cli = release_cli(cargo, root, target)?;
     let dir = target.join("bench-memory");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let (map, intensity) = (dir.join("map.x3p"), dir.join("intensity.x3p"));
@@ -103,6 +95,24 @@ pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<Me
         });
     }
     Ok(rows)
+}
+
+/// Builds the release CLI (`cargo build --release -p flakescatter-cli` in `root`) and
+/// returns its path under `target`.
+///
+/// # Errors
+/// cargo cannot run or the build fails.
+pub(super) fn release_cli(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<PathBuf> {
+    use anyhow::{Context as _, bail};
+    let status = Command::new(cargo)
+        .args(["build", "--release", "-p", "flakescatter-cli"])
+        .current_dir(root)
+        .status()
+        .context("cannot run cargo build for the CLI")?;
+    if !status.success() {
+        bail!("cargo build --release -p flakescatter-cli failed");
+    }
+    Ok(target.join("release").join("flakescatter"))
 }
 
 /// Peak resident memory of `cli command` (arguments split at spaces) run in `dir`, bytes,

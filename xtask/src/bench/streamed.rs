@@ -11,7 +11,6 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
-use std::process::Command;
 
 use super::memory::MemoryRow;
 
@@ -84,16 +83,8 @@ pub fn write_store(store: &Path) -> anyhow::Result<()> {
 /// # Errors
 /// The CLI does not build or the store cannot be written.
 pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<MemoryRow>> {
-    use anyhow::{Context, bail};
-    let status = Command::new(cargo)
-        .args(["build", "--release", "-p", "flakescatter-cli"])
-        .current_dir(root)
-        .status()
-        .context("cannot run cargo build for the CLI")?;
-    if !status.success() {
-        bail!("cargo build --release -p flakescatter-cli failed");
-    }
-    let cli = target.join("release").join("flakescatter");
+    use anyhow::Context;
+    let cli = super::memory::release_cli(cargo, root, target)?;
     let dir = target.join("bench-streamed");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
