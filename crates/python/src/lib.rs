@@ -10,6 +10,7 @@
 //! volume model, stacks) stop with `KeyboardInterrupt` on Ctrl-C.
 
 mod analysis;
+mod batch;
 mod brdf;
 mod convert;
 mod errors;
@@ -18,6 +19,7 @@ mod film;
 mod map;
 mod models;
 mod paint;
+mod stream;
 
 use pyo3::prelude::*;
 
@@ -36,6 +38,7 @@ fn _flakescatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<map::Map>()?;
+    m.add_class::<stream::StoreRun>()?;
     m.add_function(wrap_pyfunction!(map::read_map, m)?)?;
     m.add_function(wrap_pyfunction!(map::write_map, m)?)?;
     m.add_function(wrap_pyfunction!(brdf::read_brdf, m)?)?;
@@ -55,6 +58,8 @@ fn _flakescatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(film::film, m)?)?;
     m.add_function(wrap_pyfunction!(extras::delta_e, m)?)?;
     m.add_function(wrap_pyfunction!(extras::localise_stack, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_sample_name, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_comparison_table, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     Ok(())
 }

@@ -96,7 +96,7 @@ fn relative_warnings(
 }
 
 /// The scalar curves as columns (`rays` and `std_err` for the ray models).
-fn curve_columns<'py>(
+pub(crate) fn curve_columns<'py>(
     py: Python<'py>,
     args: &InstrumentArgs,
     curves: &Curves,
@@ -185,7 +185,7 @@ pub fn distribution_model<'py>(
 }
 
 /// Topographic settings from the keywords, checked as the CLI checks them.
-fn topo_settings(py: Python<'_>, window: usize, tile_um: f64) -> PyResult<TopoSettings> {
+pub(crate) fn topo_settings(py: Python<'_>, window: usize, tile_um: f64) -> PyResult<TopoSettings> {
     flakescatter::checks::window(window).map_err(|e| input(py, format!("window={e}")))?;
     flakescatter::checks::tile_um(tile_um).map_err(|e| input(py, format!("tile_um={e}")))?;
     Ok(TopoSettings { window, tile_um })
@@ -198,7 +198,7 @@ fn map_refs<'a>(maps: &'a [Bound<'_, Map>]) -> Vec<&'a HeightMap> {
 }
 
 /// Emits the topographic model's warnings (few tiles, no standard error).
-fn topo_warnings(
+pub(crate) fn topo_warnings(
     py: Python<'_>,
     warnings: &[flakescatter::topo::TopoWarning],
     tile_um: f64,

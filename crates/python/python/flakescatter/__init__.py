@@ -12,7 +12,9 @@ stop with ``KeyboardInterrupt`` on Ctrl-C.
 
 The submodule :mod:`flakescatter.mitsuba` (not imported here) renders a MERL table with
 Mitsuba 3 and registers it as a Mitsuba BSDF; it needs the optional extra
-``pip install flakescatter[render]``.
+``pip install flakescatter[render]``. The submodule :mod:`flakescatter.dask` (not
+imported here either) runs the topographic models over Zarr stores and ``analyze`` over
+many manifests on a Dask cluster; it needs ``pip install flakescatter[dask]``.
 """
 
 from ._flakescatter import (

@@ -484,3 +484,45 @@ def localise_stack(
 
 def _panic_for_test() -> None:
     """Raise InternalError through the boundary's panic handling (tests only)."""
+
+class StoreRun:
+    """A topographic run over Zarr v3 store(s) split into ranges of statistics tiles
+    (what ``flakescatter.dask`` hands to workers). The keywords are those of
+    ``topographic_model`` (``isotropic=False``) or ``isotropic_model``
+    (``isotropic=True``), plus ``intensity_cutoff`` and ``intensity_store``."""
+
+    def __init__(
+        self,
+        stores: Union[PathLike, Sequence[PathLike]],
+        *,
+        isotropic: bool = False,
+        node_spacing_deg: Optional[float] = None,
+        intensity_cutoff: Optional[float] = None,
+        intensity_store: Optional[PathLike] = None,
+        window: int = 5,
+        tile_um: float = 32.0,
+        n: float = 1.5,
+        theta_i: Optional[npt.ArrayLike] = None,
+        theta_s: Optional[npt.ArrayLike] = None,
+        detectors: Optional[npt.ArrayLike] = None,
+        aperture: float = 1.5,
+        transmission: str = "exact-unpolarized",
+        weighting: str = "physical",
+        clearcoat: bool = False,
+        flake_index: Optional[Tuple[float, float]] = None,
+        flake_stack: Optional[str] = None,
+        flake_core: Optional[str] = None,
+        wavelength_nm: Optional[float] = None,
+    ) -> None: ...
+    def tile_count(self) -> int:
+        """Statistics tiles of the stores (maps in order, each row-major)."""
+    def trace(self, start: int, stop: int) -> dict[str, Any]:
+        """The per-tile sums of tiles ``start..stop`` (plain values and numpy arrays)."""
+    def finish(self, parts: list[dict[str, Any]]) -> dict[str, Any]:
+        """The result dict of the whole run from its parts in tile order."""
+
+def _sample_name(path: PathLike) -> str:
+    """A manifest's sample name (``name`` key, else its file name)."""
+
+def _comparison_table(rows: list[str]) -> Tuple[str, str, str]:
+    """``(samples.csv, index.md, index.html)`` from ``summary.json`` ``comparison_row``s."""

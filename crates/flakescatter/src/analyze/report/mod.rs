@@ -91,14 +91,6 @@ pub(super) fn build_report(
     files.extend(curve_files);
     files.extend(charts::overlays(a));
     files.extend(cache::files(&input.map_names, a.map_caches, a.models));
-    let mut summary = summary::summary(a, work, &warnings, map_info, paint_summary, &files);
-    // Keys sorted at every level, whatever serde_json's `preserve_order` (turned on by
-    // zarrs) would keep.
-    summary.sort_all_objects();
-    files.push(OutFile {
-        path: "summary.json".into(),
-        content: Content::Text(serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n"),
-    });
     let row = samples::row(
         &input.name,
         input.map_names.len(),
@@ -107,6 +99,17 @@ pub(super) fn build_report(
         a.comparisons,
         qname,
     );
+    let mut summary = summary::summary(a, work, &warnings, map_info, paint_summary, &files);
+    // The sample's line of a comparison across samples (`samples.csv`), for a batch
+    // assembled from reports made apart (Python `flakescatter.dask.analyze_many`).
+    summary["comparison_row"] = serde_json::to_value(&row).unwrap_or(Value::Null);
+    // Keys sorted at every level, whatever serde_json's `preserve_order` (turned on by
+    // zarrs) would keep.
+    summary.sort_all_objects();
+    files.push(OutFile {
+        path: "summary.json".into(),
+        content: Content::Text(serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n"),
+    });
     let document = index::document(a, qname, &curve_images, paint_blocks, &warnings, work);
     SampleReport {
         name: input.name.clone(),
