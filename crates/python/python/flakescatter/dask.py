@@ -34,6 +34,7 @@ import os
 import pathlib
 import shutil
 import subprocess
+import sys
 import tempfile
 import uuid
 from typing import Any, Iterable, Sequence, Union
@@ -208,8 +209,12 @@ def _analyze_one(cli: Union[str, None], manifest: str, out: str, preview: bool) 
     argv = [exe, "analyze", manifest, "--out", out, "--json"]
     if not preview:
         argv.append("--no-preview")
+    env = dict(os.environ)
+    # The preview renders through this package's flakescatter.mitsuba: the worker's own
+    # Python, unless the worker's environment names another.
+    env.setdefault("FLAKESCATTER_PYTHON", sys.executable)
     try:
-        r = subprocess.run(argv, capture_output=True, text=True)
+        r = subprocess.run(argv, capture_output=True, text=True, env=env)
     except OSError as e:
         return {**outcome, "error": f"cannot run {exe}: {e}"}
     if r.returncode != 0:
@@ -348,10 +353,7 @@ def analyze_many(
         results = client.gather(client.compute(tasks))
     done = [r for r in results if "error" not in r]
     failed = [r for r in results if "error" in r]
-    rows = [
-        json.dumps(json.loads(pathlib.Path(r["summary"]).read_text())["comparison_row"])
-        for r in done
-    ]
+    rows = [_comparison_row(pathlib.Path(r["summary"])) for r in done]
     csv, markdown, html = _fs._comparison_table(rows)
     if failed:
         section = "\n## Failed samples\n\n" + "".join(
@@ -377,6 +379,20 @@ def analyze_many(
     }
     _write(out / MARKER, json.dumps(record, indent=2, sort_keys=True) + "\n")
     return {"samples": done, "failed": failed, "out_dir": str(out)}
+
+
+def _comparison_row(summary: pathlib.Path) -> str:
+    """A report's line of the comparison (its summary.json ``comparison_row``)."""
+    try:
+        row = json.loads(summary.read_text())["comparison_row"]
+    except KeyError:
+        raise _fs.FileFormatError(
+            f"{summary}: no `comparison_row`: the flakescatter CLI the workers ran is older "
+            "than this package (install both from the same source)"
+        ) from None
+    except (OSError, ValueError) as e:
+        raise _fs.FileError(f"{summary}: cannot read the report's summary: {e}") from None
+    return json.dumps(row)
 
 
 def _esc(text: str) -> str:
