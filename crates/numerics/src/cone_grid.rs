@@ -174,7 +174,7 @@ impl ConeGrid {
     /// Builds the index for `cones` (all with `α > 0`) widened by `margin` radians: a
     /// cell lists every cone whose axis is within `α + margin` of some direction
     /// projecting into the cell (`α + margin < π`), and, of those, only cones that pass
-    /// the test of [`may_reach`]: a cone whose bounding square only grazes the cell (its
+    /// the test of `may_reach`: a cone whose bounding square only grazes the cell (its
     /// corner, or the side where the cone's projection is compressed towards the
     /// horizon) is not listed. The cells are `cells_per_chord` to the chord
     /// `2 sin((α + margin)/2)` of the narrowest cone along each axis ([`FINE`],

@@ -129,7 +129,7 @@ pub fn smith_lambda(orientation: &Orientation, theta: f64) -> f64 {
     }
 }
 
-/// The same by a fixed rule, for the table: [`RULE_POINTS`]-point Gauss–Legendre in `u`
+/// The same by a fixed rule, for the table: `RULE_POINTS`-point (48) Gauss–Legendre in `u`
 /// with `θm = lo + (hi − lo)(3u² − 2u³)`, which gathers the nodes toward both ends: the
 /// lower one, where the back-facing share starts like `(θm − lo)^(3/2)`, and the horizon,
 /// where a heavy tail is largest. `G1 = 1/(1 + Λ)` from it agrees with the one from

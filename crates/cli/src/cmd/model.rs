@@ -78,7 +78,7 @@ pub struct Args {
     /// A fitted paint (`fit --paint --params-out P.json`): its BRDF per channel
     /// (clear coat, flakes and base; physics.md §12) at --theta-i × --theta-s or
     /// --detectors, averaged over the --aperture cone; columns theta_i_deg, theta_s_deg
-    /// (in-plane), theta_r_deg, phi_r_deg, aperture_deg, brdf_<channel>_per_sr.
+    /// (in-plane), theta_r_deg, phi_r_deg, aperture_deg, `brdf_<channel>_per_sr`.
     #[arg(long, value_name = "P.json", conflicts_with_all = [
         "hwhm", "sigma", "rms_tilt", "distribution", "orientation", "n", "clearcoat",
         "transmission", "weighting", "flake_index", "multi_angle", "polarization",

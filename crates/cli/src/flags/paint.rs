@@ -12,7 +12,7 @@ use flakescatter::stats::Orientation;
 pub struct PaintFlags {
     /// A paint (clear coat, flakes, base; physics.md §12) built from these flags and the
     /// orientation flags, instead of the bare distribution model: columns
-    /// brdf_<channel>_per_sr per --channels.
+    /// `brdf_<channel>_per_sr` per --channels.
     #[arg(long)]
     pub paint: bool,
     /// --paint: channels, comma-separated (r, g, b, y or wavelengths like 550nm;

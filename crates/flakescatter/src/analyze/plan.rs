@@ -26,7 +26,7 @@ use crate::inputs::{LoadOptions, load_map};
 use crate::instrument::Instrument;
 use crate::sample::{SampleSettings, SampleStatistics, segment_maps, statistics_of};
 
-/// Analyses one sample (module docs); `cache` is what [`read_cache`] found in its
+/// Analyses one sample (module docs); `cache` is what [`read_cache`](super::read_cache) found in its
 /// report directory; `build` identifies the program build (any text that changes
 /// whenever the code, its dependencies, the compiler or the profile do: it enters
 /// every cache key); `progress(stage, done, total)` is told what is being done.

@@ -1,7 +1,7 @@
 //! Real paints (physics.md §12): measured BRDF tables read into the paint model of
 //! [`flakescatter_paint`] (re-exported as [`crate::paint_model`]), its joint fit, a
 //! fitted paint evaluated at an instrument's geometry, and a fixed paint compared with a
-//! table; the parameter file (`P.json`, [`file`]) and the reports shared by the
+//! table; the parameter file (`P.json`, [`file`](mod@file)) and the reports shared by the
 //! command-line tool and `analyze` ([`report`]).
 //!
 //! Conventions: radians in every API, BRDFs in sr⁻¹; the detector azimuth `φr = 0` is

@@ -170,7 +170,7 @@ fn too_few(slices: usize) -> String {
     }
 }
 
-/// Error from [`StackReader::open`] and reading a file's slices: the file and what went
+/// Error from [`StackReader::open`](super::reader::StackReader::open) and reading a file's slices: the file and what went
 /// wrong.
 #[derive(Debug, Error)]
 pub enum ReadStackError {

@@ -32,7 +32,7 @@
 //! Rooms: this module (what a stack is: formats, sample types, options, the
 //! [`StackInfo`] read), `error` (what can go wrong), `reader` (the TIFF directories
 //! checked and the slices streamed, [`StackReader`]), `meta` (the metadata conventions),
-//! `positions` (OME plane positions) and [`write`].
+//! `positions` (OME plane positions) and [`write`](mod@write).
 
 mod error;
 mod meta;
