@@ -263,6 +263,16 @@ fn bad_input_exits_2_naming_the_flag_the_store_or_the_array() {
     let o = run(&["stats", "--pixel-normals-only"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--map"), "{}", stderr(&o));
+    // The pixel-level flags without either pixel-level mode.
+    for flag in ["--window", "--tile-um"] {
+        let o = run(&["stats", "--map", s(&store), flag, "7"]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(
+            e.contains(&format!("{flag} 7")) && e.contains("--pixel-normals-only"),
+            "{e}"
+        );
+    }
     // A chunk truncated in the middle of the store: named with the array.
     let broken = d.join("broken.zarr");
     write_store(&heights, Some(&intensity), &broken);

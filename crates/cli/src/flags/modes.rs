@@ -245,6 +245,12 @@ static RULES: &[Rule] = &[
         Need::AnyOf(&["map"]),
         STATS_MAP_WHY,
     ),
+    rule(
+        &["stats"],
+        &["window", "tile_um"],
+        Need::AnyOf(&["pixel_normals", "pixel_normals_only"]),
+        "applies to the pixel-level statistics: it needs --pixel-normals or --pixel-normals-only",
+    ),
     // Map inputs, wherever they are read.
     rule(
         &[],

@@ -83,10 +83,10 @@ pub struct Args {
     )]
     pub pixel_normals_only: bool,
     /// Least-squares window of the pixel normals, pixels (odd, >= 3).
-    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::odd_window, requires = "pixel")]
+    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::odd_window)]
     pub window: usize,
     /// Side of the tiles whose spread gives the pixel-level interval, µm.
-    #[arg(long = "tile-um", value_name = "UM", default_value_t = DEFAULT_BLOCK_UM, allow_negative_numbers = true, requires = "pixel")]
+    #[arg(long = "tile-um", value_name = "UM", default_value_t = DEFAULT_BLOCK_UM, allow_negative_numbers = true)]
     pub tile_um: f64,
     /// Histogram bin width in degrees, in [0.001, 45].
     #[arg(
