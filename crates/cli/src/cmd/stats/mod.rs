@@ -72,9 +72,10 @@ pub struct Args {
     pub pixel_normals: bool,
     /// With --map: only the pixel-level statistics of --pixel-normals, without
     /// segmenting flakes (the histogram CSV of --out and the JSON's `pixel_level`).
-    /// Whenever every map is a Zarr store the maps are read band by band (memory of a
-    /// few tiles, not the map; docs/guide.md "Big maps"), else whole; the numbers are
-    /// the same. Refuses the flake-level flags (--flakes-out, --per-map, --plot,
+    /// Whenever every map is a Zarr store that `topo` would stream, the maps are read
+    /// band by band (memory of about one band of 64 MiB of heights, not the map;
+    /// docs/guide.md "Big maps"), else whole; the numbers are the same. Refuses the
+    /// flake-level flags (--pixel-normals, --flakes-out, --per-map, --plot,
     /// --z-step-um, --noise-um, --min-pixels).
     #[arg(
         long = "pixel-normals-only",
