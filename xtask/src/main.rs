@@ -7,8 +7,9 @@ const TASKS: &[(&str, &str)] = &[
         "bench [--quick]",
         "run the criterion benches; table vs targets and floors -> docs/benchmarks.md \
          (--quick: under 2 min, -> target/benchmarks-quick.md; --report-only: print the \
-         last results, run nothing; --streamed: only the peak memory of `topo` streaming \
-         a 16,384² Zarr store)",
+         last results, run nothing; --streamed: only the peak memory of `topo` and `stats \
+         --pixel-normals-only` streaming a 16,384² Zarr store; --streamed=LABEL: only the \
+         rows whose label starts with LABEL, e.g. --streamed=stats)",
     ),
     (
         "figures",

@@ -391,7 +391,7 @@ fn flags_outside_their_mode_are_refused_naming_the_flag_and_what_it_needs() {
         ),
     ];
     // stats --flakes reads a flake table: no flag that reads or segments maps acts.
-    let map_flags: [&[&str]; 21] = [
+    let map_flags: [&[&str]; 22] = [
         &["--pixel-um", "0.5"],
         &["--z-unit", "nm"],
         &["--accept-md5-mismatch"],
@@ -411,6 +411,7 @@ fn flags_outside_their_mode_are_refused_naming_the_flag_and_what_it_needs() {
         &["--flakes-out", &out],
         &["--per-map", &out],
         &["--pixel-normals"],
+        &["--pixel-normals-only"],
         &["--window", "7"],
         &["--tile-um", "20"],
     ];

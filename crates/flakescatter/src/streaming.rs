@@ -263,7 +263,7 @@ pub fn isotropic_curves_streamed(
 }
 
 /// [`crate::pixel_orientation`] over maps read band by band from `sources`: the same
-/// distribution and widths, bit for bit.
+/// distribution and widths, bit for bit. `progress(done, total)` counts tiles.
 ///
 /// # Errors
 /// As [`crate::pixel_orientation`] and [`topographic_curves_streamed`].
@@ -271,8 +271,9 @@ pub fn pixel_orientation_streamed(
     sources: &[&dyn HeightSource],
     topo: &TopoSettings,
     bin_width: f64,
+    progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<PixelOrientation, PipelineError> {
-    let tilts = crate::pixels::model(topo)?.pixel_tilts_sources(sources, bin_width)?;
+    let tilts = crate::pixels::model(topo)?.pixel_tilts_sources(sources, bin_width, progress)?;
     orientation_of(tilts, bin_width)
 }
 

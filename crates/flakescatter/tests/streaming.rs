@@ -172,7 +172,7 @@ fn streamed_stores_give_the_in_memory_numbers_bit_for_bit() {
         .unwrap();
         assert_eq!(bits(&c), bits(&iso.0));
         assert_eq!(r.interpolation_error, iso.1.interpolation_error);
-        let t = pixel_orientation_streamed(&s, &topo, 1f64.to_radians()).unwrap();
+        let t = pixel_orientation_streamed(&s, &topo, 1f64.to_radians(), &|_, _| {}).unwrap();
         assert_eq!(t.tilts, tilts.tilts);
         assert_eq!(t.width, tilts.width);
     }

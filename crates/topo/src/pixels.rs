@@ -137,11 +137,13 @@ impl TopoModel {
             self.check_map(i, map)?;
         }
         let sources: Vec<&dyn HeightSource> = maps.iter().map(|&m| m as _).collect();
-        self.tilts_of(&sources, edges, bin_width)
+        self.tilts_of(&sources, edges, bin_width, &|_, _| {})
     }
 
     /// As [`TopoModel::pixel_tilts`] over maps read band by band from `sources`
     /// (module docs of [`crate::model`], "Streaming"): the same numbers, bit for bit.
+    /// `progress(done, total)` counts tiles, called on the calling thread after each
+    /// batch of tiles.
     ///
     /// # Errors
     /// As [`TopoModel::pixel_tilts`], [`TopoError::NoValidPixels`] once a map has been
@@ -151,6 +153,7 @@ impl TopoModel {
         &self,
         sources: &[&dyn HeightSource],
         bin_width: f64,
+        progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<PixelTilts, TopoError> {
         if sources.is_empty() {
             return Err(TopoError::Empty("height map"));
@@ -168,16 +171,18 @@ impl TopoModel {
                 });
             }
         }
-        self.tilts_of(sources, edges, bin_width)
+        self.tilts_of(sources, edges, bin_width, progress)
     }
 
     /// The tilts of every tile of `sources`, band by band, each batch of tiles in
-    /// parallel and reduced in tile order (pixels in raster order within a tile).
+    /// parallel and reduced in tile order (pixels in raster order within a tile);
+    /// `progress(done, total)` in tiles after each batch.
     fn tilts_of(
         &self,
         sources: &[&dyn HeightSource],
         edges: Vec<f64>,
         bin_width: f64,
+        progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<PixelTilts, TopoError> {
         let nb = edges.len() - 1;
         let h = self.options().window / 2;
@@ -216,6 +221,7 @@ impl TopoModel {
                     bin_area_um2[i] += a;
                 }
             }
+            progress(tiles.len() as u64, total);
         })?;
         let pixels = self.check_valid(sources, &valid, usable)?;
         Ok(PixelTilts {

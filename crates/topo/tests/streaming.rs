@@ -233,10 +233,18 @@ fn streamed_isotropic_runs_and_pixel_tilts_equal_the_in_memory_ones() {
                 whole.nodes
             )
         );
+        let calls = Mutex::new(Vec::new());
         let t = model
-            .pixel_tilts_sources(&[&source], 1f64.to_radians())
+            .pixel_tilts_sources(&[&source], 1f64.to_radians(), &|done, total| {
+                calls.lock().unwrap().push((done, total));
+            })
             .unwrap();
         assert_eq!(t, tilts, "pixel tilts, bands of {band_rows} rows");
+        // Progress in tiles: rising, ending at every tile of the map.
+        let calls = calls.into_inner().unwrap();
+        let n = tilts.tiles.len() as u64;
+        assert!(calls.windows(2).all(|w| w[0].0 <= w[1].0), "{calls:?}");
+        assert_eq!(calls.last(), Some(&(n, n)), "{calls:?}");
     }
 }
 
@@ -359,7 +367,9 @@ fn a_read_error_in_the_middle_is_a_source_error_naming_what_the_reader_said() {
         )
         .unwrap_err();
     assert!(matches!(e, TopoError::Source { map: 0, .. }), "{e:?}");
-    let e = model.pixel_tilts_sources(&[&source], 0.02).unwrap_err();
+    let e = model
+        .pixel_tilts_sources(&[&source], 0.02, &|_, _| {})
+        .unwrap_err();
     assert!(matches!(e, TopoError::Source { map: 0, .. }), "{e:?}");
 }
 
@@ -397,7 +407,9 @@ fn small_maps_and_large_windows_behave_as_in_memory() {
             ny: 12
         }
     );
-    let e = wide.pixel_tilts_sources(&[&source], 0.02).unwrap_err();
+    let e = wide
+        .pixel_tilts_sources(&[&source], 0.02, &|_, _| {})
+        .unwrap_err();
     assert_eq!(e, want);
     // No valid point: the in-memory error, found once the map is read.
     let dark = HeightMap::new(20, 12, 0.5, 0.5, vec![f64::NAN; 240]).unwrap();

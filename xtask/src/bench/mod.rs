@@ -23,9 +23,10 @@
 //!   crate failing to build) shows as "not measured" with the path that was expected;
 //!   the task exits non-zero only when a `cargo bench` command itself failed.
 //! * The full run also measures the peak memory of whole CLI commands on a 4096² map
-//!   ([`memory`]) and of `topo` streaming a 16,384² Zarr store ([`streamed`]) and adds
-//!   those tables to `docs/benchmarks.md`; `--streamed` measures the streamed rows alone
-//!   and prints them (no criterion bench, no file written).
+//!   ([`memory`]) and of `topo` and `stats --pixel-normals-only` streaming a 16,384²
+//!   Zarr store ([`streamed`]) and adds those tables to `docs/benchmarks.md`;
+//!   `--streamed` measures the streamed rows alone and prints them (no criterion bench,
+//!   no file written), `--streamed=LABEL` only those whose label starts with `LABEL`.
 
 mod format;
 pub mod memory;
@@ -62,7 +63,12 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         }
         println!(
             "{}",
-            streamed::render(&streamed::measure(&cargo, &root, &target)?)
+            streamed::render(&streamed::measure(
+                &cargo,
+                &root,
+                &target,
+                opts.streamed_only.as_deref()
+            )?)
         );
         return Ok(());
     }
@@ -89,7 +95,7 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         let section = memory::render(&mem);
         println!("{section}");
         doc.push_str(&section);
-        let big = streamed::measure(&cargo, &root, &target)?;
+        let big = streamed::measure(&cargo, &root, &target, None)?;
         let section = streamed::render(&big);
         println!("{section}");
         doc.push_str(&section);

@@ -178,12 +178,14 @@ pub fn utc_date(t: SystemTime) -> String {
 }
 
 /// Options of the `bench` task.
-#[derive(Debug, Default, Clone, Copy)]
+#[derive(Debug, Default, Clone)]
 pub(super) struct Options {
     pub(super) quick: bool,
     pub(super) report_only: bool,
     /// Only the streamed-memory rows ([`super::streamed`]).
     pub(super) streamed: bool,
+    /// With `streamed`: only the rows whose label starts with this (`--streamed=LABEL`).
+    pub(super) streamed_only: Option<String>,
 }
 
 pub(super) fn parse(args: &[String]) -> anyhow::Result<Options> {
@@ -193,9 +195,13 @@ pub(super) fn parse(args: &[String]) -> anyhow::Result<Options> {
             "--quick" => o.quick = true,
             "--report-only" => o.report_only = true,
             "--streamed" => o.streamed = true,
+            s if s.starts_with("--streamed=") => {
+                o.streamed = true;
+                o.streamed_only = Some(s["--streamed=".len()..].to_owned());
+            }
             other => bail!(
                 "unknown option `{other}` for `cargo xtask bench` \
-                 (expected --quick and/or --report-only, or --streamed alone)"
+                 (expected --quick and/or --report-only, or --streamed[=LABEL] alone)"
             ),
         }
     }

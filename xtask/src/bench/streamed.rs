@@ -1,13 +1,14 @@
-//! Peak memory of `topo` streaming a map larger than 2 GB (issue 49: at most 0.25× the
-//! map's float64 size, whatever the map's size).
+//! Peak memory of `topo` and `stats --pixel-normals-only` streaming a map larger than
+//! 2 GB (issue 49: at most 0.25× the map's float64 size, whatever the map's size).
 //!
 //! [`measure`] builds the release CLI, writes a [`SIDE`]² synthetic height map (tilted
 //! square facets of 16 pixels with a little noise, 0.5 µm pitch: 2.1 GB of float64) as
 //! a Zarr store in chunks of 1024² points (zstd) under `<target>/bench-streamed/`, runs
 //! each command of [`COMMANDS`] on it under `/usr/bin/time -v` (as [`super::memory`])
 //! and deletes the store. Writing the map holds it whole in this process, which is not
-//! the one measured. `cargo xtask bench --streamed` runs this alone; the full bench
-//! adds its table to `docs/benchmarks.md`.
+//! the one measured. `cargo xtask bench --streamed` runs this alone
+//! (`--streamed=LABEL` only the rows whose label starts with `LABEL`, e.g.
+//! `--streamed=stats`); the full bench adds its table to `docs/benchmarks.md`.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -18,9 +19,10 @@ use super::memory::MemoryRow;
 pub const SIDE: usize = 16_384;
 
 /// The commands measured: a label and the arguments after `flakescatter` (`{map}` and
-/// `{dir}` are replaced by paths). `stats --pixel-normals` is not among them: `stats`
-/// segments each map whole, so it reads the store into memory.
-pub const COMMANDS: [(&str, &str); 2] = [
+/// `{dir}` are replaced by paths). `stats` is measured with `--pixel-normals-only`:
+/// with `--pixel-normals` it segments each map whole, so it reads the store into
+/// memory.
+pub const COMMANDS: [(&str, &str); 3] = [
     (
         "topo, streamed",
         "topo {map} --theta-i 45 --out {dir}/topo.csv",
@@ -28,6 +30,10 @@ pub const COMMANDS: [(&str, &str); 2] = [
     (
         "topo --isotropic, streamed",
         "topo {map} --isotropic --theta-i 45 --out {dir}/iso.csv",
+    ),
+    (
+        "stats --pixel-normals-only, streamed",
+        "stats --map {map} --pixel-normals-only --out {dir}/pixels.csv",
     ),
 ];
 
@@ -77,13 +83,31 @@ pub fn write_store(store: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Builds the release CLI, writes the store, measures every command and deletes the
-/// store.
+/// Builds the release CLI, writes the store, measures every command whose label
+/// starts with `only` (all with `None`) and deletes the store.
 ///
 /// # Errors
-/// The CLI does not build or the store cannot be written.
-pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<MemoryRow>> {
+/// No command's label starts with `only`, the CLI does not build or the store cannot
+/// be written.
+pub fn measure(
+    cargo: &str,
+    root: &Path,
+    target: &Path,
+    only: Option<&str>,
+) -> anyhow::Result<Vec<MemoryRow>> {
     use anyhow::Context;
+    let chosen: Vec<(&'static str, &'static str)> = COMMANDS
+        .into_iter()
+        .filter(|(label, _)| only.is_none_or(|o| label.starts_with(o)))
+        .collect();
+    if chosen.is_empty() {
+        let labels: Vec<&str> = COMMANDS.iter().map(|c| c.0).collect();
+        anyhow::bail!(
+            "--streamed={}: no streamed row's label starts with it (rows: {})",
+            only.unwrap_or_default(),
+            labels.join("; ")
+        );
+    }
     let cli = super::memory::release_cli(cargo, root, target)?;
     let dir = target.join("bench-streamed");
     let _ = std::fs::remove_dir_all(&dir);
@@ -91,7 +115,7 @@ pub fn measure(cargo: &str, root: &Path, target: &Path) -> anyhow::Result<Vec<Me
     let store = dir.join("big.zarr");
     write_store(&store).with_context(|| format!("cannot write {}", store.display()))?;
     let mut rows = Vec::new();
-    for (label, args) in COMMANDS {
+    for (label, args) in chosen {
         let command = args.replace("{map}", "big.zarr").replace("{dir}", ".");
         let peak_bytes = super::memory::peak_rss(&cli, &command, &dir)?;
         rows.push(MemoryRow {
@@ -110,7 +134,7 @@ pub fn render(rows: &[MemoryRow]) -> String {
     let (map, limit) = (map_bytes(), limit_bytes());
     let mut s = format!(
         "\n## Peak memory, streamed\n\n\
-         `topo` on a {SIDE}² map written as a Zarr store in chunks of 1024² points \
+         Commands on a {SIDE}² map written as a Zarr store in chunks of 1024² points \
          (synthetic tilted facets, 0.5 µm pitch), read band by band; peak resident set \
          size from `/usr/bin/time -v`. The map's heights as float64 are {:.0} MB; the \
          target (issue 49) is at most 0.25× that, {:.0} MB.\n\n\

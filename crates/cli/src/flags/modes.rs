@@ -75,7 +75,7 @@ fn substrate_rough(m: &ArgMatches) -> bool {
 }
 
 /// The flags of `stats` that read or segment maps (none of them acts on `--flakes`).
-const STATS_MAP_FLAGS: [&str; 24] = [
+const STATS_MAP_FLAGS: [&str; 25] = [
     "pixel_um",
     "allow_duplicate_maps",
     "z_unit",
@@ -98,6 +98,7 @@ const STATS_MAP_FLAGS: [&str; 24] = [
     "flakes_out",
     "per_map",
     "pixel_normals",
+    "pixel_normals_only",
     "window",
     "tile_um",
 ];
@@ -243,6 +244,12 @@ static RULES: &[Rule] = &[
         &STATS_MAP_FLAGS,
         Need::AnyOf(&["map"]),
         STATS_MAP_WHY,
+    ),
+    rule(
+        &["stats"],
+        &["window", "tile_um"],
+        Need::AnyOf(&["pixel_normals", "pixel_normals_only"]),
+        "applies to the pixel-level statistics: it needs --pixel-normals or --pixel-normals-only",
     ),
     // Map inputs, wherever they are read.
     rule(

@@ -22,6 +22,7 @@
 
 mod collect;
 mod load;
+pub mod stream;
 
 use std::path::PathBuf;
 

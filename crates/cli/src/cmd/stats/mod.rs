@@ -2,6 +2,7 @@
 //! fit, of a flake table or of several maps pooled (a sample), with per-map widths and
 //! the pixel-level statistics on request.
 
+mod pixels;
 mod report;
 
 use std::path::{Path, PathBuf};
@@ -33,6 +34,7 @@ use report::{ci_deg, summary, write_per_map, write_plot};
 /// independent units, Student's t on maps − 1 degrees of freedom), and each map its own
 /// width, flagged when inconsistent with the others.
 #[derive(Debug, clap::Args)]
+#[command(group = clap::ArgGroup::new("pixel").multiple(false).args(["pixel_normals", "pixel_normals_only"]))]
 pub struct Args {
     /// Flake table (CSV with header): columns `nx, ny, nz, area_um2`, or
     /// `theta_x_deg, theta_y_deg, area_um2`, or the endpoint columns
@@ -68,11 +70,24 @@ pub struct Args {
     /// widths side by side (where the width comes from).
     #[arg(long = "pixel-normals", requires = "map")]
     pub pixel_normals: bool,
+    /// With --map: only the pixel-level statistics of --pixel-normals, without
+    /// segmenting flakes (the histogram CSV of --out and the JSON's `pixel_level`).
+    /// Whenever every map is a Zarr store that `topo` would stream, the maps are read
+    /// band by band (memory of about one band of 64 MiB of heights, not the map;
+    /// docs/guide.md "Big maps"), else whole; the numbers are the same. Refuses the
+    /// flake-level flags (--pixel-normals, --flakes-out, --per-map, --plot,
+    /// --z-step-um, --noise-um, --min-pixels).
+    #[arg(
+        long = "pixel-normals-only",
+        requires = "map",
+        conflicts_with_all = ["flakes_out", "per_map", "plot", "z_step_um", "noise_um", "min_pixels"]
+    )]
+    pub pixel_normals_only: bool,
     /// Least-squares window of the pixel normals, pixels (odd, >= 3).
-    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::odd_window, requires = "pixel_normals")]
+    #[arg(long, value_name = "K", default_value_t = 5, value_parser = crate::parse::odd_window)]
     pub window: usize,
     /// Side of the tiles whose spread gives the pixel-level interval, µm.
-    #[arg(long = "tile-um", value_name = "UM", default_value_t = DEFAULT_BLOCK_UM, allow_negative_numbers = true, requires = "pixel_normals")]
+    #[arg(long = "tile-um", value_name = "UM", default_value_t = DEFAULT_BLOCK_UM, allow_negative_numbers = true)]
     pub tile_um: f64,
     /// Histogram bin width in degrees, in [0.001, 45].
     #[arg(
@@ -139,6 +154,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.flakes {
         return of_flake_table(&args, plan, &out, path, bin);
     }
+    if args.pixel_normals_only {
+        return pixels::only(&args, plan, out.table.as_ref(), &sources, bin);
+    }
     of_maps(&args, plan, &out, &sources, &options, params, bin)
 }
 
@@ -152,7 +170,7 @@ fn check_numbers(args: &Args) -> anyhow::Result<()> {
             args.bin
         );
     }
-    if args.pixel_normals {
+    if args.pixel_normals || args.pixel_normals_only {
         flakescatter::checks::window(args.window).map_err(|e| anyhow::anyhow!("--window {e}"))?;
         flakescatter::checks::tile_um(args.tile_um)
             .map_err(|e| anyhow::anyhow!("--tile-um {e}"))?;

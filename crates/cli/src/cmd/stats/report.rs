@@ -2,6 +2,7 @@
 //! `--json` summary of a sample, the per-map table (`--per-map`) and the histogram
 //! plot with the fitted Gaussian.
 
+use flakescatter::PixelOrientation;
 use flakescatter::chart::histogram_chart;
 use flakescatter::pooled_json;
 use flakescatter::sample::SampleStatistics;
@@ -105,6 +106,23 @@ pub(super) fn write_plot(
     )
 }
 
+/// The `pixel_level` object of the `--json` summary (`--pixel-normals`,
+/// `--pixel-normals-only`).
+pub(super) fn pixel_level(args: &Args, o: &PixelOrientation) -> Value {
+    json!({
+        "usable_pixels": o.tilts.usable_pixels,
+        "pixels": o.tilts.pixels,
+        "histogram_fit_hwhm_deg": o.histogram_fit.as_ref().ok().map(|h| h.hwhm().to_degrees()),
+        "histogram_fit_error": o.histogram_fit.as_ref().err(),
+        "histogram_fit_method": "least squares on the histogram's p_tilde (dominated by the core)",
+        "hwhm_deg": o.width.map(|w| w.hwhm().to_degrees()),
+        "hwhm_ci95_deg": o.width.map(|w| ci_deg(w.hwhm_ci95())),
+        "hwhm_method": "maximum likelihood over all usable pixels (moment matching of θ²), interval from the spread between tiles of --tile-um",
+        "window": args.window,
+        "tile_um": args.tile_um,
+    })
+}
+
 /// The `--json` summary of a sample.
 pub(super) fn summary(
     args: &Args,
@@ -140,19 +158,7 @@ pub(super) fn summary(
         o.extend(extra);
     }
     if let Some(px) = &stats.pixel {
-        let o = &px.orientation;
-        s["pixel_level"] = json!({
-            "usable_pixels": o.tilts.usable_pixels,
-            "pixels": o.tilts.pixels,
-            "histogram_fit_hwhm_deg": o.histogram_fit.as_ref().ok().map(|h| h.hwhm().to_degrees()),
-            "histogram_fit_error": o.histogram_fit.as_ref().err(),
-            "histogram_fit_method": "least squares on the histogram's p_tilde (dominated by the core)",
-            "hwhm_deg": o.width.map(|w| w.hwhm().to_degrees()),
-            "hwhm_ci95_deg": o.width.map(|w| ci_deg(w.hwhm_ci95())),
-            "hwhm_method": "maximum likelihood over all usable pixels (moment matching of θ²), interval from the spread between tiles of --tile-um",
-            "window": args.window,
-            "tile_um": args.tile_um,
-        });
+        s["pixel_level"] = pixel_level(args, &px.orientation);
         s["width_sources"] = match &px.sources {
             Ok(w) => json!({
                 "flake_level_hwhm_deg": w.flake.hwhm().to_degrees(),

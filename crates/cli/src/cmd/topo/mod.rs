@@ -3,7 +3,6 @@
 //! sample's rotation about its normal (§5.1).
 
 mod spectral;
-pub mod stream;
 mod summary;
 
 use std::path::PathBuf;
@@ -19,11 +18,11 @@ use flakescatter::{
 };
 
 use crate::flags::{ColourArgs, GeometryArgs, InstrumentArgs, PolarizationArgs, SpectralArgs};
-use crate::maps::{MapInputArgs, Repeats, load_all};
+use crate::maps::stream::{self, Loaded};
+use crate::maps::{MapInputArgs, Repeats};
 use crate::output::{Dest, Kind, Plan, print_json, warn};
 use crate::tables::{curve_warnings, write_curves, write_curves_with};
 use spectral::{multi_angle, spectral_curves};
-use stream::Loaded;
 use summary::{Outcome, Totals, report};
 
 /// Reflectance from confocal height maps: one ray per usable pixel, reflected by the
@@ -119,31 +118,9 @@ fn validate(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Read the maps and apply the intensity cutoff; errors name the file.
+/// Read the maps whole and apply the intensity cutoff; errors name the file.
 fn load_maps(args: &Args, sources: &[MapSource]) -> anyhow::Result<Vec<HeightMap>> {
-    let options = args.input.load_options()?;
-    let mut maps = Vec::with_capacity(sources.len());
-    for input in load_all(sources, &options)? {
-        let (path, map) = (&input.source.height, input.loaded.map);
-        if map.valid_count() == 0 {
-            bail!(
-                "height map {}: no valid pixel (all {} are NaN or masked)",
-                path.display(),
-                map.len()
-            );
-        }
-        if args.window > map.nx().min(map.ny()) {
-            bail!(
-                "--window {}: larger than height map {} ({} x {} pixels)",
-                args.window,
-                path.display(),
-                map.nx(),
-                map.ny()
-            );
-        }
-        maps.push(map);
-    }
-    Ok(maps)
+    stream::load_whole(&args.input, sources, args.window)
 }
 
 /// Runs the subcommand.
@@ -196,14 +173,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         window: args.window,
         tile_um: args.tile_um,
     };
-    let loaded = match &polarimetry {
-        None => stream::stores(&args.input, &sources, args.window)?,
-        Some(_) => None,
-    };
-    let loaded = match loaded {
-        Some(stores) => Loaded::Stores(stores),
-        None => Loaded::Memory(load_maps(&args, &sources)?),
-    };
+    let loaded = Loaded::open(&args.input, &sources, args.window, polarimetry.is_none())?;
 
     // Progress on stderr when it is a terminal and the run is long.
     let work = loaded.pixels() as f64 * instrument.theta_i().len() as f64;
@@ -299,12 +269,12 @@ impl Run<'_> {
             settings,
             topo,
         } = *self;
-        let refs: Vec<&HeightMap> = match loaded {
-            Loaded::Memory(maps) => maps.iter().collect(),
-            Loaded::Stores(_) => Vec::new(),
-        };
+        let refs = loaded.maps();
         let streams = loaded.sources();
-        let fail = |e: flakescatter::PipelineError| run_error(e, args, sources, loaded);
+        let fail = |e: flakescatter::PipelineError| {
+            let flags = format!("--window {}, --tile-um {}", args.window, args.tile_um);
+            stream::run_error(e, sources, loaded, args.input.cutoff, flags)
+        };
         Ok(match (polarimetry, args.isotropic) {
             (None, true) => {
                 let spacing = args.node_spacing_deg.map(f64::to_radians);
@@ -338,34 +308,6 @@ impl Run<'_> {
                 (mu.detected_curves(), Totals::Plain(r), Some(mu))
             }
         })
-    }
-}
-
-/// A failed model run as the command reports it: a streamed map without a valid pixel
-/// as the in-memory loader says it, a band that could not be read naming the map (its
-/// reader's error names the store and the array), anything else under the flags.
-fn run_error(
-    e: flakescatter::PipelineError,
-    args: &Args,
-    sources: &[MapSource],
-    loaded: &Loaded,
-) -> anyhow::Error {
-    use flakescatter::PipelineError::Topo;
-    use flakescatter::topo::TopoError;
-    match (loaded, e) {
-        (Loaded::Stores(_), Topo(TopoError::NoValidPixels { map, pixels })) => {
-            stream::no_valid_pixel(sources, map, pixels, args.input.cutoff)
-        }
-        (_, Topo(TopoError::Source { map, error })) => anyhow::anyhow!(
-            "reading height map {}: {error}",
-            sources
-                .get(map)
-                .map_or_else(|| format!("{map}"), |s| s.height.display().to_string())
-        ),
-        (_, e) => anyhow::Error::from(e).context(format!(
-            "--window {}, --tile-um {}",
-            args.window, args.tile_um
-        )),
     }
 }
 

@@ -1,10 +1,14 @@
-//! The maps of a `topo` (or `stats --pixel-normals`) run: read whole into memory, or,
-//! when every map is a Zarr store, opened to be read band by band while the model
-//! traces them (docs/guide.md "Big maps").
+//! The maps of a run that reads them tile by tile (`topo`, `stats
+//! --pixel-normals-only`): read whole into memory, or, when every map is a Zarr store,
+//! opened to be read band by band while the model traces them (docs/guide.md "Big
+//! maps"). One set of rules for every such command: which stores stream
+//! ([`stores`]), the checks of maps read whole ([`load_whole`]), and the errors of a
+//! run as the command reports them ([`run_error`]).
 
 use std::path::Path;
 
 use anyhow::{Context, bail};
+use flakescatter::PipelineError;
 use flakescatter::inputs::{MapSource, SourceKind};
 use flakescatter::io::ChannelSelector;
 use flakescatter::io::zarr::{ZarrMap, is_store};
@@ -12,7 +16,7 @@ use flakescatter::stats::heightmap::HeightMap;
 use flakescatter::streaming::{StoreCutoff, ZarrSource};
 use flakescatter::topo::HeightSource;
 
-use crate::maps::MapInputArgs;
+use crate::maps::{MapInputArgs, load_all};
 
 /// The maps of a run.
 pub enum Loaded {
@@ -34,6 +38,37 @@ impl Loaded {
                     nx * ny
                 })
                 .sum(),
+        }
+    }
+
+    /// Reads `sources` for a run with a `window` × `window` least-squares window:
+    /// streamed when `stream` and every map is a Zarr store the band reader can read
+    /// ([`stores`]), whole otherwise ([`load_whole`]).
+    ///
+    /// # Errors
+    /// As [`stores`] and [`load_whole`], naming the map and the flag.
+    pub fn open(
+        input: &MapInputArgs,
+        sources: &[MapSource],
+        window: usize,
+        stream: bool,
+    ) -> anyhow::Result<Self> {
+        let stores = if stream {
+            stores(input, sources, window)?
+        } else {
+            None
+        };
+        Ok(match stores {
+            Some(stores) => Self::Stores(stores),
+            None => Self::Memory(load_whole(input, sources, window)?),
+        })
+    }
+
+    /// The maps in memory (empty for stores).
+    pub fn maps(&self) -> Vec<&HeightMap> {
+        match self {
+            Self::Memory(maps) => maps.iter().collect(),
+            Self::Stores(_) => Vec::new(),
         }
     }
 
@@ -115,9 +150,67 @@ pub fn stores(
     Ok(Some(out))
 }
 
+/// The maps of `sources` read whole, with the intensity cutoff applied; a map without a
+/// valid pixel or smaller than the `window` is an error naming it (and the flag).
+pub fn load_whole(
+    input: &MapInputArgs,
+    sources: &[MapSource],
+    window: usize,
+) -> anyhow::Result<Vec<HeightMap>> {
+    let options = input.load_options()?;
+    let mut maps = Vec::with_capacity(sources.len());
+    for input in load_all(sources, &options)? {
+        let (path, map) = (&input.source.height, input.loaded.map);
+        if map.valid_count() == 0 {
+            bail!(
+                "height map {}: no valid pixel (all {} are NaN or masked)",
+                path.display(),
+                map.len()
+            );
+        }
+        if window > map.nx().min(map.ny()) {
+            bail!(
+                "--window {window}: larger than height map {} ({} x {} pixels)",
+                path.display(),
+                map.nx(),
+                map.ny()
+            );
+        }
+        maps.push(map);
+    }
+    Ok(maps)
+}
+
+/// A failed model run over `loaded` (read from `sources`) as a command reports it: a
+/// streamed map without a valid pixel as the in-memory loader says it (with the
+/// `cutoff`), a band that could not be read naming the map (its reader's error names
+/// the store and the array), anything else under `flags` (e.g. "--window 5, --tile-um
+/// 50").
+pub fn run_error(
+    e: PipelineError,
+    sources: &[MapSource],
+    loaded: &Loaded,
+    cutoff: Option<f64>,
+    flags: String,
+) -> anyhow::Error {
+    use flakescatter::topo::TopoError;
+    match (loaded, e) {
+        (Loaded::Stores(_), PipelineError::Topo(TopoError::NoValidPixels { map, pixels })) => {
+            no_valid_pixel(sources, map, pixels, cutoff)
+        }
+        (_, PipelineError::Topo(TopoError::Source { map, error })) => anyhow::anyhow!(
+            "reading height map {}: {error}",
+            sources
+                .get(map)
+                .map_or_else(|| format!("{map}"), |s| s.height.display().to_string())
+        ),
+        (_, e) => anyhow::Error::from(e).context(flags),
+    }
+}
+
 /// The in-memory loader's message for a map without a valid pixel, for a streamed run
 /// that found one (`map` 0-based of `sources`, `pixels` its size).
-pub fn no_valid_pixel(
+fn no_valid_pixel(
     sources: &[MapSource],
     map: usize,
     pixels: usize,
