@@ -31,9 +31,10 @@ fn to_python<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py,
 /// model`). Warnings are also emitted as `FlakescatterWarning`. Interference flakes:
 /// `flake_stack` (and `flake_core`) as `--flake-stack`/`--flake-core`, with
 /// `fit_thickness` (layer numbers from 1) and `thickness_range_nm` as `--fit-thickness`
-/// and `--thickness-range`.
+/// and `--thickness-range`; `flake_layers` (1–1000, free stacks only) piles the flakes
+/// that deep, as `--flake-layers` (physics.md §12.8).
 #[pyfunction]
-#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0)))]
+#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_paint<'py>(
     py: Python<'py>,
@@ -52,6 +53,7 @@ pub fn fit_paint<'py>(
     flake_core: Option<&str>,
     fit_thickness: Option<Vec<usize>>,
     thickness_range_nm: (f64, f64),
+    flake_layers: Option<i64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let path = path_of(py, "measured", measured)?;
     let families =
@@ -107,6 +109,29 @@ pub fn fit_paint<'py>(
         }
         (None, Some((n, k))) => FlakeMetal::Index { n, k },
         (None, None) => FlakeMetal::Aluminium,
+    };
+    let flake_metal = match flake_layers {
+        None => flake_metal,
+        Some(l) => {
+            let layers = u32::try_from(l)
+                .ok()
+                .filter(|l| (1..=1000).contains(l))
+                .ok_or_else(|| {
+                    input(
+                        py,
+                        format!("flake_layers={l}: expected a whole number from 1 to 1000"),
+                    )
+                })?;
+            if !matches!(&flake_metal, FlakeMetal::Stack(s) if s.core.is_none()) {
+                return Err(input(
+                    py,
+                    "flake_layers needs free interference flakes (flake_stack=... without flake_core)",
+                ));
+            }
+            flake_metal
+                .with_layers(layers)
+                .map_err(|e| input(py, format!("flake_layers: {e}")))?
+        }
     };
     let thickness = match fit_thickness {
         None => None,
