@@ -63,15 +63,21 @@ impl Plate {
         }
     }
 
-    /// `self` on top of `below` (module docs). For powers the result is a pile of
-    /// powers whenever `R'_A R_B < 1`; a lossless pair of mirrors (`R'_A = R_B = 1`)
-    /// gives non-finite values, which no plate that transmits anything has.
+    /// `self` on top of `below` (module docs). Two faces that reflect everything
+    /// (`R'_A R_B = 1`: flakes met at grazing incidence) transmit nothing, so nothing
+    /// bounces between them: the series is taken as 0 there, where every term that
+    /// uses it has a factor `T = 0`.
     #[must_use]
     pub fn on(&self, below: &Self) -> Self {
         let (a, b) = (self, below);
         let one = C::new(1.0, 0.0);
         // The bounces between A's underside and B's top: 1/(1 − R'_A R_B).
-        let g = one / (one - a.r_back * b.r);
+        let den = one - a.r_back * b.r;
+        let g = if den == C::new(0.0, 0.0) {
+            den
+        } else {
+            one / den
+        };
         Self {
             r: a.r + a.t * a.t_back * b.r * g,
             t: a.t * b.t * g,
@@ -118,6 +124,20 @@ mod tests {
         let b = p.pile(3).on(&p.pile(2));
         assert!((a.r - b.r).norm() < 1e-14 && (a.t - b.t).norm() < 1e-14);
         assert!((p.pile(5).r - a.r).norm() < 1e-14);
+    }
+
+    #[test]
+    fn mirrors_at_grazing_incidence_stay_finite() {
+        let p = Plate::powers(1.0, 0.0, 1.0, 0.0).pile(5);
+        assert_eq!((p.r.re, p.t.re), (1.0, 0.0));
+        let x = Plate {
+            r: C::new(-1.0, 0.0),
+            t: C::new(0.0, 0.0),
+            r_back: C::new(-1.0, 0.0),
+            t_back: C::new(0.0, 0.0),
+        }
+        .pile(3);
+        assert_eq!(x.r, C::new(-1.0, 0.0));
     }
 
     #[test]

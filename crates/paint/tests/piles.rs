@@ -389,3 +389,36 @@ fn a_table_of_four_layers_is_fitted_back_to_four() {
     .to_string();
     assert!(e.contains("free interference flakes"), "{e}");
 }
+
+#[test]
+fn a_pile_at_grazing_incidence_reflects_everything_and_never_more() {
+    let film = StackSpec::parse("TiO2:100/mica:300/Fe2O3:40", &Catalogue::builtin())
+        .unwrap()
+        .at(612.0)
+        .unwrap();
+    let pile = FlakeReflectance::stack(film, 612.0, None)
+        .unwrap()
+        .pile(16)
+        .unwrap();
+    // §13: at grazing incidence a stack reflects everything and passes nothing.
+    let (rs, rp) = pile.power(0.0, 1.5);
+    assert!(
+        (rs - 1.0).abs() < 1e-12 && (rp - 1.0).abs() < 1e-12,
+        "{rs} {rp}"
+    );
+    assert_eq!(pile.transmitted(0.0, 1.5), (0.0, 0.0));
+    for k in 1..=100 {
+        let gamma = f64::from(k) / 100.0;
+        let (rs, rp) = pile.power(gamma, 1.5);
+        let (ts, tp) = pile.transmitted(gamma, 1.5);
+        assert!(rs.is_finite() && rp.is_finite(), "γ {gamma}");
+        assert!(
+            rs + ts <= 1.0 + 1e-12 && rp + tp <= 1.0 + 1e-12,
+            "γ {gamma}"
+        );
+        assert!(
+            rs >= 0.0 && rp >= 0.0 && ts >= 0.0 && tp >= 0.0,
+            "γ {gamma}"
+        );
+    }
+}
