@@ -15,13 +15,21 @@
 //! are the stack's `(r_s, r_p)` in the same convention; the power it transmits
 //! (`T = 1 − R − A`) leaves the flake downward and is not part of this reflectance (each
 //! model states where it goes).
+//!
+//! A pile of `N` such free flakes ([`FlakeReflectance::Pile`], physics.md §12.8) sends
+//! part of that light back up: its powers are Stokes' pile of plates
+//! ([`crate::pile`]), `s` and `p` piled separately.
 
 use std::sync::Arc;
 
 use nalgebra::Complex;
 
 use crate::OpticsError;
-use crate::thinfilm::{FilmStack, solve_unchecked};
+use crate::pile::Plate;
+use crate::thinfilm::{FilmStack, Response, solve_unchecked};
+
+/// The most flakes a pile may have ([`FlakeReflectance::pile`]).
+pub const MAX_PILE: u32 = 1000;
 
 /// A thin-film flake at one wavelength: its layers (from the side light arrives on),
 /// the wavelength, and an opaque core under the layers (`None`: a free flake, the
@@ -68,6 +76,71 @@ pub enum FlakeReflectance {
     },
     /// A thin-film (interference) flake at one wavelength.
     Stack(Arc<StackFlake>),
+    /// A pile of `N ≥ 2` identical free thin-film flakes, parallel and stacked
+    /// incoherently ([`crate::pile`]); built by [`FlakeReflectance::pile`].
+    Pile(Arc<FlakePile>),
+}
+
+/// A pile of identical free thin-film flakes ([`FlakeReflectance::Pile`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlakePile {
+    /// One flake, seen from above.
+    top: StackFlake,
+    /// The same flake seen from below (its layers reversed).
+    bottom: StackFlake,
+    /// The number of flakes, `2..=MAX_PILE`.
+    layers: u32,
+}
+
+impl FlakePile {
+    /// One flake of the pile, seen from above.
+    #[must_use]
+    pub fn flake(&self) -> &StackFlake {
+        &self.top
+    }
+
+    /// The number of flakes.
+    #[must_use]
+    pub fn layers(&self) -> u32 {
+        self.layers
+    }
+
+    /// The pile's `s` and `p` plates and their cross products at `cos_iota` in a
+    /// medium of index `n_medium`: `(s, p, x)`, `x` the sums `Σ a_s a_p*`.
+    fn piled(&self, cos_iota: f64, n_medium: f64) -> (Plate, Plate, Plate) {
+        let solve = |f: &StackFlake| {
+            solve_unchecked(
+                f.stack.layers(),
+                n_medium,
+                Complex::new(n_medium, 0.0),
+                cos_iota.clamp(0.0, 1.0),
+                f.wavelength_nm,
+            )
+        };
+        let (up, down) = (solve(&self.top), solve(&self.bottom));
+        let s = Plate::powers(up.r_s(), up.t_s(), down.r_s(), down.t_s());
+        let p = Plate::powers(up.r_p(), up.t_p(), down.r_p(), down.t_p());
+        let x = Plate {
+            r: up.rs * up.rp.conj(),
+            t: transmitted_cross(&up),
+            r_back: down.rs * down.rp.conj(),
+            t_back: transmitted_cross(&down),
+        };
+        let n = self.layers;
+        (s.pile(n), p.pile(n), x.pile(n))
+    }
+}
+
+/// `t_s t_p*` scaled to powers: `|·| = sqrt(T_s T_p)` with the phase of `t_s t_p*`
+/// (the flux ratios are 1 for a free flake, the same medium on both sides, and 0 at
+/// grazing incidence).
+fn transmitted_cross(r: &Response) -> Complex<f64> {
+    let x = r.ts * r.tp.conj();
+    let norm = x.norm();
+    if norm == 0.0 {
+        return Complex::new(0.0, 0.0);
+    }
+    x * ((r.t_s() * r.t_p()).sqrt() / norm)
 }
 
 impl FlakeReflectance {
@@ -100,6 +173,41 @@ impl FlakeReflectance {
                 let (rs, rp) = self.amplitudes(cos_iota, n_medium);
                 (rs.norm_sqr(), rp.norm_sqr())
             }
+            Self::Pile(f) => {
+                let (s, p, _) = f.piled(cos_iota, n_medium);
+                (s.r.re, p.r.re)
+            }
+        }
+    }
+
+    /// `layers` of these flakes piled (physics.md §12.8): `self` for `layers == 1`, a
+    /// [`FlakeReflectance::Pile`] for more.
+    ///
+    /// # Errors
+    /// [`OpticsError::InvalidPile`] for `layers` outside `1..=MAX_PILE`, or more than
+    /// one layer of a flake that transmits nothing (a metal, the perfect conductor, a
+    /// stack on a core: its pile is the flake itself) or of a pile.
+    pub fn pile(&self, layers: u32) -> Result<Self, OpticsError> {
+        if !(1..=MAX_PILE).contains(&layers) {
+            return Err(OpticsError::InvalidPile(format!(
+                "{layers} flake layers: expected a whole number from 1 to {MAX_PILE}"
+            )));
+        }
+        if layers == 1 {
+            return Ok(self.clone());
+        }
+        match self {
+            Self::Stack(f) if f.core.is_none() => Ok(Self::Pile(Arc::new(FlakePile {
+                top: (**f).clone(),
+                bottom: StackFlake {
+                    stack: f.stack.reversed(),
+                    ..(**f).clone()
+                },
+                layers,
+            }))),
+            _ => Err(OpticsError::InvalidPile(format!(
+                "{layers} flake layers of flakes that transmit nothing (a metal, or a stack on an opaque core): their pile is the top flake itself; piles are of free interference flakes"
+            ))),
         }
     }
 
@@ -137,6 +245,10 @@ impl FlakeReflectance {
                 let r = self.stack_response(f, cos_iota, n_medium);
                 (r.t_s(), r.t_p())
             }
+            Self::Pile(f) => {
+                let (s, p, _) = f.piled(cos_iota, n_medium);
+                (s.t.re, p.t.re)
+            }
         }
     }
 
@@ -161,6 +273,13 @@ impl FlakeReflectance {
     /// of [`crate::jones`] (`p = k × s` for the incoming and the reflected wave, time
     /// dependence `exp(−iωt)`): `(−1, +1)` for the perfect conductor, the module-doc
     /// formulas for a complex index.
+    ///
+    /// A pile ([`FlakeReflectance::Pile`]) has no amplitudes (its paths add in power);
+    /// it returns amplitudes with the pile's `R_s`, `R_p` and `Re Σ a_s a_p*` (and the
+    /// sign of its imaginary part), which are all that the first row `(m00, m01)` of a
+    /// path's Mueller matrix depends on ([`crate::jones::RayPath::first_row`]): exact
+    /// for every unpolarised, `s` and `p` result. A pile depolarises partly, so the
+    /// other rows of a full Mueller matrix built from them are not the pile's.
     #[must_use]
     #[inline]
     pub fn amplitudes(&self, cos_iota: f64, n_medium: f64) -> (Complex<f64>, Complex<f64>) {
@@ -181,6 +300,10 @@ impl FlakeReflectance {
                 let r = self.stack_response(f, cos_iota, n_medium);
                 (r.rs, r.rp)
             }
+            Self::Pile(f) => {
+                let (s, p, x) = f.piled(cos_iota, n_medium);
+                equivalent_amplitudes(s.r.re, p.r.re, x.r)
+            }
         }
     }
 
@@ -196,4 +319,18 @@ impl FlakeReflectance {
     pub fn is_perfect(&self) -> bool {
         matches!(self, Self::PerfectConductor)
     }
+}
+
+/// Amplitudes `(rs, rp)` with `|rs|² = Rs`, `|rp|² = Rp` and `rs rp*` of real part
+/// `Re x` and imaginary part of the sign of `Im x`: `rs = √Rs`,
+/// `rp = (Re x − i y)/√Rs`, `y = ±√(Rs Rp − (Re x)²)` (≥ 0 by Cauchy–Schwarz, to
+/// rounding).
+fn equivalent_amplitudes(rs: f64, rp: f64, x: Complex<f64>) -> (Complex<f64>, Complex<f64>) {
+    let (rs, rp) = (rs.max(0.0), rp.max(0.0));
+    if rs == 0.0 {
+        return (Complex::new(0.0, 0.0), Complex::new(rp.sqrt(), 0.0));
+    }
+    let a = rs.sqrt();
+    let y = (rs * rp - x.re * x.re).max(0.0).sqrt().copysign(x.im);
+    (Complex::new(a, 0.0), Complex::new(x.re / a, -y / a))
 }

@@ -25,6 +25,7 @@
 //! * [`jones`]: the Jones matrix of a ray's whole path (entry, flake, exit, with the
 //!   frame rotations between the planes of incidence) in SCATMECH's `(s, p)` bases, and
 //!   of the clear coat's specular reflection (physics.md §11);
+//! * [`pile`]: Stokes' pile of plates, identical flakes stacked incoherently;
 //! * [`thinfilm`]: thin-film stacks (interference flakes): amplitude and power
 //!   reflection and transmission for s and p by Rouard's recursion (physics.md §13);
 //! * [`mueller`]: Mueller matrices and the non-depolarisation and realisability
@@ -69,6 +70,7 @@ pub mod fresnel;
 pub mod jones;
 pub mod material;
 pub mod mueller;
+pub mod pile;
 pub mod polarization;
 pub mod reflection;
 pub mod refraction;
@@ -126,6 +128,9 @@ pub enum OpticsError {
         /// Its degree of polarisation (< 1 − the tolerance).
         dop: f64,
     },
+    /// A pile of flakes that cannot be made (the message says why).
+    #[error("{0}")]
+    InvalidPile(String),
     /// A wavelength that is not finite and positive.
     #[error("wavelength {0} nm is not valid: expected a finite number > 0")]
     InvalidWavelength(f64),

@@ -12,7 +12,9 @@
 //! The light a stack flake transmits (`T = 1 − R − A`) goes down to the base. The paint
 //! model does not follow it separately: the fitted base amplitude `(1 − c)² ρ_k` carries
 //! it with the light that passes between the flakes (its angular dependence through the
-//! flakes' `T` is neglected; physics.md §12.7).
+//! flakes' `T` is neglected; physics.md §12.7), unless the flakes are piled: `N` free
+//! stack flakes lying parallel one under the other ([`StackFlakes::layers`], physics.md
+//! §12.8) reflect as Stokes' pile of plates ([`flakescatter_optics::pile`]).
 
 use std::sync::Arc;
 
@@ -33,6 +35,10 @@ pub struct StackFlakes {
     pub stack: StackSpec,
     /// The opaque core, if any.
     pub core: Option<MaterialSpec>,
+    /// The flakes piled one under another (`1..=1000`; 1: one flake, as without piles;
+    /// more only for a free stack, `core == None`): each flake's reflectance is the
+    /// pile's (physics.md §12.8). Set through [`FlakeMetal::with_layers`].
+    pub layers: u32,
 }
 
 /// What the flakes are made of.
@@ -58,7 +64,49 @@ impl FlakeMetal {
     /// Interference flakes of `stack` on `core`.
     #[must_use]
     pub fn stack(stack: StackSpec, core: Option<MaterialSpec>) -> Self {
-        Self::Stack(Arc::new(StackFlakes { stack, core }))
+        Self::Stack(Arc::new(StackFlakes {
+            stack,
+            core,
+            layers: 1,
+        }))
+    }
+
+    /// The same flakes piled `layers` deep (physics.md §12.8); `layers == 1` is one
+    /// flake, as without piles.
+    ///
+    /// # Errors
+    /// [`PaintError::Parameter`] for `layers` outside 1–1000, or more than one layer of
+    /// flakes that transmit nothing (a metal, or a stack on a core: their pile is the
+    /// top flake).
+    pub fn with_layers(&self, layers: u32) -> Result<Self, PaintError> {
+        let bad = |why: &str| {
+            Err(PaintError::Parameter(format!(
+                "flake layers = {layers}: {why}"
+            )))
+        };
+        if !(1..=flakescatter_optics::flake::MAX_PILE).contains(&layers) {
+            return bad("expected a whole number from 1 to 1000");
+        }
+        match self {
+            Self::Stack(s) if s.core.is_none() || layers == 1 => {
+                let mut s = (**s).clone();
+                s.layers = layers;
+                Ok(Self::Stack(Arc::new(s)))
+            }
+            _ if layers == 1 => Ok(self.clone()),
+            _ => bad(
+                "a pile of flakes that transmit nothing (a metal, or a stack on an opaque core) is the top flake itself; piles are of free interference flakes (a flake stack without a core)",
+            ),
+        }
+    }
+
+    /// How many flakes are piled (1 for a metal or an unpiled stack).
+    #[must_use]
+    pub fn layers(&self) -> u32 {
+        match self {
+            Self::Stack(s) => s.layers,
+            _ => 1,
+        }
     }
 
     /// The flake reflectance in `channel`.
@@ -89,7 +137,9 @@ impl FlakeMetal {
                     .map(|c| c.index_at(wl))
                     .transpose()
                     .map_err(|e| at("flake core", &e))?;
-                FlakeReflectance::stack(layers, wl, core).map_err(|e| at("flake stack", &e))
+                FlakeReflectance::stack(layers, wl, core)
+                    .and_then(|f| f.pile(s.layers))
+                    .map_err(|e| at("flake stack", &e))
             }
         }
     }
@@ -110,7 +160,11 @@ impl FlakeMetal {
             .stack
             .with_thickness(layers, thickness_nm)
             .map_err(|e| PaintError::Parameter(format!("flake stack: {e}")))?;
-        Ok(Self::stack(stack, s.core.clone()))
+        Ok(Self::Stack(Arc::new(StackFlakes {
+            stack,
+            core: s.core.clone(),
+            layers: s.layers,
+        })))
     }
 
     /// The thickness of layer `layer` (numbered from 1) of a stack, nm; `None` for a

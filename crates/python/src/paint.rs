@@ -22,6 +22,62 @@ fn to_python<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py,
     py.import("json")?.call_method1("loads", (text,))
 }
 
+/// The flakes of `fit_paint`'s keywords: a stack (`flake_stack`, `flake_core`, piled
+/// `flake_layers` deep) or a metal (`flake_index`, else aluminium).
+fn flakes(
+    py: Python<'_>,
+    flake_index: Option<(f64, f64)>,
+    flake_stack: Option<&str>,
+    flake_core: Option<&str>,
+    flake_layers: Option<i64>,
+) -> PyResult<FlakeMetal> {
+    let flake_metal = match (flake_stack, flake_index) {
+        (Some(_), Some(_)) => {
+            return Err(input(
+                py,
+                "flake_stack and flake_index: give one (the flakes are a stack or a metal)",
+            ));
+        }
+        (Some(stack), None) => {
+            flakescatter::paint::stack_flakes(stack, flake_core).map_err(|e| {
+                let key = match e {
+                    flakescatter::film::StackFlakeError::Core(_) => "flake_core",
+                    _ => "flake_stack",
+                };
+                input(py, format!("{key}: {e}"))
+            })?
+        }
+        (None, _) if flake_core.is_some() => {
+            return Err(input(py, "flake_core needs flake_stack"));
+        }
+        (None, Some((n, k))) => FlakeMetal::Index { n, k },
+        (None, None) => FlakeMetal::Aluminium,
+    };
+    Ok(match flake_layers {
+        None => flake_metal,
+        Some(l) => {
+            let layers = u32::try_from(l)
+                .ok()
+                .filter(|l| (1..=1000).contains(l))
+                .ok_or_else(|| {
+                    input(
+                        py,
+                        format!("flake_layers={l}: expected a whole number from 1 to 1000"),
+                    )
+                })?;
+            if !matches!(&flake_metal, FlakeMetal::Stack(s) if s.core.is_none()) {
+                return Err(input(
+                    py,
+                    "flake_layers needs free interference flakes (flake_stack=... without flake_core)",
+                ));
+            }
+            flake_metal
+                .with_layers(layers)
+                .map_err(|e| input(py, format!("flake_layers: {e}")))?
+        }
+    })
+}
+
 /// Fit a paint (clear coat, flakes, base; physics.md §12) to the BRDF table `measured`
 /// (a CSV path with `theta_i_deg, theta_r_deg, phi_r_deg, brdf_<channel>_per_sr`), as
 /// `flakescatter fit --paint`. Returns a dict: `fit` (the report: family, evidence,
@@ -31,9 +87,10 @@ fn to_python<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py,
 /// model`). Warnings are also emitted as `FlakescatterWarning`. Interference flakes:
 /// `flake_stack` (and `flake_core`) as `--flake-stack`/`--flake-core`, with
 /// `fit_thickness` (layer numbers from 1) and `thickness_range_nm` as `--fit-thickness`
-/// and `--thickness-range`.
+/// and `--thickness-range`; `flake_layers` (1–1000, free stacks only) piles the flakes
+/// that deep, as `--flake-layers` (physics.md §12.8).
 #[pyfunction]
-#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0)))]
+#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_paint<'py>(
     py: Python<'py>,
@@ -52,6 +109,7 @@ pub fn fit_paint<'py>(
     flake_core: Option<&str>,
     fit_thickness: Option<Vec<usize>>,
     thickness_range_nm: (f64, f64),
+    flake_layers: Option<i64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let path = path_of(py, "measured", measured)?;
     let families =
@@ -86,28 +144,7 @@ pub fn fit_paint<'py>(
         selection.min_value = v;
     }
     flakescatter::checks::coat_index(n).map_err(|e| input(py, format!("n={e}")))?;
-    let flake_metal = match (flake_stack, flake_index) {
-        (Some(_), Some(_)) => {
-            return Err(input(
-                py,
-                "flake_stack and flake_index: give one (the flakes are a stack or a metal)",
-            ));
-        }
-        (Some(stack), None) => {
-            flakescatter::paint::stack_flakes(stack, flake_core).map_err(|e| {
-                let key = match e {
-                    flakescatter::film::StackFlakeError::Core(_) => "flake_core",
-                    _ => "flake_stack",
-                };
-                input(py, format!("{key}: {e}"))
-            })?
-        }
-        (None, _) if flake_core.is_some() => {
-            return Err(input(py, "flake_core needs flake_stack"));
-        }
-        (None, Some((n, k))) => FlakeMetal::Index { n, k },
-        (None, None) => FlakeMetal::Aluminium,
-    };
+    let flake_metal = flakes(py, flake_index, flake_stack, flake_core, flake_layers)?;
     let thickness = match fit_thickness {
         None => None,
         Some(layers) => {

@@ -89,6 +89,24 @@ def test_fit_paint_with_a_fitted_film_matches_the_cli(cli):
     assert got["params"]["flakes"]["metal"]["stack"].startswith("TiO2:")
 
 
+def test_fit_paint_with_piled_flakes_matches_the_cli(cli):
+    """A pile of 4 film flakes: the same fit as the CLI's, and the parameter file
+    carries the layers."""
+    kw = dict(family="trowbridge-reitz", max_theta_r=80, min_value=1e-3)
+    got = fs.fit_paint(COLOUR_CHANGING, flake_stack="TiO2:386", flake_layers=4, **kw)
+    want = cli.json(
+        "fit", "--measured", COLOUR_CHANGING, "--paint", "--family", "trowbridge-reitz",
+        "--max-theta-r", 80, "--min-value", 1e-3, "--flake-stack", "TiO2:386",
+        "--flake-layers", 4,
+    )["fit"]
+    assert got["fit"]["chi2"] == want["chi2"]
+    assert got["fit"]["flake_layers"] == want["flake_layers"] == 4
+    assert got["params"]["flakes"]["layers"] == 4
+    one = fs.fit_paint(COLOUR_CHANGING, flake_stack="TiO2:386", **kw)
+    assert "layers" not in one["params"]["flakes"] and "flake_layers" not in one["fit"]
+    assert one["fit"]["chi2"] != got["fit"]["chi2"]
+
+
 @pytest.mark.parametrize(
     "kw, word",
     [
@@ -100,6 +118,11 @@ def test_fit_paint_with_a_fitted_film_matches_the_cli(cli):
         (dict(flake_stack="TiO2:40", fit_thickness=[2]), "layer 2"),
         (dict(flake_stack="TiO2:40", fit_thickness=[1], thickness_range_nm=(50, 20)),
          "thickness range"),
+        (dict(flake_stack="TiO2:40", flake_layers=0), "flake_layers=0"),
+        (dict(flake_stack="TiO2:40", flake_layers=1001), "flake_layers=1001"),
+        (dict(flake_layers=2), "flake_layers needs free interference flakes"),
+        (dict(flake_stack="TiO2:40", flake_core="aluminium", flake_layers=2),
+         "flake_layers needs free interference flakes"),
     ],
 )
 def test_bad_stack_keywords_are_named(kw, word):

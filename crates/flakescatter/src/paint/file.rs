@@ -20,7 +20,8 @@
 //! log-linear table) or `{"family": "histogram", "edges_deg": [...], "area_fractions":
 //! [...]}` (physics.md §3); `metal` is `"aluminium"`, `"perfect-conductor"`, `{"n": n, "k": k}`
 //! or interference flakes `{"stack": "TiO2:120/mica:400/TiO2:120", "core": "aluminium"}`
-//! (`core` optional; physics.md §13). Roughness
+//! (`core` optional; physics.md §13). `flakes.layers` (optional, a whole number 1–1000,
+//! absent = 1) piles free interference flakes that many deep (physics.md §12.8). Roughness
 //! values are GGX slope scales (dimensionless); angles in degrees, wavelengths in nm.
 
 use std::path::Path;
@@ -119,6 +120,10 @@ pub struct FlakesSection {
     pub metal: MetalSection,
     /// Coverage in `[0, 1]`.
     pub coverage: f64,
+    /// Flakes piled one under another (a whole number 1–1000; absent: 1, not written
+    /// for 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layers: Option<serde_json::Number>,
 }
 
 /// `flakes.metal`.
@@ -190,6 +195,8 @@ impl ParamsFile {
                     },
                 },
                 coverage: params.coverage,
+                layers: (params.flake_metal.layers() > 1)
+                    .then(|| params.flake_metal.layers().into()),
             },
             channels: params
                 .channels
@@ -272,6 +279,24 @@ impl ParamsFile {
                     .transpose()
                     .map_err(|e| bad("flakes.metal.core", e.to_string()))?;
                 FlakeMetal::stack(stack, core)
+            }
+        };
+        let flake_metal = match &self.flakes.layers {
+            None => flake_metal,
+            Some(v) => {
+                let layers = v
+                    .as_u64()
+                    .and_then(|l| u32::try_from(l).ok())
+                    .filter(|l| (1..=flakescatter_optics::flake::MAX_PILE).contains(l))
+                    .ok_or_else(|| {
+                        bad(
+                            "flakes.layers",
+                            format!("{v}: expected a whole number from 1 to 1000"),
+                        )
+                    })?;
+                flake_metal
+                    .with_layers(layers)
+                    .map_err(|e| bad("flakes.layers", e.to_string()))?
             }
         };
         let channels = self

@@ -237,6 +237,20 @@ pub fn fit(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PipelineError
     Ok(flakescatter_paint::fit::fit_paint(m, opts)?)
 }
 
+/// Fit `m` with the flakes of `opts` piled `N` deep for every `N` in `1..=max`, the
+/// lowest `χ²` kept (physics.md §12.8).
+///
+/// # Errors
+/// [`PipelineError::Paint`] for flakes that are not a free stack, `max` outside
+/// 1–1000, or a fit that fails at every `N`.
+pub fn fit_flake_layers(
+    m: &Measurement,
+    opts: &FitOptions,
+    max: u32,
+) -> Result<flakescatter_paint::fit::LayersFit, PipelineError> {
+    Ok(flakescatter_paint::fit::fit_flake_layers(m, opts, max)?)
+}
+
 /// A fixed paint against a table.
 #[derive(Debug, Clone)]
 pub struct PaintComparison {

@@ -91,6 +91,10 @@ pub fn fit_json(fit: &PaintFit, m: &Measurement, opts: &FitOptions) -> Value {
         "worst_ratio_to_target": worst_ratio(&fit.groups),
         "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
     });
+    // Piled flakes (physics.md §12.8), only when piled (other reports keep their keys).
+    if opts.flake_metal.layers() > 1 {
+        report["flake_layers"] = json!(opts.flake_metal.layers());
+    }
     // A fitted stack thickness: the layers, the range and the scan that started the fit
     // (physics.md §12.7), only when there is one (other reports keep their keys).
     if let (Some(t), Some(scan)) = (&opts.thickness, &fit.thickness_scan) {

@@ -25,6 +25,7 @@
 
 pub mod data;
 mod engine;
+mod layers;
 mod layout;
 pub mod report;
 mod result;
@@ -35,6 +36,7 @@ use crate::PaintError;
 use crate::coat::CoatParams;
 use crate::model::FlakeMetal;
 pub use data::{Measurement, Observation, Point, Selection, select};
+pub use layers::{LayersFit, MAX_SCAN, fit_flake_layers};
 pub use layout::Family;
 use layout::{Amplitudes, Layout};
 pub use report::{Evidence, GroupResidual, Region, group_residuals};

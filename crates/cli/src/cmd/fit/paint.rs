@@ -72,7 +72,20 @@ pub struct PaintArgs {
         allow_hyphen_values = true
     )]
     pub thickness_range: Option<String>,
+    /// --paint with a free --flake-stack (no --flake-core): the flakes lie N deep, one
+    /// under another, and reflect as a pile of N plates (the light one flake transmits
+    /// meets the ones below; physics.md §12.8), 1 to 1000 [default: 1].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub flake_layers: Option<u32>,
+    /// --paint with a free --flake-stack: fit the number of flake layers: the whole fit
+    /// at every N from 1 to 16, the lowest chi2 kept; the report lists chi2 at each N
+    /// (physics.md §12.8).
+    #[arg(long, conflicts_with = "flake_layers")]
+    pub fit_flake_layers: bool,
 }
+
+/// The numbers of flake layers `--fit-flake-layers` tries: 1 to this.
+pub const FLAKE_LAYERS_SCANNED: u32 = 16;
 
 impl PaintArgs {
     /// `true` when a paint-only flag is set without `--paint`, naming it.
@@ -90,6 +103,8 @@ impl PaintArgs {
             (self.params_out.is_some(), "--params-out"),
             (self.plot.is_some(), "--plot"),
             (self.fit_thickness.is_some(), "--fit-thickness"),
+            (self.flake_layers.is_some(), "--flake-layers"),
+            (self.fit_flake_layers, "--fit-flake-layers"),
         ]
         .into_iter()
         .find(|(set, _)| *set)
@@ -186,7 +201,23 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
         selection.min_value = v;
     }
     let coating = optics.coating()?;
-    let flake_metal = crate::flags::paint_flakes(optics, &args.spectral)?;
+    let mut flake_metal = crate::flags::paint_flakes(optics, &args.spectral)?;
+    let free_stack = matches!(&flake_metal, FlakeMetal::Stack(s) if s.core.is_none());
+    if p.fit_flake_layers && !free_stack {
+        bail!(
+            "--fit-flake-layers: needs free interference flakes, --flake-stack SPEC without --flake-core (a pile of flakes that transmit nothing is the top flake itself)"
+        );
+    }
+    if let Some(n) = p.flake_layers {
+        if !free_stack {
+            bail!(
+                "--flake-layers {n}: needs free interference flakes, --flake-stack SPEC without --flake-core (a pile of flakes that transmit nothing is the top flake itself)"
+            );
+        }
+        flake_metal = flake_metal
+            .with_layers(n)
+            .with_context(|| format!("--flake-layers {n}"))?;
+    }
     let thickness = thickness(p, &flake_metal)?;
     Ok(FitOptions {
         families: Family::choice(&p.family)
@@ -250,12 +281,10 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     }
     plan.check()?;
     let m = args.measured.read_paint()?;
-    let fit =
-        flakescatter::paint::fit(&m, &opts).with_context(|| format!("paint fit of {}", m.file))?;
+    let (fit, report) = fit_and_report(&m, opts, p.fit_flake_layers)?;
     for w in &fit.warnings {
         warn(&format!("{}: {w}", m.file));
     }
-    let report = fit_json(&fit, &m, &opts);
     if let Some(dest) = &params_out {
         let text = ParamsFile::new(&fit.params, Some(report.clone())).to_json()?;
         plan.write(
@@ -288,6 +317,35 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     } else {
         print(&(fit_text(&fit).join("\n") + "\n"))
     }
+}
+
+/// The fit (or, with `--fit-flake-layers`, the fits at every number of layers, the best
+/// kept) and its report.
+fn fit_and_report(
+    m: &Measurement,
+    opts: FitOptions,
+    fit_layers: bool,
+) -> anyhow::Result<(PaintFit, serde_json::Value)> {
+    let context = || format!("paint fit of {}", m.file);
+    if !fit_layers {
+        let fit = flakescatter::paint::fit(m, &opts).with_context(context)?;
+        let report = fit_json(&fit, m, &opts);
+        return Ok((fit, report));
+    }
+    let lf = flakescatter::paint::fit_flake_layers(m, &opts, FLAKE_LAYERS_SCANNED)
+        .with_context(context)?;
+    let kept = FitOptions {
+        flake_metal: opts.flake_metal.with_layers(lf.layers)?,
+        ..opts
+    };
+    let mut report = fit_json(&lf.fit, m, &kept);
+    report["flake_layers"] = json!(lf.layers);
+    report["flake_layers_scan"] = json!({
+        "note": "the whole fit at each number of flake layers, the lowest chi2 kept (every N has the same parameters)",
+        "layers": lf.scan.iter().map(|s| s.0).collect::<Vec<_>>(),
+        "chi2": lf.scan.iter().map(|s| s.1).collect::<Vec<_>>(),
+    });
+    Ok((lf.fit, report))
 }
 
 /// The plots of `--plot`: one in-plane chart per incidence, one out-of-plane residual map.
