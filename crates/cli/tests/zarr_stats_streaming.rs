@@ -297,5 +297,12 @@ fn bad_input_exits_2_naming_the_flag_the_store_or_the_array() {
         "{e}"
     );
     assert_eq!(e, refused(&nan, &["--pixel-um", "0.5"]));
+    // A reading option the band reader does not take is not dropped: the whole-map
+    // loader refuses it for a store, naming it (`stats` and `topo` alike).
+    let e = refused(&store, &["--z-unit", "nm"]);
+    assert!(e.contains("--z-unit"), "{e}");
+    let o = run(&["topo", s(&store), "--z-unit", "nm", "--theta-i", "30"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--z-unit"), "{}", stderr(&o));
     std::fs::remove_dir_all(&d).unwrap();
 }

@@ -125,8 +125,16 @@ pub fn stores(
         };
         store.has_height() && height_ok && intensity_ok
     };
-    if sources.is_empty() || input.calibration.pixel_um.is_some() || !sources.iter().all(streamable)
-    {
+    // Any reading option (a pitch or z-unit override, decimal marks, an MD5 waiver) goes
+    // to the whole-map loader, which honours it or refuses it for a store, naming it:
+    // the band reader takes none, and a flag is never silently dropped.
+    let c = &input.calibration;
+    let options = c.pixel_um.is_some()
+        || c.z_unit.is_some()
+        || c.decimal_comma
+        || c.decimal_point
+        || c.accept_md5_mismatch;
+    if sources.is_empty() || options || !sources.iter().all(streamable) {
         return Ok(None);
     }
     let mut out = Vec::with_capacity(sources.len());
