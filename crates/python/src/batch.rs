@@ -5,7 +5,9 @@
 
 use std::path::PathBuf;
 
-use flakescatter::analyze::{Manifest, SampleRow, comparison_report, default_name};
+use flakescatter::analyze::{
+    Manifest, SampleRow, check_sample_names, comparison_report, default_name,
+};
 use pyo3::prelude::*;
 
 use crate::errors::input;
@@ -41,4 +43,23 @@ pub fn _comparison_table(py: Python<'_>, rows: Vec<String>) -> PyResult<(String,
     let (csv, doc) = comparison_report(&rows);
     let html = doc.to_html("Samples compared", &|_| None);
     Ok((csv, doc.to_markdown(), html))
+}
+
+/// Refuses sample names that cannot each have their own folder of a batch's directory
+/// (`names` and their manifests `files`, in order; `reserved`: the batch's own files):
+/// `InputError` naming the manifests and names, as `flakescatter analyze` does.
+#[pyfunction]
+pub fn _check_sample_names(
+    py: Python<'_>,
+    names: Vec<String>,
+    files: Vec<PathBuf>,
+    reserved: Vec<String>,
+) -> PyResult<()> {
+    let pairs: Vec<(&str, &std::path::Path)> = names
+        .iter()
+        .map(String::as_str)
+        .zip(files.iter().map(PathBuf::as_path))
+        .collect();
+    let reserved: Vec<&str> = reserved.iter().map(String::as_str).collect();
+    check_sample_names(&pairs, &reserved).map_err(|e| input(py, e))
 }

@@ -60,6 +60,7 @@ fn _flakescatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(extras::localise_stack, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_sample_name, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_comparison_table, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_check_sample_names, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     Ok(())
 }

@@ -19,6 +19,7 @@ import os
 import pathlib
 import shutil
 import signal
+import subprocess
 import threading
 import time
 
@@ -99,13 +100,29 @@ def test_isotropic_on_two_workers_equals_the_cli(client, stores, cli):
         np.testing.assert_array_equal(got[k], whole[k])
 
 
-def test_without_a_client_the_threaded_scheduler_gives_the_same_numbers(client, stores):
+def test_without_a_client_the_threaded_scheduler_gives_the_same_numbers(
+        client, stores, monkeypatch):
     h, _ = stores
     a = fsd.topographic_model(h, client=client, theta_i=[20], tiles_per_task=3)
-    # client=None takes the current default client; a threaded run with another split:
+    # client=None takes the current default client (the cluster here): with none, Dask's
+    # threaded scheduler in this process, with another split.
+    from flakescatter.dask import _cluster
+    monkeypatch.setattr(_cluster.distributed, "default_client",
+                        lambda: (_ for _ in ()).throw(ValueError("no client")))
+    assert _cluster.client_of(None) is None
     b = fsd.topographic_model(h, client=None, theta_i=[20], tiles_per_task=50)
     for k in COLUMNS:
         np.testing.assert_array_equal(a[k], b[k])
+
+
+def test_a_relative_store_path_is_the_clients(client, stores, monkeypatch):
+    """The workers run in another directory: the client's relative path is sent whole."""
+    h, _ = stores
+    want = fsd.topographic_model(h, client=client, theta_i=[40], tiles_per_task=5)
+    monkeypatch.chdir(h.parent)
+    got = fsd.topographic_model(h.name, client=client, theta_i=[40], tiles_per_task=5)
+    for k in COLUMNS:
+        np.testing.assert_array_equal(got[k], want[k])
 
 
 def _scheduler_states(prefix):
@@ -192,10 +209,12 @@ def test_analyze_many_reports_five_one_error_and_a_rerun_recomputes_nothing(
         assert s["work"]["maps_segmented"] == 1 and not s["work"]["models_reused"]
     table = read_csv((out / "samples.csv").read_text())
     assert table["sample"] == [f"sample{k}" for k in range(5)]
-    # The table's widths are the reports' own.
-    for r, w in zip(first["samples"], table["hwhm_deg"]):
-        s = json.loads(pathlib.Path(r["summary"]).read_text())
-        assert float(w) == s["comparison_row"]["hwhm_deg"]
+    # The table is the CLI batch's over the same five manifests (its rows made in
+    # memory, not read back from JSON), byte for byte.
+    batch = tmp_path / "cli-batch"
+    subprocess.run([str(cli_bin), "analyze", *map(str, [m for m in manifests if m != broken]),
+                    "--out", str(batch), "--no-preview"], check=True, capture_output=True)
+    assert (out / "samples.csv").read_text() == (batch / "samples.csv").read_text()
     assert "Failed samples" in (out / "index.md").read_text()
     assert "broken.toml" in (out / "index.md").read_text()
 
@@ -310,13 +329,44 @@ def test_a_missing_store_is_a_file_error(tmp_path):
 
 
 def test_analyze_many_without_a_cli_reports_each_sample_failed(tmp_path, monkeypatch):
+    from flakescatter.dask import _analyze
     # The lookup a worker makes (no cli=, no $FLAKESCATTER_CLI, nothing on PATH):
     monkeypatch.delenv("FLAKESCATTER_CLI", raising=False)
     monkeypatch.setenv("PATH", str(tmp_path / "empty"))
     with pytest.raises(fs.FileError, match="flakescatter command line was not found"):
-        fsd._cli(None)
+        _analyze._cli(None)
     # A cli= that cannot run: each sample fails with the reason, none is lost.
     m = write_manifest(tmp_path / "a.toml", "solo", "synth-hwhm3-smooth")
     r = fsd.analyze_many([m], tmp_path / "o", cli=tmp_path / "no-such-flakescatter")
     assert r["samples"] == [] and len(r["failed"]) == 1
     assert "cannot run" in r["failed"][0]["error"] and "no-such-flakescatter" in r["failed"][0]["error"]
+
+
+def test_analyze_many_takes_up_a_stopped_run_and_a_rerun_holds_exactly_its_samples(
+        tmp_path, cli_bin):
+    a = write_manifest(tmp_path / "a.toml", "alpha", "synth-hwhm3-smooth")
+    b = write_manifest(tmp_path / "b.toml", "beta", "synth-hwhm6-rough")
+    out = tmp_path / "o"
+    fsd.analyze_many([a, b], out, cli=cli_bin, client=None)
+    # What a run killed half-way leaves: a CLI temporary report folder and a temporary
+    # comparison file beside their places.
+    (out / ".alpha.x1y2.tmp").mkdir()
+    (out / ".samples.csv.abc123").write_text("partial")
+    r = fsd.analyze_many([a], out, cli=cli_bin, client=None)
+    assert [s["sample"] for s in r["samples"]] == ["alpha"]
+    # beta's folder (the earlier run's, not in this batch) is gone; the table is alpha's.
+    assert not (out / "beta").exists() and (out / "alpha" / "summary.json").exists()
+    assert read_csv((out / "samples.csv").read_text())["sample"] == ["alpha"]
+    assert json.loads((out / "analyze_many.json").read_text())["state"] == "complete"
+    assert not (out / ".analyze_many.lock").exists()
+
+
+def test_analyze_many_refuses_an_out_dir_another_run_holds(tmp_path, cli_bin):
+    a = write_manifest(tmp_path / "a.toml", "alpha", "synth-hwhm3-smooth")
+    out = tmp_path / "o"
+    fsd.analyze_many([a], out, cli=cli_bin, client=None)
+    before = (out / "analyze_many.json").read_text()
+    (out / ".analyze_many.lock").write_text("")  # a run in progress
+    with pytest.raises(fs.InputError, match="another analyze_many is writing it"):
+        fsd.analyze_many([a], out, cli=cli_bin, client=None)
+    assert (out / "analyze_many.json").read_text() == before

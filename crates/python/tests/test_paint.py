@@ -128,3 +128,8 @@ def test_fit_paint_with_piled_flakes_matches_the_cli(cli):
 def test_bad_stack_keywords_are_named(kw, word):
     with pytest.raises(fs.Error, match=word):
         fs.fit_paint(COLOUR_CHANGING, **kw)
+
+
+def test_a_fractional_flake_layer_count_is_a_type_error_naming_it():
+    with pytest.raises(TypeError, match="flake_layers"):
+        fs.fit_paint(COLOUR_CHANGING, flake_stack="TiO2:40", flake_layers=2.5)

@@ -191,6 +191,41 @@ fn stage(stage: &'static str) -> impl Fn(PipelineError) -> AnalyzeError {
     move |source| AnalyzeError::Pipeline { stage, source }
 }
 
+/// Refuses sample names that cannot each have their own folder in a batch's directory
+/// (`names`: each sample's name and its manifest): two equal names, two names equal but
+/// for case (one folder on case-insensitive file systems, macOS and Windows), and names
+/// of the batch's own files `reserved` (in any case). Called before any work.
+///
+/// # Errors
+/// A message naming the manifests and names at fault.
+pub fn check_sample_names(names: &[(&str, &Path)], reserved: &[&str]) -> Result<(), String> {
+    for (k, (name, file)) in names.iter().enumerate() {
+        let lower = name.to_lowercase();
+        if let Some(own) = reserved.iter().find(|f| f.to_lowercase() == lower) {
+            return Err(format!(
+                "sample {} is named `{name}`, the name of the batch's own file `{own}` in its folder: give it another `name`",
+                file.display()
+            ));
+        }
+        if let Some((other, ofile)) = names[..k].iter().find(|(o, _)| o.to_lowercase() == lower) {
+            return Err(if other == name {
+                format!(
+                    "samples {} and {} are both named `{name}`: give one of them another `name`",
+                    ofile.display(),
+                    file.display(),
+                )
+            } else {
+                format!(
+                    "samples {} and {} are named `{other}` and `{name}`, one folder on file systems that ignore case (macOS, Windows): give one of them another `name`",
+                    ofile.display(),
+                    file.display(),
+                )
+            });
+        }
+    }
+    Ok(())
+}
+
 /// A manifest's default sample name: its file name without `.toml`, made safe.
 #[must_use]
 pub fn default_name(file: &Path) -> String {

@@ -12,7 +12,11 @@ use crate::compare::IncidenceComparison;
 use crate::sample::SampleStatistics;
 
 /// One sample's line in a comparison across samples.
+///
+/// As JSON (summary.json `comparison_row`) a non-finite number is written `null`
+/// (serde_json's rule) and read back as NaN, so a row read back prints the same line.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(from = "RowRecord")]
 pub struct SampleRow {
     /// Sample name.
     pub name: String,
@@ -32,6 +36,44 @@ pub struct SampleRow {
     pub near_specular: Vec<(String, f64, Option<f64>)>,
     /// Multi-angle lightness at 15°, 45°, 110° aspecular, and the flop index.
     pub lightness: Option<(f64, f64, f64, Option<f64>)>,
+}
+
+/// Four numbers of which any may be `null` (the lightness readout as read from JSON).
+type MaybeFour = (Option<f64>, Option<f64>, Option<f64>, Option<f64>);
+
+/// [`SampleRow`] as read from JSON: every number may be `null` (a NaN written).
+#[derive(Deserialize)]
+struct RowRecord {
+    name: String,
+    maps: usize,
+    flakes: usize,
+    hwhm_deg: Option<f64>,
+    hwhm_ci95_deg: (Option<f64>, Option<f64>),
+    interval: String,
+    fitted_hwhm_deg: Option<(Option<f64>, Option<f64>)>,
+    near_specular: Vec<(String, Option<f64>, Option<f64>)>,
+    lightness: Option<MaybeFour>,
+}
+
+impl From<RowRecord> for SampleRow {
+    fn from(r: RowRecord) -> Self {
+        let n = |x: Option<f64>| x.unwrap_or(f64::NAN);
+        Self {
+            name: r.name,
+            maps: r.maps,
+            flakes: r.flakes,
+            hwhm_deg: n(r.hwhm_deg),
+            hwhm_ci95_deg: r.hwhm_ci95_deg,
+            interval: r.interval,
+            fitted_hwhm_deg: r.fitted_hwhm_deg.map(|(a, b)| (n(a), n(b))),
+            near_specular: r
+                .near_specular
+                .into_iter()
+                .map(|(m, t, v)| (m, n(t), v))
+                .collect(),
+            lightness: r.lightness.map(|(a, b, c, d)| (n(a), n(b), n(c), d)),
+        }
+    }
 }
 
 /// The line of sample `name` of `maps` maps; `qname` names its quoted interval.
@@ -180,4 +222,31 @@ pub fn comparison_report(rows: &[SampleRow]) -> (String, Document) {
     header.extend(models.iter().map(|m| format!("rms near-specular, {m}")));
     d.push(Block::Table(header, table));
     (csv, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row with NaNs where `row` puts them (a missing readout's lightness, a fit
+    /// without its uncertainty) goes through JSON (`null`) and prints the same
+    /// samples.csv line; the in-memory line is the reference.
+    #[test]
+    fn a_row_with_nans_reads_back_from_json_to_the_same_line() {
+        let row = SampleRow {
+            name: "a".into(),
+            maps: 2,
+            flakes: 31,
+            hwhm_deg: 6.25,
+            hwhm_ci95_deg: (Some(5.5), None),
+            interval: "map level".into(),
+            fitted_hwhm_deg: Some((6.0, f64::NAN)),
+            near_specular: vec![("distribution".into(), 30.0, None)],
+            lightness: Some((f64::NAN, 41.5, f64::NAN, None)),
+        };
+        let text = serde_json::to_string(&row).unwrap();
+        assert!(text.contains("null"), "{text}");
+        let back: SampleRow = serde_json::from_str(&text).unwrap();
+        assert_eq!(comparison_report(&[back]).0, comparison_report(&[row]).0);
+    }
 }

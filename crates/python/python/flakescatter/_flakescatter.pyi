@@ -526,3 +526,6 @@ def _sample_name(path: PathLike) -> str:
 
 def _comparison_table(rows: list[str]) -> Tuple[str, str, str]:
     """``(samples.csv, index.md, index.html)`` from ``summary.json`` ``comparison_row``s."""
+
+def _check_sample_names(names: list[str], files: list[PathLike], reserved: list[str]) -> None:
+    """Refuse sample names that cannot each have their own folder (``analyze``'s rule)."""

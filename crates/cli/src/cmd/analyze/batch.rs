@@ -13,8 +13,6 @@
 
 use std::path::Path;
 
-use anyhow::bail;
-
 use super::OWNER;
 use crate::output::batch::Batch;
 use crate::output::owned::MARKER;
@@ -31,36 +29,11 @@ pub fn open(dir: &Path) -> anyhow::Result<Batch> {
     Batch::open(dir, BATCH_OWNER, &COMPARISON_FILES, OWNER)
 }
 
-/// Refuses sample names that cannot each have their own folder in a batch directory:
-/// two equal names (also ignoring case: one folder on case-insensitive file systems,
-/// macOS and Windows) and names of the batch's own files. Called before any work.
+/// Refuses sample names that cannot each have their own folder in a batch directory
+/// (`flakescatter::analyze::check_sample_names`, with the batch's own files and the
+/// marker reserved). Called before any work.
 pub fn check_names(names: &[(&str, &Path)]) -> anyhow::Result<()> {
-    for (k, (name, file)) in names.iter().enumerate() {
-        let lower = name.to_lowercase();
-        if let Some(own) = COMPARISON_FILES
-            .iter()
-            .chain(std::iter::once(&MARKER))
-            .find(|f| f.to_lowercase() == lower)
-        {
-            bail!(
-                "sample {} is named `{name}`, the name of the batch's own file `{own}` in --out: give it another `name`",
-                file.display()
-            );
-        }
-        if let Some((other, ofile)) = names[..k].iter().find(|(o, _)| o.to_lowercase() == lower) {
-            if other == name {
-                bail!(
-                    "samples {} and {} are both named `{name}`: give one of them another `name`",
-                    ofile.display(),
-                    file.display(),
-                );
-            }
-            bail!(
-                "samples {} and {} are named `{other}` and `{name}`, one folder on file systems that ignore case (macOS, Windows): give one of them another `name`",
-                ofile.display(),
-                file.display(),
-            );
-        }
-    }
-    Ok(())
+    let mut reserved: Vec<&str> = COMPARISON_FILES.to_vec();
+    reserved.push(MARKER);
+    flakescatter::analyze::check_sample_names(names, &reserved).map_err(|e| anyhow::anyhow!(e))
 }
