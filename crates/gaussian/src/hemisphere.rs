@@ -33,7 +33,7 @@ const OUTER_PANELS: usize = 400;
 /// Geometric break points `x0 · 2^k` below `hi` with `x0 = min(1e-4, scale/8)`, so that
 /// peaks of any width from `scale` (or 0.1 mrad) up are seen by the first panels, plus
 /// the `extra` points (bin edges of a table) inside `(0, hi)`.
-fn scale_breaks(hi: f64, scale: f64, extra: &[f64]) -> Vec<f64> {
+pub(crate) fn scale_breaks(hi: f64, scale: f64, extra: &[f64]) -> Vec<f64> {
     let mut v: Vec<f64> = extra
         .iter()
         .copied()
@@ -209,4 +209,18 @@ pub fn totals_normal_space(model: &DistributionModel, inc: &Incidence) -> Normal
         back: results[3],
         error: results[4],
     }
+}
+
+/// The base term's hemispherical total `∫ f_base(θi, r) cos θr dΩr` (physics.md §13),
+/// fraction of the incident beam, with its error estimate; 0 without a base. The base's
+/// light does not depend on the exit azimuth, so the integral is `2π ∫ f cos θ sin θ dθ`
+/// by adaptive Gauss–Kronrod 15.
+#[must_use]
+pub fn base_total(model: &DistributionModel, inc: &Incidence) -> (f64, f64) {
+    let f = |theta: f64| {
+        let (s, c) = theta.sin_cos();
+        model.base_brdf(inc, &Vec3::new(s, 0.0, c)) * c * s
+    };
+    let (v, e) = adaptive(f, 0.0, FRAC_PI_2, &[], 1e-300, OUTER_REL, OUTER_PANELS);
+    (2.0 * PI * v, 2.0 * PI * e)
 }

@@ -87,6 +87,34 @@ pub struct Args {
     pub params: Option<PathBuf>,
     #[command(flatten)]
     pub paint: PaintFlags,
+    /// Albedo (0 to 1) of a Lambertian base under the flakes (physics.md §13): the light
+    /// thin-film flakes transmit reaches it and comes back through them and the clear
+    /// coat. Only with --flake-stack without --flake-core (other flakes transmit
+    /// nothing); unpolarised light only. Default 0, a black base.
+    #[arg(long, value_name = "RHO", allow_negative_numbers = true)]
+    pub base_albedo: Option<f64>,
+}
+
+/// `--base-albedo`, checked against the value's range and the flakes and readouts it
+/// applies to; `None` when not given.
+fn base_albedo(args: &Args, polarised: bool) -> anyhow::Result<Option<f64>> {
+    let Some(rho) = args.base_albedo else {
+        return Ok(None);
+    };
+    if !(rho.is_finite() && (0.0..=1.0).contains(&rho)) {
+        bail!("--base-albedo {rho}: expected an albedo in [0, 1] (0 is a black base)");
+    }
+    if args.spectral.flake_stack.is_none() || args.spectral.flake_core.is_some() {
+        bail!(
+            "--base-albedo: the base under the flakes only receives light that thin-film flakes transmit; give --flake-stack SPEC without --flake-core (metal flakes and a core transmit nothing)"
+        );
+    }
+    if polarised {
+        bail!(
+            "--base-albedo: the base under the flakes is modelled for unpolarised light; it does not apply to --polarization/--incident/--analyzer"
+        );
+    }
+    Ok(Some(rho))
 }
 
 /// Runs the subcommand.
@@ -100,6 +128,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan.stdout("--json");
     }
     if args.params.is_some() || args.paint.paint {
+        if args.base_albedo.is_some() {
+            bail!(
+                "--base-albedo applies to the distribution model; a paint has its own base (--params/--paint, physics.md §12.3)"
+            );
+        }
         if args.params.is_some() && args.paint.paint {
             bail!("--params and --paint: give the paint either as a parameter file or by flags");
         }
@@ -114,6 +147,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ConeKind::Constant => ConeMethod::ConstantIntegrand,
     };
     let polarimetry = args.polarization.polarimetry(settings.transmission)?;
+    if let Some(rho) = base_albedo(&args, polarimetry.is_some())? {
+        settings.base_albedo = rho;
+    }
     if args.multi_angle {
         if polarimetry.is_some() {
             bail!(
@@ -367,6 +403,9 @@ fn spectral_curves(
             "warnings": warnings,
             "out": args.out.as_ref().map(|p| p.display().to_string()),
         });
+        if let Some(rho) = args.base_albedo {
+            summary["inputs"]["base_albedo"] = json!(rho);
+        }
         if table.is_none() {
             summary["rows"] = crate::spectra::spectral_rows_json(&s);
         } else {
@@ -426,13 +465,16 @@ fn multi_angle(
         &|_, _| {},
     )
     .context("--multi-angle")?;
-    let inputs = json!({
+    let mut inputs = json!({
         "instrument": args.instrument.optics.echo(args.instrument.clearcoat),
         "orientation": orientation_echo,
         "spectral": coating_echo,
         "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
         "colorimetry": args.colour.echo(),
     });
+    if let Some(rho) = args.base_albedo {
+        inputs["base_albedo"] = json!(rho);
+    }
     crate::spectra::multi_angle_outputs(
         plan,
         "model --multi-angle",
