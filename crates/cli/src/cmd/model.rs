@@ -87,23 +87,21 @@ pub struct Args {
     pub params: Option<PathBuf>,
     #[command(flatten)]
     pub paint: PaintFlags,
-    /// Albedo (0 to 1) of a Lambertian base under the flakes (physics.md §13): the light
-    /// thin-film flakes transmit reaches it and comes back through them and the clear
-    /// coat. Only with --flake-stack without --flake-core (other flakes transmit
-    /// nothing); unpolarised light only. Default 0, a black base.
-    #[arg(long, value_name = "RHO", allow_negative_numbers = true)]
-    pub base_albedo: Option<f64>,
 }
 
 /// `--base-albedo`, checked against the value's range and the flakes and readouts it
 /// applies to; `None` when not given.
+/// (Without --paint; the flag is the paint's per-channel list with it.)
 fn base_albedo(args: &Args, polarised: bool) -> anyhow::Result<Option<f64>> {
-    let Some(rho) = args.base_albedo else {
+    let Some(text) = args.paint.base_albedo.as_deref() else {
         return Ok(None);
     };
-    if !(rho.is_finite() && (0.0..=1.0).contains(&rho)) {
-        bail!("--base-albedo {rho}: expected an albedo in [0, 1] (0 is a black base)");
-    }
+    let rho = match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=1.0).contains(&v) => v,
+        _ => bail!(
+            "--base-albedo {text}: expected one albedo in [0, 1] for the base under the flakes (0 is a black base; a list per channel is for --paint)"
+        ),
+    };
     if args.spectral.flake_stack.is_none() || args.spectral.flake_core.is_some() {
         bail!(
             "--base-albedo: the base under the flakes only receives light that thin-film flakes transmit; give --flake-stack SPEC without --flake-core (metal flakes and a core transmit nothing)"
@@ -128,9 +126,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan.stdout("--json");
     }
     if args.params.is_some() || args.paint.paint {
-        if args.base_albedo.is_some() {
+        if args.params.is_some() && args.paint.base_albedo.is_some() {
             bail!(
-                "--base-albedo applies to the distribution model; a paint has its own base (--params/--paint, physics.md §12.3)"
+                "--base-albedo with --params: the paint's base is in its parameter file (physics.md §12.3)"
             );
         }
         if args.params.is_some() && args.paint.paint {
@@ -403,8 +401,8 @@ fn spectral_curves(
             "warnings": warnings,
             "out": args.out.as_ref().map(|p| p.display().to_string()),
         });
-        if let Some(rho) = args.base_albedo {
-            summary["inputs"]["base_albedo"] = json!(rho);
+        if args.paint.base_albedo.is_some() {
+            summary["inputs"]["base_albedo"] = json!(settings.base_albedo);
         }
         if table.is_none() {
             summary["rows"] = crate::spectra::spectral_rows_json(&s);
@@ -472,8 +470,8 @@ fn multi_angle(
         "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
         "colorimetry": args.colour.echo(),
     });
-    if let Some(rho) = args.base_albedo {
-        inputs["base_albedo"] = json!(rho);
+    if args.paint.base_albedo.is_some() {
+        inputs["base_albedo"] = json!(settings.base_albedo);
     }
     crate::spectra::multi_angle_outputs(
         plan,
