@@ -13,8 +13,9 @@
 //!   that the weights sum to 1; §4's own sum is `1 + Λ(θ)`, the back-lit share, below
 //!   1e-3 at n = 1.5 for widths under 15°). The layer's mean transmittance and
 //!   reflectance seen from above and from below are
-//!   `τ↓(θ) = E[T↓(γ)]`, `τ↑(θ) = E[T↑(γ)]`, `ρ̄↑(θ) = E[R↑(γ)]`, `T↑`, `R↑` those of the
-//!   reversed stack (the same as `T↓`, `R↓` for a symmetric or a lossless stack).
+//!   `τ↓(θ) = E[T↓(γ)]`, `ρ̄↓(θ) = E[R↓(γ)]`, `τ↑(θ) = E[T↑(γ)]`, `ρ̄↑(θ) = E[R↑(γ)]`,
+//!   `T↑`, `R↑` those of the reversed stack (the same as `T↓`, `R↓` for a symmetric or a
+//!   lossless stack).
 //! * **The cavity.** Light going up at `θ` above the flakes meets the top surface:
 //!   `T_top(θ)` leaves, `1 − T_top(θ)` (all of it beyond the critical angle) goes back
 //!   down and meets the flakes' tops: `τ↓(θ)` passes to the base, `ρ̄↓(θ)` is sent up

@@ -13,7 +13,8 @@
 //! over the escaping, lost and back-lit normals, which obey the closed form
 //! `escaping + lost − back = 1` (because `∫ D m dΩ = ẑ` for an isotropic distribution,
 //! so `∫ D γ dΩ = −k1·ẑ = cos θt`). Both use nested adaptive Gauss–Kronrod 15.
-//! Both exploit the mirror symmetry `y → −y` of the in-plane incidence.
+//! Both exploit the mirror symmetry `y → −y` of the in-plane incidence. The base under
+//! transmitting flakes (physics.md §13) has its own total, [`base_total`].
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
