@@ -395,7 +395,6 @@ pub(crate) fn plain_model(
     settings: &Settings,
     topo: &TopoSettings,
 ) -> Result<TopoModel, PipelineError> {
-    check_black_base(settings)?;
     if instrument.aperture() <= 0.0 {
         return Err(PipelineError::Instrument(
             "the topographic model counts rays into detector cones: the aperture must be > 0"
@@ -461,7 +460,6 @@ pub fn isotropic_curves(
     maps: &[&HeightMap],
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(Curves, IsotropicResult), PipelineError> {
-    check_black_base(settings)?;
     if instrument.aperture() <= 0.0 {
         return Err(PipelineError::Instrument(
             "the topographic model counts rays into detector cones: the aperture must be > 0"
@@ -520,12 +518,14 @@ pub(crate) fn isotropic_curves_of(
 /// The topographic model for a coating, settings and topographic options.
 ///
 /// # Errors
-/// [`PipelineError::Topo`] for invalid options.
+/// [`PipelineError::Topo`] for invalid options; [`PipelineError::Spectral`] for a
+/// non-zero [`Settings::base_albedo`] (the topographic model's base is black).
 pub fn topo_model(
     coating: &Coating,
     settings: &Settings,
     topo: &TopoSettings,
 ) -> Result<TopoModel, PipelineError> {
+    check_black_base(settings)?;
     Ok(TopoModel::new(TopoOptions {
         n: coating.n,
         transmission: settings.transmission,
