@@ -189,7 +189,7 @@ fn facet_means<const K: usize>(theta: f64, tilts: &[(f64, f64)], g: &[&[f64]; K]
 /// the distribution's narrowest feature and its bin edges, weights times `p2 sin θm`.
 fn tilt_nodes(orientation: &Orientation) -> Vec<(f64, f64)> {
     let hi = orientation.max_theta().min(FRAC_PI_2);
-    let mut breaks = crate::hemisphere::scale_breaks(
+    let mut breaks = crate::breaks::scale_breaks(
         hi,
         orientation.narrowest_feature(),
         orientation.bin_edges().unwrap_or(&[]),

@@ -20,6 +20,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use flakescatter_optics::{UnitVec3, Vec3, reflection};
 
+use crate::breaks::scale_breaks;
 use crate::model::{DistributionModel, Incidence};
 use crate::quad::adaptive;
 
@@ -30,23 +31,6 @@ const OUTER_REL: f64 = 1e-10;
 /// Panel budgets.
 const INNER_PANELS: usize = 400;
 const OUTER_PANELS: usize = 400;
-
-/// Geometric break points `x0 · 2^k` below `hi` with `x0 = min(1e-4, scale/8)`, so that
-/// peaks of any width from `scale` (or 0.1 mrad) up are seen by the first panels, plus
-/// the `extra` points (bin edges of a table) inside `(0, hi)`.
-pub(crate) fn scale_breaks(hi: f64, scale: f64, extra: &[f64]) -> Vec<f64> {
-    let mut v: Vec<f64> = extra
-        .iter()
-        .copied()
-        .filter(|&e| e > 0.0 && e < hi)
-        .collect();
-    let mut x = (scale / 8.0).clamp(1e-300, 1e-4);
-    while x < hi {
-        v.push(x);
-        x *= 2.0;
-    }
-    v
-}
 
 /// Inner adaptive integral over `[0, hi]` with break points.
 fn inner_integral(f: impl FnMut(f64) -> f64, hi: f64, breaks: &[f64]) -> f64 {

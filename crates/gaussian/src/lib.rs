@@ -46,6 +46,7 @@
 
 pub mod base;
 pub mod batch;
+mod breaks;
 pub mod cone;
 pub mod hemisphere;
 pub mod model;
