@@ -5,7 +5,7 @@
 //! beam power, BRDFs per steradian; `relative` is normalised to the same detector at the
 //! specular direction (physics.md §4).
 
-use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelError, ModelOptions};
+use flakescatter_gaussian::{BaseLoop, ConeMethod, DistributionModel, ModelError, ModelOptions};
 use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::polarization::{Transmission, Weighting};
@@ -52,7 +52,7 @@ impl Default for Coating {
 
 /// How the models weight and combine Fresnel factors, and whether the clear coat's own
 /// reflection is included (physics.md §4–§6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Settings {
     /// Fresnel bookkeeping (default `exact-unpolarized`).
     pub transmission: Transmission,
@@ -62,6 +62,11 @@ pub struct Settings {
     pub clearcoat: bool,
     /// Cone integration of the distribution model (default exact).
     pub cone_method: ConeMethod,
+    /// Albedo `ρ ∈ [0, 1]` of a Lambertian base under the flakes of the distribution
+    /// model (physics.md §13): only with thin-film flakes without a core, which transmit
+    /// light down to it. Default 0, a black base (the model without it, to the bit).
+    /// The topographic and Mueller paths refuse a non-zero value.
+    pub base_albedo: f64,
 }
 
 /// Where flake orientations come from for the distribution model.
@@ -140,7 +145,19 @@ pub fn distribution_model(
     settings: &Settings,
     orientation: Orientation,
 ) -> Result<DistributionModel, PipelineError> {
-    Ok(DistributionModel::new(
+    distribution_model_with(coating, settings, orientation, None)
+}
+
+/// [`distribution_model`] with the binder's absorption when `absorption` is given, and
+/// the base under the flakes of [`Settings::base_albedo`] (physics.md §13) when it is
+/// not 0.
+fn distribution_model_with(
+    coating: &Coating,
+    settings: &Settings,
+    orientation: Orientation,
+    absorption: Option<PathAbsorption>,
+) -> Result<DistributionModel, PipelineError> {
+    let mut model = DistributionModel::new(
         orientation,
         coating.n,
         ModelOptions {
@@ -150,7 +167,14 @@ pub fn distribution_model(
             clearcoat: settings.clearcoat,
             exit_fresnel: true,
         },
-    )?)
+    )?;
+    if let Some(a) = absorption {
+        model = model.with_absorption(a);
+    }
+    if settings.base_albedo != 0.0 {
+        model = model.with_base(settings.base_albedo, BaseLoop::Included)?;
+    }
+    Ok(model)
 }
 
 /// The distribution model (physics.md §4) for `source` seen by `instrument`.
@@ -198,10 +222,7 @@ pub(crate) fn distribution_curves_of(
     absorption: Option<PathAbsorption>,
 ) -> Result<Curves, PipelineError> {
     let description = describe(&orientation);
-    let mut model = distribution_model(coating, settings, orientation)?;
-    if let Some(a) = absorption {
-        model = model.with_absorption(a);
-    }
+    let model = distribution_model_with(coating, settings, orientation, absorption)?;
     let mut rows = Vec::with_capacity(
         instrument
             .theta_i()
@@ -275,6 +296,20 @@ fn curve_rows<E: From<PipelineError>>(
     })
 }
 
+/// Refuses [`Settings::base_albedo`] for the topographic models, whose base under the
+/// flakes is black (physics.md §13).
+///
+/// # Errors
+/// [`PipelineError::Spectral`] for a non-zero albedo.
+pub(crate) fn check_black_base(settings: &Settings) -> Result<(), PipelineError> {
+    if settings.base_albedo != 0.0 {
+        return Err(PipelineError::Spectral(
+            "base albedo: the topographic model has a black base under the flakes (physics.md §13); a reflecting base is modelled in the distribution model only".into(),
+        ));
+    }
+    Ok(())
+}
+
 /// Options of the topographic model that are not instrument or coating settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TopoSettings {
@@ -325,6 +360,7 @@ pub(crate) fn topographic_curves_of(
     maps: &[&HeightMap],
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(Curves, TopoResult), PipelineError> {
+    check_black_base(settings)?;
     if instrument.aperture() <= 0.0 {
         return Err(PipelineError::Instrument(
             "the topographic model counts rays into detector cones: the aperture must be > 0"
@@ -482,12 +518,14 @@ pub(crate) fn isotropic_curves_of(
 /// The topographic model for a coating, settings and topographic options.
 ///
 /// # Errors
-/// [`PipelineError::Topo`] for invalid options.
+/// [`PipelineError::Topo`] for invalid options; [`PipelineError::Spectral`] for a
+/// non-zero [`Settings::base_albedo`] (the topographic model's base is black).
 pub fn topo_model(
     coating: &Coating,
     settings: &Settings,
     topo: &TopoSettings,
 ) -> Result<TopoModel, PipelineError> {
+    check_black_base(settings)?;
     Ok(TopoModel::new(TopoOptions {
         n: coating.n,
         transmission: settings.transmission,

@@ -143,6 +143,11 @@ impl MuellerCurves {
 
 /// Refuses settings whose polarisation bookkeeping has no Mueller form (module docs).
 fn check_settings(settings: &Settings) -> Result<(), PipelineError> {
+    if settings.base_albedo != 0.0 {
+        return Err(PipelineError::Polarization(
+            "a base under the flakes (base albedo) is modelled for unpolarised light: it does not apply to Mueller matrices".into(),
+        ));
+    }
     if settings.transmission != Transmission::ExactUnpolarized {
         return Err(PipelineError::Polarization(format!(
             "transmission `{}` does not apply to Mueller matrices: they are exact for every polarisation; give the incident polarisation as a Stokes vector (s = (1, 1, 0, 0), p = (1, -1, 0, 0)) and leave the transmission at `exact-unpolarized`",

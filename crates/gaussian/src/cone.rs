@@ -123,16 +123,25 @@ impl DistributionModel {
         let axis = cone.axis().into_inner();
         let alpha = cone.half_angle();
         if alpha == 0.0 {
-            return Collected::point(self.brdf(inc, &axis), axis.z);
+            let mut f = self.brdf(inc, &axis);
+            if self.base().is_some() {
+                f += self.base_brdf(inc, &axis);
+            }
+            return Collected::point(f, axis.z);
         }
         let solid = cone.solid_angle();
-        let (mut rho, proj, error) = match method {
+        let (mut rho, proj, mut error) = match method {
             ConeMethod::ConstantIntegrand => {
                 let f = self.brdf(inc, &axis);
                 (f * axis.z * solid, axis.z.max(0.0) * solid, 0.0)
             }
             ConeMethod::Exact => self.cone_integral(inc, cone),
         };
+        if self.base().is_some() {
+            let (b, e) = self.base_cone(inc, cone, method);
+            rho += b;
+            error += e;
+        }
         let clearcoat_seen = self.options().clearcoat && cone.contains(&inc.specular);
         if clearcoat_seen {
             rho += inc.clearcoat;
@@ -144,6 +153,26 @@ impl DistributionModel {
             error,
             clearcoat_seen,
         }
+    }
+
+    /// What the cone collects of the base term (physics.md §13) with its error estimate:
+    /// the same axis rule as the flakes' light (Kronrod 15 × 48, the base's light is
+    /// smooth) or the constant-integrand approximation.
+    fn base_cone(&self, inc: &Incidence, cone: &Cone, method: ConeMethod) -> (f64, f64) {
+        if method == ConeMethod::ConstantIntegrand {
+            let axis = cone.axis().into_inner();
+            return (
+                self.base_brdf(inc, &axis) * axis.z * cone.solid_angle(),
+                0.0,
+            );
+        }
+        let points = |dirs: &[Vec3], out: &mut Vec<f64>| {
+            out.clear();
+            out.extend(dirs.iter().map(|r| self.base_brdf(inc, r)));
+        };
+        let (rho, _, err) =
+            self.cone_rule_of(cone, &gk15_nodes(0.0, cone.half_angle()), 48, Some(&points));
+        (rho, err)
     }
 
     /// `(∫ f cos θr dΩ, ∫ max(cos θr, 0) dΩ, error of the first)` over the cone, by the

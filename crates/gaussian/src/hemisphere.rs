@@ -13,12 +13,14 @@
 //! over the escaping, lost and back-lit normals, which obey the closed form
 //! `escaping + lost − back = 1` (because `∫ D m dΩ = ẑ` for an isotropic distribution,
 //! so `∫ D γ dΩ = −k1·ẑ = cos θt`). Both use nested adaptive Gauss–Kronrod 15.
-//! Both exploit the mirror symmetry `y → −y` of the in-plane incidence.
+//! Both exploit the mirror symmetry `y → −y` of the in-plane incidence. The base under
+//! transmitting flakes (physics.md §13) has its own total, [`base_total`].
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use flakescatter_optics::{UnitVec3, Vec3, reflection};
 
+use crate::breaks::scale_breaks;
 use crate::model::{DistributionModel, Incidence};
 use crate::quad::adaptive;
 
@@ -29,23 +31,6 @@ const OUTER_REL: f64 = 1e-10;
 /// Panel budgets.
 const INNER_PANELS: usize = 400;
 const OUTER_PANELS: usize = 400;
-
-/// Geometric break points `x0 · 2^k` below `hi` with `x0 = min(1e-4, scale/8)`, so that
-/// peaks of any width from `scale` (or 0.1 mrad) up are seen by the first panels, plus
-/// the `extra` points (bin edges of a table) inside `(0, hi)`.
-fn scale_breaks(hi: f64, scale: f64, extra: &[f64]) -> Vec<f64> {
-    let mut v: Vec<f64> = extra
-        .iter()
-        .copied()
-        .filter(|&e| e > 0.0 && e < hi)
-        .collect();
-    let mut x = (scale / 8.0).clamp(1e-300, 1e-4);
-    while x < hi {
-        v.push(x);
-        x *= 2.0;
-    }
-    v
-}
 
 /// Inner adaptive integral over `[0, hi]` with break points.
 fn inner_integral(f: impl FnMut(f64) -> f64, hi: f64, breaks: &[f64]) -> f64 {
@@ -209,4 +194,18 @@ pub fn totals_normal_space(model: &DistributionModel, inc: &Incidence) -> Normal
         back: results[3],
         error: results[4],
     }
+}
+
+/// The base term's hemispherical total `∫ f_base(θi, r) cos θr dΩr` (physics.md §13),
+/// fraction of the incident beam, with its error estimate; 0 without a base. The base's
+/// light does not depend on the exit azimuth, so the integral is `2π ∫ f cos θ sin θ dθ`
+/// by adaptive Gauss–Kronrod 15.
+#[must_use]
+pub fn base_total(model: &DistributionModel, inc: &Incidence) -> (f64, f64) {
+    let f = |theta: f64| {
+        let (s, c) = theta.sin_cos();
+        model.base_brdf(inc, &Vec3::new(s, 0.0, c)) * c * s
+    };
+    let (v, e) = adaptive(f, 0.0, FRAC_PI_2, &[], 1e-300, OUTER_REL, OUTER_PANELS);
+    (2.0 * PI * v, 2.0 * PI * e)
 }

@@ -44,7 +44,9 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod base;
 pub mod batch;
+mod breaks;
 pub mod cone;
 pub mod hemisphere;
 pub mod model;
@@ -58,6 +60,7 @@ use flakescatter_optics::Vec3;
 use flakescatter_optics::detector::{Cone, in_plane_angle};
 use rayon::prelude::*;
 
+pub use base::{BaseLoop, BaseUnder};
 pub use cone::{Collected, ConeMethod};
 pub use flakescatter_numerics::simd::Kernels;
 pub use model::{DistributionModel, Incidence, ModelOptions, RayKernel};
@@ -82,6 +85,17 @@ pub enum ModelError {
     /// Nothing to compute.
     #[error("{0} list is empty")]
     Empty(&'static str),
+    /// A base albedo outside `[0, 1]` (physics.md §13).
+    #[error("base albedo {0} is not valid: expected a number in [0, 1]")]
+    BaseAlbedo(f64),
+    /// A base under flakes that transmit nothing (physics.md §13).
+    #[error(
+        "a base under the flakes needs flakes that transmit: a thin-film stack without an opaque core (metal flakes, and a core, send nothing down to it)"
+    )]
+    BaseFlake,
+    /// A base with a setting whose path it does not follow (physics.md §13).
+    #[error("a base under the flakes is not modelled with {0}")]
+    BaseSetting(&'static str),
     /// The constant-integrand approximation was asked for a distribution narrower than
     /// the aperture (see [`DistributionModel::check_method`]).
     #[error(
@@ -222,6 +236,11 @@ pub fn curve_each<E: From<ModelError>>(
                     .flat_map_iter(|block| {
                         let mut out = Vec::with_capacity(block.len());
                         model.brdf_batch(inc, block, &mut out);
+                        if model.base().is_some() {
+                            for (f, r) in out.iter_mut().zip(block) {
+                                *f += model.base_brdf(inc, r);
+                            }
+                        }
                         out
                     })
                     .collect();
@@ -243,6 +262,9 @@ pub fn curve_each<E: From<ModelError>>(
                     let axis = sc.axis().into_inner();
                     let mut out = Vec::with_capacity(1);
                     model.brdf_batch(inc, &[axis], &mut out);
+                    if model.base().is_some() {
+                        out[0] += model.base_brdf(inc, &axis);
+                    }
                     out[0] * axis.z
                 } else {
                     model.collect(inc, sc, method).power_per_sr

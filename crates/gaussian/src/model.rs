@@ -36,6 +36,7 @@ use flakescatter_optics::{UnitVec3, Vec3, detector, refraction};
 use flakescatter_stats::Orientation;
 
 use crate::ModelError;
+use crate::base::{BaseLoop, BaseUnder};
 
 /// Options of the distribution model. The defaults are the physical model of
 /// physics.md §4: exact unpolarised Fresnel factors, physical weighting, perfect-conductor
@@ -78,6 +79,8 @@ pub struct DistributionModel {
     options: ModelOptions,
     inv_mean_cos: f64,
     absorption: Option<PathAbsorption>,
+    /// A Lambertian base under transmitting flakes (physics.md §13), if any.
+    base: Option<std::sync::Arc<BaseUnder>>,
     /// The kernels of [`DistributionModel::brdf_batch`].
     kernels: Kernels,
 }
@@ -149,6 +152,7 @@ impl DistributionModel {
             options,
             inv_mean_cos,
             absorption: None,
+            base: None,
             kernels,
         })
     }
@@ -175,6 +179,61 @@ impl DistributionModel {
     pub fn with_absorption(mut self, absorption: PathAbsorption) -> Self {
         self.absorption = Some(absorption);
         self
+    }
+
+    /// The same model over a Lambertian base of albedo `albedo` under the flakes
+    /// (physics.md §13; module [`crate::base`]): its term is added to what every detector
+    /// collects ([`DistributionModel::collect`], [`crate::curve`]); the point BRDF
+    /// [`DistributionModel::brdf`] stays the flakes' own, the base's is
+    /// [`DistributionModel::base_brdf`]. `albedo = 0` adds exactly nothing and keeps no
+    /// base.
+    ///
+    /// # Errors
+    /// [`ModelError::BaseAlbedo`] unless `0 ≤ albedo ≤ 1`; [`ModelError::BaseFlake`]
+    /// unless the flakes are a thin-film stack without a core; [`ModelError::BaseSetting`]
+    /// with binder absorption, a polarised beam (`s`, `p`), the paper-printed weighting,
+    /// or without the exit Fresnel factor.
+    pub fn with_base(mut self, albedo: f64, repeat: BaseLoop) -> Result<Self, ModelError> {
+        if !(albedo.is_finite() && (0.0..=1.0).contains(&albedo)) {
+            return Err(ModelError::BaseAlbedo(albedo));
+        }
+        if albedo == 0.0 {
+            self.base = None;
+            return Ok(self);
+        }
+        let o = &self.options;
+        if self.absorption.is_some() {
+            return Err(ModelError::BaseSetting("binder absorption"));
+        }
+        if matches!(o.transmission, Transmission::S | Transmission::P) {
+            return Err(ModelError::BaseSetting(
+                "a polarised beam (transmission s or p)",
+            ));
+        }
+        if o.weighting != Weighting::Physical {
+            return Err(ModelError::BaseSetting("the paper-printed weighting"));
+        }
+        if !o.exit_fresnel {
+            return Err(ModelError::BaseSetting("the exit Fresnel factor off"));
+        }
+        let base = BaseUnder::new(albedo, self.n, &o.flake, &self.orientation, repeat)?;
+        self.base = Some(std::sync::Arc::new(base));
+        Ok(self)
+    }
+
+    /// The base under the flakes, if any.
+    #[must_use]
+    pub fn base(&self) -> Option<&BaseUnder> {
+        self.base.as_deref()
+    }
+
+    /// The base term's point BRDF `f_base(θi, r)` (sr⁻¹; physics.md §13); 0 without a
+    /// base.
+    #[must_use]
+    pub fn base_brdf(&self, inc: &Incidence, r: &Vec3) -> f64 {
+        self.base.as_ref().map_or(0.0, |b| {
+            b.brdf(b.reaching(inc.cos_t, inc.entry.ts, inc.entry.tp), r)
+        })
     }
 
     /// The binder absorption, if any.

@@ -149,7 +149,7 @@ fn cone_method(py: Python<'_>, cone: &str) -> PyResult<ConeMethod> {
 /// The distribution model (physics.md §4): reflectance of mirror flakes under a clear
 /// coat from their orientation distribution, as `flakescatter model`.
 #[pyfunction]
-#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None, cone = "exact", flake_stack = None, flake_core = None, wavelength_nm = None))]
+#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None, cone = "exact", flake_stack = None, flake_core = None, wavelength_nm = None, base_albedo = 0.0))]
 pub fn distribution_model<'py>(
     py: Python<'py>,
     n: f64,
@@ -169,11 +169,21 @@ pub fn distribution_model<'py>(
     flake_stack: Option<&str>,
     flake_core: Option<&str>,
     wavelength_nm: Option<f64>,
+    base_albedo: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
     let coat = coating_with_stack(py, n, flake_index, flake_stack, flake_core, wavelength_nm)?;
     let mut set = settings(py, transmission, weighting, clearcoat)?;
     set.cone_method = cone_method(py, cone)?;
+    // A Lambertian base under thin-film flakes (physics.md §13); the model refuses it
+    // for flakes that transmit nothing.
+    if !(base_albedo.is_finite() && (0.0..=1.0).contains(&base_albedo)) {
+        return Err(input(
+            py,
+            format!("base_albedo={base_albedo}: expected an albedo in [0, 1] (0 is a black base)"),
+        ));
+    }
+    set.base_albedo = base_albedo;
     let instrument = args.instrument(py)?;
     let source =
         OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);

@@ -187,3 +187,23 @@ def test_settings_share_the_cli_messages():
         fs.topographic_model([m], window=4)
     with pytest.raises(fs.InputError, match="^tile_um=-2: the tile side must be"):
         fs.topographic_model([m], tile_um=-2.0)
+
+
+def test_base_under_stack_flakes_equals_cli(cli):
+    # A Lambertian base under free thin-film flakes (physics.md §13): the same numbers as
+    # `model --flake-stack ... --wavelengths 550 --base-albedo 0.8` (whose spectral table
+    # leads with wavelength_nm), above the black base far from specular.
+    kw = dict(hwhm=4.0, theta_i=[30.0], theta_s=np.arange(-70.0, 71.0, 10.0))
+    got = fs.distribution_model(flake_stack="TiO2:100", wavelength_nm=550.0, base_albedo=0.8, **kw)
+    text = cli.run("model", "--flake-stack", "TiO2:100", "--wavelengths", "550", "--base-albedo", "0.8",
+                   "--hwhm", "4", "--theta-i", "30", "--theta-s", "-70:70:10")
+    text = "".join(line.split(",", 1)[1] + "\n" for line in text.strip().splitlines())
+    assert_table_equal(got, text, CURVE)
+    black = fs.distribution_model(flake_stack="TiO2:100", wavelength_nm=550.0, **kw)
+    far = np.abs(kw["theta_s"] + 30.0) > 40.0
+    assert np.all(got["brdf_per_sr"][far] > black["brdf_per_sr"][far])
+    for bad in [-0.1, 1.5, float("nan")]:
+        with pytest.raises(fs.InputError, match="base_albedo"):
+            fs.distribution_model(flake_stack="TiO2:100", wavelength_nm=550.0, base_albedo=bad, **kw)
+    with pytest.raises(fs.InputError, match="transmit"):
+        fs.distribution_model(flake_index=(0.96, 6.69), base_albedo=0.5, **kw)

@@ -124,6 +124,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else if out != Some(Dest::Stdout) {
         plan.stdout("the table");
     }
+    args.paint.refuse_base_without_paint("compare")?;
     if args.params.is_some() || args.paint.paint {
         if args.params.is_some() && args.paint.paint {
             bail!("--params and --paint: give the paint either as a parameter file or by flags");

@@ -67,6 +67,7 @@ fn check(args: &Args) -> anyhow::Result<Option<Vec<f64>>> {
     if args.params.is_some() && args.paint.paint {
         bail!("--params and --paint: give the paint either as a parameter file or by flags");
     }
+    args.paint.refuse_base_without_paint("export")?;
     let is_paint = args.params.is_some() || args.paint.paint;
     if is_paint
         && (args.optics.transmission != Default::default()

@@ -89,6 +89,32 @@ pub struct Args {
     pub paint: PaintFlags,
 }
 
+/// `--base-albedo`, checked against the value's range and the flakes and readouts it
+/// applies to; `None` when not given.
+/// (Without --paint; the flag is the paint's per-channel list with it.)
+fn base_albedo(args: &Args, polarised: bool) -> anyhow::Result<Option<f64>> {
+    let Some(text) = args.paint.base_albedo.as_deref() else {
+        return Ok(None);
+    };
+    let rho = match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=1.0).contains(&v) => v,
+        _ => bail!(
+            "--base-albedo {text}: expected one albedo in [0, 1] for the base under the flakes (0 is a black base; a list per channel is for --paint)"
+        ),
+    };
+    if args.spectral.flake_stack.is_none() || args.spectral.flake_core.is_some() {
+        bail!(
+            "--base-albedo: the base under the flakes only receives light that thin-film flakes transmit; give --flake-stack SPEC without --flake-core (metal flakes and a core transmit nothing)"
+        );
+    }
+    if polarised {
+        bail!(
+            "--base-albedo: the base under the flakes is modelled for unpolarised light; it does not apply to --polarization/--incident/--analyzer"
+        );
+    }
+    Ok(Some(rho))
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
@@ -100,6 +126,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan.stdout("--json");
     }
     if args.params.is_some() || args.paint.paint {
+        if args.params.is_some() && args.paint.base_albedo.is_some() {
+            bail!(
+                "--base-albedo with --params: the paint's base is in its parameter file (physics.md §12.3)"
+            );
+        }
         if args.params.is_some() && args.paint.paint {
             bail!("--params and --paint: give the paint either as a parameter file or by flags");
         }
@@ -114,6 +145,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ConeKind::Constant => ConeMethod::ConstantIntegrand,
     };
     let polarimetry = args.polarization.polarimetry(settings.transmission)?;
+    if let Some(rho) = base_albedo(&args, polarimetry.is_some())? {
+        settings.base_albedo = rho;
+    }
     if args.multi_angle {
         if polarimetry.is_some() {
             bail!(
@@ -367,6 +401,9 @@ fn spectral_curves(
             "warnings": warnings,
             "out": args.out.as_ref().map(|p| p.display().to_string()),
         });
+        if args.paint.base_albedo.is_some() {
+            summary["inputs"]["base_albedo"] = json!(settings.base_albedo);
+        }
         if table.is_none() {
             summary["rows"] = crate::spectra::spectral_rows_json(&s);
         } else {
@@ -426,13 +463,16 @@ fn multi_angle(
         &|_, _| {},
     )
     .context("--multi-angle")?;
-    let inputs = json!({
+    let mut inputs = json!({
         "instrument": args.instrument.optics.echo(args.instrument.clearcoat),
         "orientation": orientation_echo,
         "spectral": coating_echo,
         "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
         "colorimetry": args.colour.echo(),
     });
+    if args.paint.base_albedo.is_some() {
+        inputs["base_albedo"] = json!(settings.base_albedo);
+    }
     crate::spectra::multi_angle_outputs(
         plan,
         "model --multi-angle",

@@ -37,13 +37,10 @@ pub struct PaintFlags {
     )]
     pub flake_scale: Option<String>,
     /// --paint: base albedo per channel, in [0, 1] (one value, or one per channel;
-    /// default 0).
-    #[arg(
-        long,
-        value_name = "LIST",
-        requires = "paint",
-        allow_hyphen_values = true
-    )]
+    /// default 0). `model` without --paint: one albedo of a Lambertian base under
+    /// thin-film flakes (--flake-stack without --flake-core; physics.md §13), default 0,
+    /// a black base.
+    #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
     pub base_albedo: Option<String>,
     /// --paint: GGX slope scale of the coat's surface, in [0, 2] (default 0: flat).
     #[arg(
@@ -115,6 +112,17 @@ fn per_channel(flag: &str, text: Option<&str>, n: usize, default: f64) -> anyhow
 }
 
 impl PaintFlags {
+    /// Refuses `--base-albedo` without `--paint` in a command whose distribution model
+    /// has no base (`compare`, `export`: a base under the flakes is `model`'s).
+    pub fn refuse_base_without_paint(&self, command: &str) -> anyhow::Result<()> {
+        if self.base_albedo.is_some() && !self.paint {
+            bail!(
+                "--base-albedo without --paint: {command} models a black base under the flakes (a base under thin-film flakes is `model --flake-stack SPEC --base-albedo RHO`)"
+            );
+        }
+        Ok(())
+    }
+
     /// The paint of the flags with `orientation`, a coat of index `n`, flakes of
     /// `metal`; checked (the model's own range checks name the value).
     pub fn model(
