@@ -259,7 +259,7 @@ fn monte_carlo_case(flake: FlakeReflectance, rho: f64, repeat: bool, seed: u64) 
         flakes: &table,
     };
     let cones = cones();
-    let count = 600_000usize;
+    let count = 2_400_000usize;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for ti_deg in [20.0f64, 60.0] {
         let ti = ti_deg.to_radians();
