@@ -370,3 +370,15 @@ def test_analyze_many_refuses_an_out_dir_another_run_holds(tmp_path, cli_bin):
     with pytest.raises(fs.InputError, match="another analyze_many is writing it"):
         fsd.analyze_many([a], out, cli=cli_bin, client=None)
     assert (out / "analyze_many.json").read_text() == before
+
+
+def test_a_cli_whose_report_cannot_be_read_fails_that_sample_only(tmp_path):
+    """A `cli=` that succeeds but prints what this package cannot read (another
+    version): that sample fails saying so; the call itself ends normally."""
+    fake = tmp_path / "fake-flakescatter"
+    fake.write_text("#!/bin/sh\necho 'not json'\n")
+    fake.chmod(0o755)
+    m = write_manifest(tmp_path / "a.toml", "solo", "synth-hwhm3-smooth")
+    r = fsd.analyze_many([m], tmp_path / "o", cli=fake, client=None)
+    assert r["samples"] == [] and len(r["failed"]) == 1
+    assert "is not one this package reads" in r["failed"][0]["error"], r["failed"][0]
