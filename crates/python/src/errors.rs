@@ -140,7 +140,7 @@ pub fn message(err: &(dyn StdError + 'static)) -> String {
 }
 
 /// The `std::io::Error` in an error's chain, if there is one.
-pub(crate) fn io_source<'a>(err: &'a (dyn StdError + 'static)) -> Option<&'a std::io::Error> {
+fn io_source<'a>(err: &'a (dyn StdError + 'static)) -> Option<&'a std::io::Error> {
     let mut e: Option<&(dyn StdError + 'static)> = Some(err);
     while let Some(cur) = e {
         if let Some(io) = cur.downcast_ref::<std::io::Error>() {

@@ -19,7 +19,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use crate::convert::{InstrumentArgs, coating, coating_with_stack, path_of, settings};
-use crate::errors::{Kind, input, interruptible, io_source, to_py};
+use crate::errors::{Kind, input, interruptible, to_py};
 use crate::models::{curve_columns, topo_settings, topo_warnings};
 
 /// The stores, opened, with every setting of a run (module docs).
@@ -44,7 +44,6 @@ fn store_error(py: Python<'_>, e: &StoreError) -> PyErr {
             Kind::File
         }
         StoreError::BadCutoff(_) => Kind::Input,
-        _ if io_source(e).is_some() => Kind::File,
         _ => Kind::Content,
     };
     to_py(py, kind, e)
@@ -55,10 +54,6 @@ fn store_error(py: Python<'_>, e: &StoreError) -> PyErr {
 fn run_error(py: Python<'_>, e: &flakescatter::PipelineError) -> PyErr {
     use flakescatter::topo::TopoError;
     let kind = match e {
-        // An I/O failure (a chunk gone, no permission) is the file's, not its content's.
-        flakescatter::PipelineError::Topo(TopoError::Source { .. }) if io_source(e).is_some() => {
-            Kind::File
-        }
         flakescatter::PipelineError::Topo(TopoError::Source { .. }) => Kind::Content,
         _ => Kind::Input,
     };
