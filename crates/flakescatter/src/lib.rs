@@ -98,6 +98,7 @@ pub mod sample;
 pub mod spectral;
 pub mod stack;
 pub mod streaming;
+pub mod topo_base;
 pub mod volume;
 
 pub use flakescatter_colour as colour;

@@ -12,10 +12,12 @@ use flakescatter_optics::polarization::{Transmission, Weighting};
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_stats::histogram::AreaHistogram;
 use flakescatter_stats::{Flake, Orientation};
+use flakescatter_topo::pixels::PixelTilts;
 use flakescatter_topo::{IsotropicOptions, IsotropicResult, TopoModel, TopoOptions, TopoResult};
 
 use crate::PipelineError;
 use crate::instrument::Instrument;
+use crate::topo_base;
 
 /// The coating: clear-coat index and flake reflectance.
 #[derive(Debug, Clone, PartialEq)]
@@ -296,15 +298,16 @@ fn curve_rows<E: From<PipelineError>>(
     })
 }
 
-/// Refuses [`Settings::base_albedo`] for the topographic models, whose base under the
-/// flakes is black (physics.md §13).
+/// Refuses [`Settings::base_albedo`] for the topographic paths that keep a black base
+/// under the flakes: the isotropic, streamed, split and Mueller runs (physics.md §13;
+/// the plain in-memory run adds the base, [`crate::topo_base`]).
 ///
 /// # Errors
 /// [`PipelineError::Spectral`] for a non-zero albedo.
 pub(crate) fn check_black_base(settings: &Settings) -> Result<(), PipelineError> {
     if settings.base_albedo != 0.0 {
         return Err(PipelineError::Spectral(
-            "base albedo: the topographic model has a black base under the flakes (physics.md §13); a reflecting base is modelled in the distribution model only".into(),
+            "base albedo: a reflecting base under the flakes is modelled by the distribution model and by the plain topographic model over maps in memory; the isotropic, streamed, split and Mueller topographic runs keep a black base (physics.md §13)".into(),
         ));
     }
     Ok(())
@@ -346,11 +349,18 @@ pub fn topographic_curves(
     maps: &[&HeightMap],
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(Curves, TopoResult), PipelineError> {
-    topographic_curves_of(coating, None, instrument, settings, topo, maps, progress)
+    topographic_curves_of(
+        coating, None, instrument, settings, topo, maps, None, progress,
+    )
 }
 
 /// [`topographic_curves`] with the binder's absorption along each ray's path when
 /// `absorption` is given (physics.md §8.1; `None` is exactly [`topographic_curves`]).
+///
+/// A non-zero [`Settings::base_albedo`] adds the base under the flakes (physics.md §13,
+/// module [`crate::topo_base`]) from the pixel tilts `tilts` when given (computed once
+/// for several wavelengths, on the run's tiles), else from the maps.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn topographic_curves_of(
     coating: &Coating,
     absorption: Option<PathAbsorption>,
@@ -358,30 +368,58 @@ pub(crate) fn topographic_curves_of(
     settings: &Settings,
     topo: &TopoSettings,
     maps: &[&HeightMap],
+    tilts: Option<&PixelTilts>,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(Curves, TopoResult), PipelineError> {
-    check_black_base(settings)?;
     if instrument.aperture() <= 0.0 {
         return Err(PipelineError::Instrument(
             "the topographic model counts rays into detector cones: the aperture must be > 0"
                 .into(),
         ));
     }
-    let mut model = TopoModel::new(TopoOptions {
-        n: coating.n,
-        transmission: settings.transmission,
-        weighting: settings.weighting,
-        flake: coating.flake.clone(),
-        clearcoat: settings.clearcoat,
-        window: topo.window,
-    })?
-    .with_block_um(topo.tile_um)?;
+    let mut model = any_base_model(coating, settings, topo)?;
     if let Some(a) = absorption {
         model = model.with_absorption(a);
     }
-    let result =
+    let own;
+    let tilts = match tilts {
+        Some(t) => Some(t),
+        None => {
+            own = topo_base::base_tilts(&model, settings, maps)?;
+            own.as_ref()
+        }
+    };
+    let base = tilts
+        .filter(|_| settings.base_albedo != 0.0)
+        .map(|t| topo_base::BaseTerm::new(t, coating, settings, absorption))
+        .transpose()?;
+    let mut result =
         model.run_with_progress(maps, instrument.theta_i(), instrument.cones(), progress)?;
-    Ok((plain_curves(coating, instrument, settings, &result), result))
+    let Some(base) = base else {
+        return Ok((plain_curves(coating, instrument, settings, &result), result));
+    };
+    base.add_to(&mut result)?;
+    let mut curves = plain_curves(coating, instrument, settings, &result);
+    curves.source = format!("{}, {}", curves.source, topo_base::describe(base.share()));
+    Ok((curves, result))
+}
+
+/// The pixel tilts behind the base term of [`Settings::base_albedo`] over `maps` (on
+/// the statistics tiles of the topographic runs it is added to), to be computed once
+/// for the runs at several wavelengths; `None` for a black base.
+///
+/// # Errors
+/// [`PipelineError::Topo`] for invalid options or maps.
+pub(crate) fn topo_base_tilts(
+    coating: &Coating,
+    settings: &Settings,
+    topo: &TopoSettings,
+    maps: &[&HeightMap],
+) -> Result<Option<PixelTilts>, PipelineError> {
+    if settings.base_albedo == 0.0 {
+        return Ok(None);
+    }
+    topo_base::base_tilts(&any_base_model(coating, settings, topo)?, settings, maps)
 }
 
 /// The model of [`topographic_curves`] and [`crate::streaming`]'s plain runs.
@@ -526,6 +564,16 @@ pub fn topo_model(
     topo: &TopoSettings,
 ) -> Result<TopoModel, PipelineError> {
     check_black_base(settings)?;
+    any_base_model(coating, settings, topo)
+}
+
+/// The topographic model of [`topo_model`], whatever [`Settings::base_albedo`] (for the
+/// paths that add the base themselves).
+fn any_base_model(
+    coating: &Coating,
+    settings: &Settings,
+    topo: &TopoSettings,
+) -> Result<TopoModel, PipelineError> {
     Ok(TopoModel::new(TopoOptions {
         n: coating.n,
         transmission: settings.transmission,

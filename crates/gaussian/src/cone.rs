@@ -155,10 +155,20 @@ impl DistributionModel {
         }
     }
 
-    /// What the cone collects of the base term (physics.md §13) with its error estimate:
-    /// the same axis rule as the flakes' light (Kronrod 15 × 48, the base's light is
-    /// smooth) or the constant-integrand approximation.
-    fn base_cone(&self, inc: &Incidence, cone: &Cone, method: ConeMethod) -> (f64, f64) {
+    /// What the cone collects of the base term alone (physics.md §13), as a fraction of
+    /// the incident beam, with its quadrature error estimate: the same axis rule as the
+    /// flakes' light (Kronrod 15 × 48, the base's light is smooth) or the
+    /// constant-integrand approximation. `(0, 0)` without a base; for a point detector
+    /// (half-angle 0) the point BRDF times `cos θr` (power per steradian).
+    #[must_use]
+    pub fn base_cone(&self, inc: &Incidence, cone: &Cone, method: ConeMethod) -> (f64, f64) {
+        if self.base().is_none() {
+            return (0.0, 0.0);
+        }
+        if cone.half_angle() == 0.0 {
+            let axis = cone.axis().into_inner();
+            return (self.base_brdf(inc, &axis) * axis.z, 0.0);
+        }
         if method == ConeMethod::ConstantIntegrand {
             let axis = cone.axis().into_inner();
             return (

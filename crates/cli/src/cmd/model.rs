@@ -89,32 +89,6 @@ pub struct Args {
     pub paint: PaintFlags,
 }
 
-/// `--base-albedo`, checked against the value's range and the flakes and readouts it
-/// applies to; `None` when not given.
-/// (Without --paint; the flag is the paint's per-channel list with it.)
-fn base_albedo(args: &Args, polarised: bool) -> anyhow::Result<Option<f64>> {
-    let Some(text) = args.paint.base_albedo.as_deref() else {
-        return Ok(None);
-    };
-    let rho = match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && (0.0..=1.0).contains(&v) => v,
-        _ => bail!(
-            "--base-albedo {text}: expected one albedo in [0, 1] for the base under the flakes (0 is a black base; a list per channel is for --paint)"
-        ),
-    };
-    if args.spectral.flake_stack.is_none() || args.spectral.flake_core.is_some() {
-        bail!(
-            "--base-albedo: the base under the flakes only receives light that thin-film flakes transmit; give --flake-stack SPEC without --flake-core (metal flakes and a core transmit nothing)"
-        );
-    }
-    if polarised {
-        bail!(
-            "--base-albedo: the base under the flakes is modelled for unpolarised light; it does not apply to --polarization/--incident/--analyzer"
-        );
-    }
-    Ok(Some(rho))
-}
-
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut plan = Plan::new();
@@ -145,7 +119,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ConeKind::Constant => ConeMethod::ConstantIntegrand,
     };
     let polarimetry = args.polarization.polarimetry(settings.transmission)?;
-    if let Some(rho) = base_albedo(&args, polarimetry.is_some())? {
+    if let Some(rho) = args
+        .spectral
+        .base_albedo(args.paint.base_albedo.as_deref(), polarimetry.is_some())?
+    {
         settings.base_albedo = rho;
     }
     if args.multi_angle {

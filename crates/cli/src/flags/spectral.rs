@@ -254,6 +254,37 @@ impl SpectralArgs {
         Ok((FlakeSpectrum::Stack { stack, core }, echo))
     }
 
+    /// `--base-albedo RHO` of `model` and `topo` (`text`), checked against its range and
+    /// the flakes and readouts it applies to (`polarised`: a polarised readout was asked
+    /// for); `None` when not given.
+    pub fn base_albedo(&self, text: Option<&str>, polarised: bool) -> anyhow::Result<Option<f64>> {
+        let Some(text) = text else {
+            return Ok(None);
+        };
+        let rho = match text.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && (0.0..=1.0).contains(&v) => v,
+            _ => bail!(
+                "--base-albedo {text}: expected one albedo in [0, 1] for the base under the flakes (0 is a black base; a list per channel is for --paint)"
+            ),
+        };
+        if self.flake_stack.is_none() || self.flake_core.is_some() {
+            bail!(
+                "--base-albedo: the base under the flakes only receives light that thin-film flakes transmit; give --flake-stack SPEC without --flake-core (metal flakes and a core transmit nothing)"
+            );
+        }
+        if polarised {
+            bail!(
+                "--base-albedo: the base under the flakes is modelled for unpolarised light; it does not apply to --polarization/--incident/--analyzer"
+            );
+        }
+        if self.binder_absorption.is_some() {
+            bail!(
+                "--base-albedo with --binder-absorption: the base's light crosses the whole film, which the flakes' depth does not describe; the base is modelled for a clear binder (physics.md §13)"
+            );
+        }
+        Ok(Some(rho))
+    }
+
     /// Checks the flags that need no file.
     pub fn validate(&self) -> anyhow::Result<()> {
         if self.flake_stack.is_some() {

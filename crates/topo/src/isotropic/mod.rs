@@ -509,6 +509,7 @@ impl TopoModel {
                     brdf_std_err: se.map(|e| e / proj),
                     rays: rays[s],
                     relative: if spec > 0.0 { rho / spec } else { f64::NAN },
+                    specular_reflectance: spec,
                     clearcoat_seen: seen_cc,
                 });
                 interpolation_error.push(defect[s] * inv_n);

@@ -213,6 +213,9 @@ pub struct TopoPoint {
     /// direction (`θs = −θi`), computed even when that detector is not in the list; NaN
     /// when the specular detector received nothing.
     pub relative: f64,
+    /// The denominator of `relative`: the reflectance of a cone of the same aperture at
+    /// the specular direction (`θs = −θi`).
+    pub specular_reflectance: f64,
     /// Whether the clear coat's specular reflection was added.
     pub clearcoat_seen: bool,
 }
@@ -483,6 +486,7 @@ impl TopoModel {
                     brdf_std_err: se.map(|e| e / proj),
                     rays: acc.rays[ii * ndet + j],
                     relative: if spec > 0.0 { rho / spec } else { f64::NAN },
+                    specular_reflectance: spec,
                     clearcoat_seen: seen_cc,
                 });
             }

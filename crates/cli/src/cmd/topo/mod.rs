@@ -81,6 +81,13 @@ pub struct Args {
     pub polarization: PolarizationArgs,
     #[command(flatten)]
     pub spectral: SpectralArgs,
+    /// Albedo of a Lambertian base under the flakes, in [0, 1] (default 0, a black
+    /// base): with --flake-stack SPEC without --flake-core, the light the flakes transmit
+    /// reaches it and comes back up through them and the coat, driven by the maps'
+    /// pixel-level normals and scaled by the usable-pixel coverage (docs/physics.md §13,
+    /// "The base under a map's flakes").
+    #[arg(long, value_name = "RHO", allow_negative_numbers = true)]
+    pub base_albedo: Option<String>,
     /// Multi-angle colour instead of a curve: the --geometry-set (ASTM E2194: 45°
     /// incidence, or the one --theta-i) or --aspecular angles; spectral reflectance
     /// factors over the --aperture cone at --wavelengths, CIELAB per geometry (with the
@@ -134,8 +141,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let plot = plan.output("--plot", args.plot.as_deref(), Kind::Plot);
     let coating = args.instrument.optics.coating()?;
-    let settings = args.instrument.settings();
+    let mut settings = args.instrument.settings();
     let polarimetry = args.polarization.polarimetry(settings.transmission)?;
+    if let Some(rho) = args
+        .spectral
+        .base_albedo(args.base_albedo.as_deref(), polarimetry.is_some())?
+    {
+        settings.base_albedo = rho;
+    }
     if args.isotropic && polarimetry.is_some() {
         bail!(
             "--isotropic with --polarization/--incident/--analyzer: the rotation average is scalar (unpolarised, or --transmission s|p); the Mueller form is computed for the map as it lies (leave out --isotropic)"

@@ -86,6 +86,9 @@ pub(super) fn spectral_curves(
         j["command"] = json!("topo --wavelengths");
         j["inputs"]["spectral"] = coating_echo;
         j["inputs"]["wavelengths_nm"] = json!(args.spectral.wavelengths_text(""));
+        if args.base_albedo.is_some() {
+            j["inputs"]["base_albedo"] = json!(settings.base_albedo);
+        }
         j["warnings"] = json!(warnings);
         if table.is_none() {
             j["rows"] = crate::spectra::spectral_rows_json(&s);
@@ -165,7 +168,7 @@ pub(super) fn multi_angle(
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let inputs = json!({
+    let mut inputs = json!({
         "maps": sources.iter().map(|p| p.height.display().to_string()).collect::<Vec<_>>(),
         "intensity": sources.iter().filter_map(|s| s.intensity.as_ref().map(|p| p.display().to_string())).collect::<Vec<_>>(),
         "cutoff": args.input.cutoff,
@@ -177,6 +180,9 @@ pub(super) fn multi_angle(
         "wavelengths_nm": args.spectral.wavelengths_text(DEFAULT_WAVELENGTHS),
         "colorimetry": args.colour.echo(),
     });
+    if args.base_albedo.is_some() {
+        inputs["base_albedo"] = json!(settings.base_albedo);
+    }
     crate::spectra::multi_angle_outputs(
         plan,
         "topo --multi-angle",
