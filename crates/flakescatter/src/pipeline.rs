@@ -12,7 +12,6 @@ use flakescatter_optics::polarization::{Transmission, Weighting};
 use flakescatter_stats::heightmap::HeightMap;
 use flakescatter_stats::histogram::AreaHistogram;
 use flakescatter_stats::{Flake, Orientation};
-use flakescatter_topo::pixels::PixelTilts;
 use flakescatter_topo::{IsotropicOptions, IsotropicResult, TopoModel, TopoOptions, TopoResult};
 
 use crate::PipelineError;
@@ -358,8 +357,8 @@ pub fn topographic_curves(
 /// `absorption` is given (physics.md §8.1; `None` is exactly [`topographic_curves`]).
 ///
 /// A non-zero [`Settings::base_albedo`] adds the base under the flakes (physics.md §13,
-/// module [`crate::topo_base`]) from the pixel tilts `tilts` when given (computed once
-/// for several wavelengths, on the run's tiles), else from the maps.
+/// module [`crate::topo_base`]) from `base` when given (computed once for several
+/// wavelengths, on the run's tiles), else from the maps.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn topographic_curves_of(
     coating: &Coating,
@@ -368,7 +367,7 @@ pub(crate) fn topographic_curves_of(
     settings: &Settings,
     topo: &TopoSettings,
     maps: &[&HeightMap],
-    tilts: Option<&PixelTilts>,
+    base: Option<&topo_base::MapBase>,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(Curves, TopoResult), PipelineError> {
     if instrument.aperture() <= 0.0 {
@@ -382,16 +381,16 @@ pub(crate) fn topographic_curves_of(
         model = model.with_absorption(a);
     }
     let own;
-    let tilts = match tilts {
-        Some(t) => Some(t),
+    let map = match base {
+        Some(b) => Some(b),
         None => {
-            own = topo_base::base_tilts(&model, settings, maps)?;
+            own = topo_base::map_base(&model, settings, maps)?;
             own.as_ref()
         }
     };
-    let base = tilts
+    let base = map
         .filter(|_| settings.base_albedo != 0.0)
-        .map(|t| topo_base::BaseTerm::new(t, coating, settings, absorption))
+        .map(|m| topo_base::BaseTerm::new(m, coating, settings, absorption))
         .transpose()?;
     let mut result =
         model.run_with_progress(maps, instrument.theta_i(), instrument.cones(), progress)?;
@@ -404,22 +403,22 @@ pub(crate) fn topographic_curves_of(
     Ok((curves, result))
 }
 
-/// The pixel tilts behind the base term of [`Settings::base_albedo`] over `maps` (on
-/// the statistics tiles of the topographic runs it is added to), to be computed once
-/// for the runs at several wavelengths; `None` for a black base.
+/// What the base term of [`Settings::base_albedo`] needs of `maps` (on the statistics
+/// tiles of the topographic runs it is added to), to be computed once for the runs at
+/// several wavelengths; `None` for a black base.
 ///
 /// # Errors
 /// [`PipelineError::Topo`] for invalid options or maps.
-pub(crate) fn topo_base_tilts(
+pub(crate) fn topo_map_base(
     coating: &Coating,
     settings: &Settings,
     topo: &TopoSettings,
     maps: &[&HeightMap],
-) -> Result<Option<PixelTilts>, PipelineError> {
+) -> Result<Option<topo_base::MapBase>, PipelineError> {
     if settings.base_albedo == 0.0 {
         return Ok(None);
     }
-    topo_base::base_tilts(&any_base_model(coating, settings, topo)?, settings, maps)
+    topo_base::map_base(&any_base_model(coating, settings, topo)?, settings, maps)
 }
 
 /// The model of [`topographic_curves`] and [`crate::streaming`]'s plain runs.

@@ -19,13 +19,14 @@
 //! with a tile's usable pixels, and the sum bounds the error of their sum whatever
 //! their correlation.
 
-use flakescatter_gaussian::base::BaseLoop;
+use flakescatter_gaussian::base::{BaseLoop, FacetWeights};
 use flakescatter_gaussian::{ConeMethod, DistributionModel, ModelOptions};
 use flakescatter_optics::absorption::PathAbsorption;
 use flakescatter_optics::detector::Cone;
-use flakescatter_stats::HeightMap;
+use flakescatter_stats::{HeightMap, Orientation};
 use flakescatter_topo::pixels::PixelTilts;
 use flakescatter_topo::{TopoModel, TopoResult};
+use rayon::prelude::*;
 
 use crate::PipelineError;
 use crate::pipeline::{Coating, Settings};
@@ -36,20 +37,39 @@ use crate::pipeline::{Coating, Settings};
 /// below 1e-4 of the term (physics.md §13; `crates/flakescatter/tests/topo_base.rs`).
 pub const BASE_BIN_DEG: f64 = 1.0;
 
-/// The pixel tilts of `maps` for the base term (module docs), on the statistics tiles
-/// of `model` (those of the run it is added to); `None` for a black base.
+/// What the base term needs of the maps, computed once for the runs at every
+/// wavelength: the pixel tilts (on the statistics tiles of the runs the term is added
+/// to), their distribution and its facet weights.
+#[derive(Debug, Clone)]
+pub struct MapBase {
+    tilts: PixelTilts,
+    orientation: Orientation,
+    weights: FacetWeights,
+}
+
+/// The [`MapBase`] of `maps` on the tiles of `model`; `None` for a black base.
 ///
 /// # Errors
-/// [`PipelineError::Topo`] as [`TopoModel::pixel_tilts`].
-pub(crate) fn base_tilts(
+/// [`PipelineError::Topo`] as [`TopoModel::pixel_tilts`]; [`PipelineError::Orientation`]
+/// when the tilts give no distribution.
+pub(crate) fn map_base(
     model: &TopoModel,
     settings: &Settings,
     maps: &[&HeightMap],
-) -> Result<Option<PixelTilts>, PipelineError> {
+) -> Result<Option<MapBase>, PipelineError> {
     if settings.base_albedo == 0.0 {
         return Ok(None);
     }
-    Ok(Some(model.pixel_tilts(maps, BASE_BIN_DEG.to_radians())?))
+    let tilts = model.pixel_tilts(maps, BASE_BIN_DEG.to_radians())?;
+    let orientation = tilts
+        .orientation()
+        .map_err(|e| PipelineError::Orientation(e.to_string()))?;
+    let weights = FacetWeights::new(&orientation);
+    Ok(Some(MapBase {
+        tilts,
+        orientation,
+        weights,
+    }))
 }
 
 /// A description of the base for a run's metadata.
@@ -84,7 +104,7 @@ pub(crate) struct BaseTerm<'a> {
 
 impl<'a> BaseTerm<'a> {
     /// The base of `settings.base_albedo` under the flakes of `coating`, their normals
-    /// those of `tilts`; built before the run so that a base that cannot be modelled is
+    /// those of `map`; built before the run so that a base that cannot be modelled is
     /// refused before any ray is traced.
     ///
     /// # Errors
@@ -93,16 +113,13 @@ impl<'a> BaseTerm<'a> {
     /// weighting (`flakescatter_gaussian::ModelError::BaseFlake`, `BaseSetting`);
     /// [`PipelineError::Orientation`] when the tilts give no distribution.
     pub(crate) fn new(
-        tilts: &'a PixelTilts,
+        map: &'a MapBase,
         coating: &Coating,
         settings: &Settings,
         absorption: Option<PathAbsorption>,
     ) -> Result<Self, PipelineError> {
-        let orientation = tilts
-            .orientation()
-            .map_err(|e| PipelineError::Orientation(e.to_string()))?;
         let mut model = DistributionModel::new(
-            orientation,
+            map.orientation.clone(),
             coating.n,
             ModelOptions {
                 transmission: settings.transmission,
@@ -115,7 +132,8 @@ impl<'a> BaseTerm<'a> {
         if let Some(a) = absorption {
             model = model.with_absorption(a);
         }
-        let model = model.with_base(settings.base_albedo, BaseLoop::Included)?;
+        let model =
+            model.with_base_weights(settings.base_albedo, BaseLoop::Included, &map.weights)?;
         let Some(base) = model.base() else {
             return Err(PipelineError::Spectral(
                 "base albedo 0 has no base term".into(),
@@ -123,13 +141,13 @@ impl<'a> BaseTerm<'a> {
         };
         let share = BaseShare {
             albedo: base.albedo(),
-            coverage: tilts.coverage(),
+            coverage: map.tilts.coverage(),
             return_fraction: base.return_fraction(),
             escape_fraction: base.escape_fraction(),
         };
         Ok(Self {
             model,
-            tilts,
+            tilts: &map.tilts,
             share,
         })
     }
@@ -147,16 +165,38 @@ impl<'a> BaseTerm<'a> {
     pub(crate) fn add_to(&self, result: &mut TopoResult) -> Result<(), PipelineError> {
         let spread = usable_spread(self.tilts, result.pixels);
         let c = self.share.coverage;
-        for p in &mut result.points {
-            let inc = self.model.incidence(p.theta_i)?;
-            let read = |cone: &Cone| self.model.base_cone(&inc, cone, ConeMethod::Exact).0;
-            let b = read(&p.cone);
-            let specular = Cone::in_plane(-p.theta_i, p.cone.half_angle())
-                .map_err(|e| PipelineError::Instrument(e.to_string()))?;
+        // The specular cone's reading, once per incidence and aperture.
+        let mut specular: Vec<((u64, u64), f64)> = Vec::new();
+        for p in &result.points {
+            let key = (p.theta_i.to_bits(), p.cone.half_angle().to_bits());
+            if specular.iter().all(|(k, _)| *k != key) {
+                let cone = Cone::in_plane(-p.theta_i, p.cone.half_angle())
+                    .map_err(|e| PipelineError::Instrument(e.to_string()))?;
+                let inc = self.model.incidence(p.theta_i)?;
+                specular.push((key, self.model.base_cone(&inc, &cone, ConeMethod::Exact).0));
+            }
+        }
+        let incidences = specular
+            .iter()
+            .map(|((t, _), _)| Ok((*t, self.model.incidence(f64::from_bits(*t))?)))
+            .collect::<Result<Vec<_>, PipelineError>>()?;
+        result.points.par_iter_mut().for_each(|p| {
+            let key = (p.theta_i.to_bits(), p.cone.half_angle().to_bits());
+            let inc = &incidences
+                .iter()
+                .find(|(t, _)| *t == key.0)
+                .expect("listed above")
+                .1;
+            let b_spec = specular
+                .iter()
+                .find(|(k, _)| *k == key)
+                .expect("listed above")
+                .1;
+            let b = self.model.base_cone(inc, &p.cone, ConeMethod::Exact).0;
             let proj = p.cone.projected_solid_angle();
             p.reflectance += c * b;
             p.brdf = p.reflectance / proj;
-            p.specular_reflectance += c * read(&specular);
+            p.specular_reflectance += c * b_spec;
             let spec = p.specular_reflectance;
             p.relative = if spec > 0.0 {
                 p.reflectance / spec
@@ -168,7 +208,7 @@ impl<'a> BaseTerm<'a> {
                 p.reflectance_std_err = Some(se);
                 p.brdf_std_err = Some(se / proj);
             }
-        }
+        });
         Ok(())
     }
 }

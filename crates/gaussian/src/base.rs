@@ -51,6 +51,7 @@ use flakescatter_optics::Vec3;
 use flakescatter_optics::flake::FlakeReflectance;
 use flakescatter_optics::fresnel;
 use flakescatter_stats::Orientation;
+use rayon::prelude::*;
 
 use crate::ModelError;
 use crate::quad::{adaptive, gk15_nodes};
@@ -85,15 +86,6 @@ pub struct BaseUnder {
     escape: f64,
     /// `ρ / (π n² (1 − ρ r̄))` (or without the loop's denominator).
     gain: f64,
-}
-
-/// A function tabulated on uniform nodes over `[0, end]`.
-fn lookup_linear(table: &[f64], x: f64, end: f64) -> f64 {
-    let last = table.len() - 1;
-    let t = (x / end).clamp(0.0, 1.0) * last as f64;
-    let i = (t.floor() as usize).min(last - 1);
-    let f = t - i as f64;
-    table[i] + f * (table[i + 1] - table[i])
 }
 
 /// Catmull–Rom cubic through uniform nodes over `[0, end]` (ends repeated).
@@ -151,13 +143,59 @@ impl Cavity {
     }
 }
 
-/// `(∫ g D γ⁺ dΩ / ∫ D γ⁺ dΩ)` for each function of `γ` in `g`, for a ray at
-/// polar angle `theta` (module docs), with the tilt nodes `tilts` (`θm`, weight ×
-/// `p2 sin θm`).
-fn facet_means<const K: usize>(theta: f64, tilts: &[(f64, f64)], g: &[&[f64]; K]) -> [f64; K] {
+/// The facets a ray meets, as weights on the local-cosine grid: for each of the
+/// [`TABLE_NODES`] polar angles `θ` of a ray, the normalised weights `w_k` such that
+/// `E[g(γ)] = Σ_k w_k g(γ_k)` for any `g` tabulated on the [`GAMMA_NODES`] cosines
+/// `γ_k` and read linearly (module docs): the quadrature over the facet normals (tilt
+/// nodes × the lit azimuth arc, weight `D γ⁺`) with each node's weight split between the
+/// two grid cosines around its `γ`. They depend on the orientation distribution alone —
+/// not on the wavelength, the flakes or the coat's index — so the runs of a spectrum
+/// share them.
+#[derive(Debug, Clone)]
+pub struct FacetWeights {
+    /// Row-major `TABLE_NODES × GAMMA_NODES`, each row summing to 1 (or all 0).
+    weights: Vec<f64>,
+    /// Per row, the range of grid indices with a weight (the rest are 0).
+    spans: Vec<(usize, usize)>,
+}
+
+impl FacetWeights {
+    /// The weights for facet normals following `orientation`.
+    #[must_use]
+    pub fn new(orientation: &Orientation) -> Self {
+        let tilts = tilt_nodes(orientation);
+        let rows: Vec<(Vec<f64>, (usize, usize))> = (0..TABLE_NODES)
+            .into_par_iter()
+            .map(|i| {
+                let theta = FRAC_PI_2 * i as f64 / (TABLE_NODES - 1) as f64;
+                facet_row(theta, &tilts)
+            })
+            .collect();
+        let mut weights = Vec::with_capacity(TABLE_NODES * GAMMA_NODES);
+        let mut spans = Vec::with_capacity(TABLE_NODES);
+        for (row, span) in rows {
+            weights.extend(row);
+            spans.push(span);
+        }
+        Self { weights, spans }
+    }
+
+    /// `E[g(γ)]` for a ray at table node `i`, `g` on the local-cosine grid.
+    fn mean(&self, i: usize, g: &[f64]) -> f64 {
+        let (lo, hi) = self.spans[i];
+        let row = &self.weights[i * GAMMA_NODES..(i + 1) * GAMMA_NODES];
+        row[lo..hi].iter().zip(&g[lo..hi]).map(|(w, v)| w * v).sum()
+    }
+}
+
+/// One row of [`FacetWeights`]: a ray at polar angle `theta`, the tilt nodes `tilts`
+/// (`θm`, weight × `p2 sin θm`).
+fn facet_row(theta: f64, tilts: &[(f64, f64)]) -> (Vec<f64>, (usize, usize)) {
     let (s, c) = theta.sin_cos();
-    let mut sums = [0.0; K];
+    let mut row = vec![0.0; GAMMA_NODES];
+    let last = GAMMA_NODES - 1;
     let mut norm = 0.0;
+    let (mut lo, mut hi) = (GAMMA_NODES, 0);
     for &(t, wt) in tilts {
         if wt == 0.0 {
             continue;
@@ -172,16 +210,24 @@ fn facet_means<const K: usize>(theta: f64, tilts: &[(f64, f64)], g: &[&[f64]; K]
                 let gamma = (a + b * phi.cos()).max(0.0);
                 let w = wt * wp * gamma;
                 norm += w;
-                for (sum, table) in sums.iter_mut().zip(g) {
-                    *sum += w * lookup_linear(table, gamma, 1.0);
-                }
+                // The split of `lookup_linear` at γ.
+                let x = gamma.clamp(0.0, 1.0) * last as f64;
+                let j = (x.floor() as usize).min(last - 1);
+                let f = x - j as f64;
+                row[j] += w * (1.0 - f);
+                row[j + 1] += w * f;
+                lo = lo.min(j);
+                hi = hi.max(j + 2);
             }
         }
     }
     if norm > 0.0 {
-        sums.map(|v| v / norm)
+        for v in &mut row[lo..hi] {
+            *v /= norm;
+        }
+        (row, (lo, hi))
     } else {
-        [0.0; K]
+        (row, (0, 0))
     }
 }
 
@@ -221,6 +267,21 @@ impl BaseUnder {
         orientation: &Orientation,
         repeat: BaseLoop,
     ) -> Result<Self, ModelError> {
+        Self::with_weights(albedo, n, flake, &FacetWeights::new(orientation), repeat)
+    }
+
+    /// As [`BaseUnder::new`] with the facet weights of the flakes' orientation
+    /// distribution already computed (shared by the wavelengths of a spectrum).
+    ///
+    /// # Errors
+    /// As [`BaseUnder::new`].
+    pub fn with_weights(
+        albedo: f64,
+        n: f64,
+        flake: &FlakeReflectance,
+        weights: &FacetWeights,
+        repeat: BaseLoop,
+    ) -> Result<Self, ModelError> {
         if !(albedo.is_finite() && (0.0..=1.0).contains(&albedo)) {
             return Err(ModelError::BaseAlbedo(albedo));
         }
@@ -246,19 +307,10 @@ impl BaseUnder {
         let t_up = gammas(&|g| mean(under.transmitted(g, n)));
         let r_up = gammas(&|g| under.average(g, n));
         let r_down = gammas(&|g| flake.average(g, n));
-        let tilts = tilt_nodes(orientation);
-        let mut tau_down = Vec::with_capacity(TABLE_NODES);
-        let mut tau_up = Vec::with_capacity(TABLE_NODES);
-        let mut refl_up = Vec::with_capacity(TABLE_NODES);
-        let mut refl_down = Vec::with_capacity(TABLE_NODES);
-        for i in 0..TABLE_NODES {
-            let theta = FRAC_PI_2 * i as f64 / (TABLE_NODES - 1) as f64;
-            let [td, tu, ru, rd] = facet_means(theta, &tilts, &[&t_down, &t_up, &r_up, &r_down]);
-            tau_down.push(td);
-            tau_up.push(tu);
-            refl_up.push(ru);
-            refl_down.push(rd);
-        }
+        let column =
+            |g: &[f64]| -> Vec<f64> { (0..TABLE_NODES).map(|i| weights.mean(i, g)).collect() };
+        let (tau_down, tau_up) = (column(&t_down), column(&t_up));
+        let (refl_up, refl_down) = (column(&r_up), column(&r_down));
         // The loop's hemispherical integrals over the Lambertian light (module docs).
         let at = |t: &[f64], theta: f64| lookup_cubic(t, theta, FRAC_PI_2);
         let hemi = |g: &dyn Fn(f64) -> f64| {

@@ -36,7 +36,7 @@ use flakescatter_optics::{UnitVec3, Vec3, detector, refraction};
 use flakescatter_stats::Orientation;
 
 use crate::ModelError;
-use crate::base::{BaseLoop, BaseUnder};
+use crate::base::{BaseLoop, BaseUnder, FacetWeights};
 
 /// Options of the distribution model. The defaults are the physical model of
 /// physics.md §4: exact unpolarised Fresnel factors, physical weighting, perfect-conductor
@@ -193,7 +193,31 @@ impl DistributionModel {
     /// unless the flakes are a thin-film stack without a core; [`ModelError::BaseSetting`]
     /// with binder absorption, a polarised beam (`s`, `p`), the paper-printed weighting,
     /// or without the exit Fresnel factor.
-    pub fn with_base(mut self, albedo: f64, repeat: BaseLoop) -> Result<Self, ModelError> {
+    pub fn with_base(self, albedo: f64, repeat: BaseLoop) -> Result<Self, ModelError> {
+        self.with_base_from(albedo, repeat, None)
+    }
+
+    /// [`DistributionModel::with_base`] with the facet weights of this model's
+    /// orientation distribution already computed ([`FacetWeights::new`]; shared by the
+    /// wavelengths of a spectrum). Weights of another distribution give another model.
+    ///
+    /// # Errors
+    /// As [`DistributionModel::with_base`].
+    pub fn with_base_weights(
+        self,
+        albedo: f64,
+        repeat: BaseLoop,
+        weights: &FacetWeights,
+    ) -> Result<Self, ModelError> {
+        self.with_base_from(albedo, repeat, Some(weights))
+    }
+
+    fn with_base_from(
+        mut self,
+        albedo: f64,
+        repeat: BaseLoop,
+        weights: Option<&FacetWeights>,
+    ) -> Result<Self, ModelError> {
         if !(albedo.is_finite() && (0.0..=1.0).contains(&albedo)) {
             return Err(ModelError::BaseAlbedo(albedo));
         }
@@ -216,7 +240,10 @@ impl DistributionModel {
         if !o.exit_fresnel {
             return Err(ModelError::BaseSetting("the exit Fresnel factor off"));
         }
-        let base = BaseUnder::new(albedo, self.n, &o.flake, &self.orientation, repeat)?;
+        let base = match weights {
+            Some(w) => BaseUnder::with_weights(albedo, self.n, &o.flake, w, repeat)?,
+            None => BaseUnder::new(albedo, self.n, &o.flake, &self.orientation, repeat)?,
+        };
         self.base = Some(std::sync::Arc::new(base));
         Ok(self)
     }

@@ -73,7 +73,7 @@ use crate::PipelineError;
 use crate::instrument::Instrument;
 use crate::pipeline::{
     Coating, Curves, OrientationSource, Settings, TopoSettings, distribution_curves_of,
-    topo_base_tilts, topographic_curves_of,
+    topo_map_base, topographic_curves_of,
 };
 
 /// Largest number of wavelengths a spectral run takes.
@@ -317,7 +317,7 @@ pub fn spectral_topographic_curves(
     } else {
         wavelengths_nm.len()
     };
-    let tilts = topo_base_tilts(&at[0].coating, settings, topo, maps)?;
+    let base = topo_map_base(&at[0].coating, settings, topo, maps)?;
     let mut curves = Vec::with_capacity(wavelengths_nm.len());
     let mut totals = Vec::with_capacity(wavelengths_nm.len());
     for (k, c) in at.iter().take(runs).enumerate() {
@@ -329,7 +329,7 @@ pub fn spectral_topographic_curves(
             settings,
             topo,
             maps,
-            tilts.as_ref(),
+            base.as_ref(),
             &step,
         )?;
         curves.push(cv);
