@@ -173,6 +173,19 @@ fn bad_uses_exit_2_naming_the_flag() {
         assert_eq!(code, 2, "{extra:?}: {err}");
         assert!(err.contains(needle), "{extra:?}: {err}");
     }
+    let (code, _, err) = run_text(&[
+        "model",
+        "--flake-stack",
+        "TiO2:120",
+        "--binder-absorption",
+        "0.1",
+        "--film-um",
+        "10",
+        "--base-albedo",
+        "0.5",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--binder-absorption"), "{err}");
     let (code, _, err) = run_text(&["topo", s(&h), "--base-albedo", "0.5"]);
     assert_eq!(code, 2, "{err}");
     assert!(

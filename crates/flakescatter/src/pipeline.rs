@@ -384,13 +384,22 @@ pub(crate) fn topographic_curves_of(
     let map = match base {
         Some(b) => Some(b),
         None => {
-            own = topo_base::map_base(&model, settings, maps)?;
+            own = topo_base::map_base(&model, settings.base_albedo, maps)?;
             own.as_ref()
         }
     };
     let base = map
         .filter(|_| settings.base_albedo != 0.0)
-        .map(|m| topo_base::BaseTerm::new(m, coating, settings, absorption))
+        .map(|m| {
+            let options = ModelOptions {
+                transmission: settings.transmission,
+                weighting: settings.weighting,
+                flake: coating.flake.clone(),
+                clearcoat: false,
+                exit_fresnel: true,
+            };
+            topo_base::BaseTerm::new(m, settings.base_albedo, coating.n, options, absorption)
+        })
         .transpose()?;
     let mut result =
         model.run_with_progress(maps, instrument.theta_i(), instrument.cones(), progress)?;
@@ -418,7 +427,11 @@ pub(crate) fn topo_map_base(
     if settings.base_albedo == 0.0 {
         return Ok(None);
     }
-    topo_base::map_base(&any_base_model(coating, settings, topo)?, settings, maps)
+    topo_base::map_base(
+        &any_base_model(coating, settings, topo)?,
+        settings.base_albedo,
+        maps,
+    )
 }
 
 /// The model of [`topographic_curves`] and [`crate::streaming`]'s plain runs.

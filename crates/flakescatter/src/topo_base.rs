@@ -29,7 +29,6 @@ use flakescatter_topo::{TopoModel, TopoResult};
 use rayon::prelude::*;
 
 use crate::PipelineError;
-use crate::pipeline::{Coating, Settings};
 
 /// Bin width of the pixel-level distribution that drives the base term, degrees. The
 /// base's light averages the flakes' transmittance over the normals a ray meets, a
@@ -47,17 +46,18 @@ pub struct MapBase {
     weights: FacetWeights,
 }
 
-/// The [`MapBase`] of `maps` on the tiles of `model`; `None` for a black base.
+/// The [`MapBase`] of `maps` on the tiles of `model`; `None` for a black base
+/// (`albedo` 0).
 ///
 /// # Errors
 /// [`PipelineError::Topo`] as [`TopoModel::pixel_tilts`]; [`PipelineError::Orientation`]
 /// when the tilts give no distribution.
 pub(crate) fn map_base(
     model: &TopoModel,
-    settings: &Settings,
+    albedo: f64,
     maps: &[&HeightMap],
 ) -> Result<Option<MapBase>, PipelineError> {
-    if settings.base_albedo == 0.0 {
+    if albedo == 0.0 {
         return Ok(None);
     }
     let tilts = model.pixel_tilts(maps, BASE_BIN_DEG.to_radians())?;
@@ -103,37 +103,35 @@ pub(crate) struct BaseTerm<'a> {
 }
 
 impl<'a> BaseTerm<'a> {
-    /// The base of `settings.base_albedo` under the flakes of `coating`, their normals
-    /// those of `map`; built before the run so that a base that cannot be modelled is
-    /// refused before any ray is traced.
+    /// The base of albedo `albedo` under flakes in a coat of index `n`, the flakes and
+    /// the Fresnel bookkeeping of `options` (its clear coat is not the base's), their
+    /// normals those of `map`; built before the run so that a base that cannot be
+    /// modelled is refused before any ray is traced.
     ///
     /// # Errors
     /// [`PipelineError::Model`] when the base cannot be modelled: flakes that are not a
     /// stack without a core, binder absorption, a polarised beam, the paper-printed
-    /// weighting (`flakescatter_gaussian::ModelError::BaseFlake`, `BaseSetting`);
-    /// [`PipelineError::Orientation`] when the tilts give no distribution.
+    /// weighting (`flakescatter_gaussian::ModelError::BaseFlake`, `BaseSetting`).
     pub(crate) fn new(
         map: &'a MapBase,
-        coating: &Coating,
-        settings: &Settings,
+        albedo: f64,
+        n: f64,
+        options: ModelOptions,
         absorption: Option<PathAbsorption>,
     ) -> Result<Self, PipelineError> {
         let mut model = DistributionModel::new(
             map.orientation.clone(),
-            coating.n,
+            n,
             ModelOptions {
-                transmission: settings.transmission,
-                weighting: settings.weighting,
-                flake: coating.flake.clone(),
                 clearcoat: false,
                 exit_fresnel: true,
+                ..options
             },
         )?;
         if let Some(a) = absorption {
             model = model.with_absorption(a);
         }
-        let model =
-            model.with_base_weights(settings.base_albedo, BaseLoop::Included, &map.weights)?;
+        let model = model.with_base_weights(albedo, BaseLoop::Included, &map.weights)?;
         let Some(base) = model.base() else {
             return Err(PipelineError::Spectral(
                 "base albedo 0 has no base term".into(),

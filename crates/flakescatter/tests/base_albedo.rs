@@ -9,6 +9,8 @@ use flakescatter::optics::flake::FlakeReflectance;
 use flakescatter::optics::nalgebra::Complex;
 use flakescatter::optics::thinfilm::{FilmStack, Layer};
 use flakescatter::stats::{GaussianWidth, HeightMap, Orientation};
+use flakescatter::streaming::topographic_curves_streamed;
+use flakescatter::topo::HeightSource;
 use flakescatter::{
     Coating, DetectorSet, Instrument, OrientationSource, PipelineError, Polarimetry, Settings,
     TopoSettings, distribution_curves, distribution_mueller, isotropic_curves, topographic_curves,
@@ -83,6 +85,15 @@ fn the_plain_topographic_model_adds_a_base_and_the_other_paths_refuse_it() {
         assert!(w.reflectance.unwrap() > b.reflectance.unwrap());
     }
     let e = isotropic_curves(&c, &i, &s, &topo, None, &[&map], &|_, _| {}).unwrap_err();
+    assert!(e.to_string().contains("black base"), "{e}");
+    let metal = Coating {
+        flake: FlakeReflectance::aluminium_550nm(),
+        ..film()
+    };
+    let e = topographic_curves(&metal, &i, &s, &topo, &[&map], &|_, _| {}).unwrap_err();
+    assert!(e.to_string().contains("transmit"), "{e}");
+    let sources: [&dyn HeightSource; 1] = [&map];
+    let e = topographic_curves_streamed(&c, &i, &s, &topo, &sources, &|_, _| {}).unwrap_err();
     assert!(e.to_string().contains("black base"), "{e}");
     let p = Polarimetry::default();
     let e = topographic_mueller(&c, &i, &s, &topo, &[&map], &p, &|_, _| {}).unwrap_err();
