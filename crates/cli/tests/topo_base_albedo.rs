@@ -147,6 +147,14 @@ fn the_summary_echoes_the_albedo_and_multi_angle_honours_it() {
 #[test]
 fn bad_uses_exit_2_naming_the_flag() {
     let h = fixture("synth-hwhm3-smooth.height.x3p");
+    let binder = [
+        "--binder-absorption",
+        "0.1",
+        "--film-um",
+        "10",
+        "--base-albedo",
+        "0.5",
+    ];
     for (extra, needle) in [
         (vec!["--base-albedo", "1.2"], "[0, 1]"),
         (vec!["--base-albedo", "x"], "[0, 1]"),
@@ -154,17 +162,7 @@ fn bad_uses_exit_2_naming_the_flag() {
             vec!["--flake-core", "aluminium", "--base-albedo", "0.5"],
             "transmit",
         ),
-        (
-            vec![
-                "--binder-absorption",
-                "0.1",
-                "--film-um",
-                "10",
-                "--base-albedo",
-                "0.5",
-            ],
-            "--binder-absorption",
-        ),
+        (binder.to_vec(), "--binder-absorption"),
         (vec!["--isotropic", "--base-albedo", "0.5"], "--isotropic"),
     ] {
         let mut a = vec!["topo", s(&h), "--flake-stack", "TiO2:120"];
@@ -173,17 +171,9 @@ fn bad_uses_exit_2_naming_the_flag() {
         assert_eq!(code, 2, "{extra:?}: {err}");
         assert!(err.contains(needle), "{extra:?}: {err}");
     }
-    let (code, _, err) = run_text(&[
-        "model",
-        "--flake-stack",
-        "TiO2:120",
-        "--binder-absorption",
-        "0.1",
-        "--film-um",
-        "10",
-        "--base-albedo",
-        "0.5",
-    ]);
+    let mut a = vec!["model", "--flake-stack", "TiO2:120"];
+    a.extend(binder);
+    let (code, _, err) = run_text(&a);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--binder-absorption"), "{err}");
     let (code, _, err) = run_text(&["topo", s(&h), "--base-albedo", "0.5"]);
