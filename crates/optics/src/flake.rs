@@ -18,13 +18,16 @@
 //!
 //! A pile of `N` such free flakes ([`FlakeReflectance::Pile`], physics.md §12.8) sends
 //! part of that light back up: its powers are Stokes' pile of plates
-//! ([`crate::pile`]), `s` and `p` piled separately.
+//! ([`crate::pile`]), `s` and `p` piled separately. A flake seen through a band of
+//! wavelengths ([`FlakeReflectance::Band`], [`crate::band`]) is the power-weighted mean
+//! of the same flake at each.
 
 use std::sync::Arc;
 
 use nalgebra::Complex;
 
 use crate::OpticsError;
+use crate::band::{FlakeBand, Linear};
 use crate::pile::Plate;
 use crate::thinfilm::{FilmStack, Response, solve_unchecked};
 
@@ -79,6 +82,9 @@ pub enum FlakeReflectance {
     /// A pile of `N ≥ 2` identical free thin-film flakes, parallel and stacked
     /// incoherently ([`crate::pile`]); built by [`FlakeReflectance::pile`].
     Pile(Arc<FlakePile>),
+    /// A flake averaged over a band of wavelengths ([`crate::band`]); built by
+    /// [`FlakeReflectance::band`].
+    Band(Arc<FlakeBand>),
 }
 
 /// A pile of identical free thin-film flakes ([`FlakeReflectance::Pile`]).
@@ -177,6 +183,40 @@ impl FlakeReflectance {
                 let (s, p, _) = f.piled(cos_iota, n_medium);
                 (s.r.re, p.r.re)
             }
+            Self::Band(b) => {
+                let m = b.at(cos_iota, n_medium);
+                (m.rs, m.rp)
+            }
+        }
+    }
+
+    /// The quantities linear in the light's power that a band averages
+    /// ([`crate::band`]): `R_s`, `R_p`, `x = r_s r_p*` (a pile's sum over its paths)
+    /// and `T_s`, `T_p`.
+    pub(crate) fn linear(&self, cos_iota: f64, n_medium: f64) -> Linear {
+        match self {
+            Self::Pile(f) => {
+                let (s, p, x) = f.piled(cos_iota, n_medium);
+                Linear {
+                    rs: s.r.re,
+                    rp: p.r.re,
+                    x: x.r,
+                    ts: s.t.re,
+                    tp: p.t.re,
+                }
+            }
+            Self::Band(b) => b.at(cos_iota, n_medium),
+            _ => {
+                let (rs, rp) = self.amplitudes(cos_iota, n_medium);
+                let (ts, tp) = self.transmitted(cos_iota, n_medium);
+                Linear {
+                    rs: rs.norm_sqr(),
+                    rp: rp.norm_sqr(),
+                    x: rs * rp.conj(),
+                    ts,
+                    tp,
+                }
+            }
         }
     }
 
@@ -205,6 +245,9 @@ impl FlakeReflectance {
                 },
                 layers,
             }))),
+            Self::Band(_) => Err(OpticsError::InvalidPile(format!(
+                "{layers} flake layers of a band of wavelengths: pile the flake at each wavelength, then average the piles over the band"
+            ))),
             _ => Err(OpticsError::InvalidPile(format!(
                 "{layers} flake layers of flakes that transmit nothing (a metal, or a stack on an opaque core): their pile is the top flake itself; piles are of free interference flakes"
             ))),
@@ -248,6 +291,10 @@ impl FlakeReflectance {
             Self::Pile(f) => {
                 let (s, p, _) = f.piled(cos_iota, n_medium);
                 (s.t.re, p.t.re)
+            }
+            Self::Band(b) => {
+                let m = b.at(cos_iota, n_medium);
+                (m.ts, m.tp)
             }
         }
     }
@@ -303,6 +350,10 @@ impl FlakeReflectance {
             Self::Pile(f) => {
                 let (s, p, x) = f.piled(cos_iota, n_medium);
                 equivalent_amplitudes(s.r.re, p.r.re, x.r)
+            }
+            Self::Band(b) => {
+                let m = b.at(cos_iota, n_medium);
+                equivalent_amplitudes(m.rs, m.rp, m.x)
             }
         }
     }
