@@ -309,6 +309,9 @@ def volume_model(
     min_weight: float = 1e-6,
     layers: int = 8,
     binder_absorption: float = 0.0,
+    flake_stack: Optional[str] = None,
+    flake_core: Optional[str] = None,
+    wavelength_nm: Optional[float] = None,
 ) -> dict[str, Any]:
     """The volume model: a 3-D layer of cylinder flakes with multiple scattering.
 
@@ -325,7 +328,10 @@ def volume_model(
     beam), ``layer`` (realised layers: counts summed, fractions averaged, with
     ``flakes_resized``, ``flakes_moved``, ``resized_area_fraction``),
     ``rays_per_incidence``, ``rays_per_layer``, ``layers``, ``seed``. A black
-    ``substrate`` takes no ``substrate_albedo``. Releases the GIL; Ctrl-C interrupts.
+    ``substrate`` takes no ``substrate_albedo``. Interference flakes: ``flake_stack``
+    (and ``flake_core``) at the one wavelength ``wavelength_nm`` (nm), as ``volume
+    --flake-stack SPEC --flake-core M --wavelength NM``; a spectrum is a call per
+    wavelength. Releases the GIL; Ctrl-C interrupts.
     """
 
 def compare(
