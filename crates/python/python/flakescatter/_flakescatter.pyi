@@ -199,13 +199,18 @@ def topographic_model(
     flake_stack: Optional[str] = None,
     flake_core: Optional[str] = None,
     wavelength_nm: Optional[float] = None,
+    base_albedo: float = 0.0,
 ) -> dict[str, npt.NDArray[Any]]:
     """The topographic model over height maps, accumulated (as ``flakescatter topo``).
 
     Angles and optics as ``distribution_model``; ``window`` (odd >= 3 pixels) is the
     least-squares plane's window, ``tile_um`` (µm) the side of the tiles whose spread
     gives ``std_err``. Columns as ``distribution_model`` plus ``rays`` (int64) and
-    ``std_err`` (1/sr; NaN where not estimable). Releases the GIL; Ctrl-C interrupts.
+    ``std_err`` (1/sr; NaN where not estimable). ``base_albedo`` in [0, 1] (with
+    ``flake_stack`` and no ``flake_core``) puts a Lambertian base under the flakes, as
+    ``topo --base-albedo``: driven by the maps' pixel normals, scaled by the usable-pixel
+    coverage, its standard error added to ``std_err`` (physics.md §13). Releases the
+    GIL; Ctrl-C interrupts.
     """
 
 def isotropic_model(
