@@ -175,15 +175,7 @@ pub fn distribution_model<'py>(
     let coat = coating_with_stack(py, n, flake_index, flake_stack, flake_core, wavelength_nm)?;
     let mut set = settings(py, transmission, weighting, clearcoat)?;
     set.cone_method = cone_method(py, cone)?;
-    // A Lambertian base under thin-film flakes (physics.md §13); the model refuses it
-    // for flakes that transmit nothing.
-    if !(base_albedo.is_finite() && (0.0..=1.0).contains(&base_albedo)) {
-        return Err(input(
-            py,
-            format!("base_albedo={base_albedo}: expected an albedo in [0, 1] (0 is a black base)"),
-        ));
-    }
-    set.base_albedo = base_albedo;
+    set.base_albedo = checked_albedo(py, base_albedo)?;
     let instrument = args.instrument(py)?;
     let source =
         OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);
@@ -192,6 +184,18 @@ pub fn distribution_model<'py>(
     })?
     .map_err(|e| to_py(py, Kind::Input, &e))?;
     curve_columns(py, &args, &curves, false)
+}
+
+/// `base_albedo=`: a Lambertian base under thin-film flakes (physics.md §13), in
+/// [0, 1]; the models refuse it for flakes that transmit nothing.
+fn checked_albedo(py: Python<'_>, base_albedo: f64) -> PyResult<f64> {
+    if !(base_albedo.is_finite() && (0.0..=1.0).contains(&base_albedo)) {
+        return Err(input(
+            py,
+            format!("base_albedo={base_albedo}: expected an albedo in [0, 1] (0 is a black base)"),
+        ));
+    }
+    Ok(base_albedo)
 }
 
 /// Topographic settings from the keywords, checked as the CLI checks them.
@@ -221,9 +225,11 @@ pub(crate) fn topo_warnings(
 
 /// The topographic model (physics.md §5) over one or more height maps, accumulated, as
 /// `flakescatter topo`: one ray per usable pixel reflected by the local least-squares
-/// plane. Interruptible with Ctrl-C.
+/// plane. `base_albedo` (with `flake_stack` without `flake_core`) puts a Lambertian
+/// base under the transmitting flakes, as `topo --base-albedo` (physics.md §13, "The
+/// base under a map's flakes"). Interruptible with Ctrl-C.
 #[pyfunction]
-#[pyo3(signature = (maps, *, window = 5, tile_um = 32.0, n = 1.5, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None, flake_stack = None, flake_core = None, wavelength_nm = None))]
+#[pyo3(signature = (maps, *, window = 5, tile_um = 32.0, n = 1.5, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, transmission = "exact-unpolarized", weighting = "physical", clearcoat = false, flake_index = None, flake_stack = None, flake_core = None, wavelength_nm = None, base_albedo = 0.0))]
 pub fn topographic_model<'py>(
     py: Python<'py>,
     maps: &Bound<'py, PyAny>,
@@ -241,11 +247,13 @@ pub fn topographic_model<'py>(
     flake_stack: Option<&str>,
     flake_core: Option<&str>,
     wavelength_nm: Option<f64>,
+    base_albedo: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let maps = maps_of(py, maps)?;
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
     let coat = coating_with_stack(py, n, flake_index, flake_stack, flake_core, wavelength_nm)?;
-    let set = settings(py, transmission, weighting, clearcoat)?;
+    let mut set = settings(py, transmission, weighting, clearcoat)?;
+    set.base_albedo = checked_albedo(py, base_albedo)?;
     let topo = topo_settings(py, window, tile_um)?;
     let instrument = args.instrument(py)?;
     let refs = map_refs(&maps);
@@ -491,9 +499,14 @@ pub fn topographic_mueller<'py>(
 /// more flake events, absorbed, cut off) and `layer` (what the layers realised: counts
 /// summed, fractions averaged). `binder_absorption` is the binder's Napierian absorption
 /// coefficient in 1/µm (default 0, a clear binder), applied along every path inside the
-/// film; its share is `energy["absorbed_binder"]`. Interruptible with Ctrl-C.
+/// film; its share is `energy["absorbed_binder"]`. Interference flakes: `flake_stack`
+/// (and `flake_core`) at the one vacuum wavelength `wavelength_nm` (nm), as `volume
+/// --flake-stack SPEC --flake-core M --wavelength NM`: the light a free flake transmits
+/// goes on through it (physics.md §10, §13); a spectrum is a call per wavelength (the
+/// same seed gives the same layers and rays at each, as `--wavelengths`).
+/// Interruptible with Ctrl-C.
 #[pyfunction]
-#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, flake_index = None, film_um = 38.0, diameter_um = 16.0, diameter_rel_sd = 0.25, thickness_um = 1.0, mass_fraction = None, binder_density_g_cm3 = 1.2, volume_fraction = None, flakes = None, depth_um = None, tile_um = 1000.0, substrate = "black", substrate_albedo = 0.0, rims = "absorb", rays = 1_000_000, seed = 1, max_events = 1000, min_weight = 1e-6, layers = 8, binder_absorption = 0.0))]
+#[pyo3(signature = (*, n = 1.5, hwhm = None, sigma = None, rms_tilt = None, distribution = None, theta_i = None, theta_s = None, detectors = None, aperture = 1.5, flake_index = None, film_um = 38.0, diameter_um = 16.0, diameter_rel_sd = 0.25, thickness_um = 1.0, mass_fraction = None, binder_density_g_cm3 = 1.2, volume_fraction = None, flakes = None, depth_um = None, tile_um = 1000.0, substrate = "black", substrate_albedo = 0.0, rims = "absorb", rays = 1_000_000, seed = 1, max_events = 1000, min_weight = 1e-6, layers = 8, binder_absorption = 0.0, flake_stack = None, flake_core = None, wavelength_nm = None))]
 pub fn volume_model<'py>(
     py: Python<'py>,
     n: f64,
@@ -525,9 +538,14 @@ pub fn volume_model<'py>(
     min_weight: f64,
     layers: u32,
     binder_absorption: f64,
+    flake_stack: Option<&str>,
+    flake_core: Option<&str>,
+    wavelength_nm: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let args = InstrumentArgs::new(py, theta_i, theta_s, detectors, aperture)?;
-    let coat = coating(py, n, flake_index)?;
+    // As `volume --flake-stack SPEC --flake-core M --wavelength NM`: the stack in the
+    // binder at that one wavelength (the CLI's `--wavelengths` is a loop over this).
+    let coat = coating_with_stack(py, n, flake_index, flake_stack, flake_core, wavelength_nm)?;
     let instrument = args.instrument(py)?;
     let source =
         OrientationSource::Distribution(orientation(py, hwhm, sigma, rms_tilt, distribution)?);

@@ -3,7 +3,7 @@
 
 use flakescatter::compare::MeasuredKind;
 use flakescatter::paint::file::ParamsFile;
-use flakescatter::paint::report::{fit_json, worst_ratio};
+use flakescatter::paint::report::{fit_and_report, worst_ratio};
 use flakescatter::paint::{Family, FitOptions, Selection, paint_curves};
 use flakescatter::paint_model::{FlakeMetal, PaintModel};
 use flakescatter::{DetectorSet, Instrument};
@@ -88,9 +88,14 @@ fn flakes(
 /// `flake_stack` (and `flake_core`) as `--flake-stack`/`--flake-core`, with
 /// `fit_thickness` (layer numbers from 1) and `thickness_range_nm` as `--fit-thickness`
 /// and `--thickness-range`; `flake_layers` (1–1000, free stacks only) piles the flakes
-/// that deep, as `--flake-layers` (physics.md §12.8).
+/// that deep, as `--flake-layers` (physics.md §12.8); `fit_flake_layers=True` fits that
+/// number instead, as `--fit-flake-layers`: the whole fit at every N from 1 to 16, the
+/// lowest χ² kept, `fit` then holding `flake_layers` (the N kept) and
+/// `flake_layers_scan` (`layers`, and `chi2` at each, `None` where that fit failed); it
+/// needs a free stack and no `flake_layers` (`InputError` otherwise) and takes 16 fits'
+/// time.
 #[pyfunction]
-#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None))]
+#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None, fit_flake_layers = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_paint<'py>(
     py: Python<'py>,
@@ -110,6 +115,7 @@ pub fn fit_paint<'py>(
     fit_thickness: Option<Vec<usize>>,
     thickness_range_nm: (f64, f64),
     flake_layers: Option<i64>,
+    fit_flake_layers: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let path = path_of(py, "measured", measured)?;
     let families =
@@ -145,6 +151,22 @@ pub fn fit_paint<'py>(
     }
     flakescatter::checks::coat_index(n).map_err(|e| input(py, format!("n={e}")))?;
     let flake_metal = flakes(py, flake_index, flake_stack, flake_core, flake_layers)?;
+    if fit_flake_layers {
+        if let Some(l) = flake_layers {
+            return Err(input(
+                py,
+                format!(
+                    "fit_flake_layers=True and flake_layers={l}: give one (the number of flake layers is fitted or given)"
+                ),
+            ));
+        }
+        if !matches!(&flake_metal, FlakeMetal::Stack(s) if s.core.is_none()) {
+            return Err(input(
+                py,
+                "fit_flake_layers=True needs free interference flakes (flake_stack=... without flake_core): a pile of flakes that transmit nothing is the top flake itself",
+            ));
+        }
+    }
     let thickness = match fit_thickness {
         None => None,
         Some(layers) => {
@@ -172,16 +194,15 @@ pub fn fit_paint<'py>(
         smoothing,
         thickness,
     };
-    let (m, fit) = released(py, || {
+    let (m, fit, report) = released(py, || {
         let m = flakescatter::paint::read_measurement(&path, MeasuredKind::Brdf)?;
-        let fit = flakescatter::paint::fit(&m, &opts)?;
-        Ok::<_, flakescatter::PipelineError>((m, fit))
+        let (fit, report) = fit_and_report(&m, &opts, fit_flake_layers)?;
+        Ok::<_, flakescatter::PipelineError>((m, fit, report))
     })?
     .map_err(|e| raise(py, Kind::Input, crate::errors::message(&e), None))?;
     for w in &fit.warnings {
         warn(py, &format!("{}: {w}", m.file))?;
     }
-    let report = fit_json(&fit, &m, &opts);
     let params = ParamsFile::new(&fit.params, None);
     let params_value = serde_json::to_value(&params).map_err(|e| input(py, e.to_string()))?;
     let rows: Vec<_> = fit.points.iter().map(|p| &m.rows[p.row]).collect();

@@ -1,6 +1,8 @@
 """The distribution and topographic models (and their Mueller forms) against the CLI's
 `model` and `topo` tables, exactly; shapes and dtypes; bad parameters."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -80,6 +82,31 @@ def test_topographic_equals_cli(cli):
     want = cli.run("topo", HEIGHT, "--intensity", INTENSITY, "--cutoff", CUTOFF,
                    "--theta-i", "0,45,60", "--theta-s", "-70:70:1")
     assert_table_equal(got, want, TOPO)
+
+
+def test_topographic_base_under_stack_flakes_equals_cli(cli):
+    # A Lambertian base under the map's free thin-film flakes (physics.md §13, "The base
+    # under a map's flakes"): the numbers of `topo --flake-stack ... --wavelengths 550
+    # --base-albedo 0.8` (whose spectral table leads with wavelength_nm), every row above
+    # the black base's; bad albedos and flakes that transmit nothing are refused.
+    m = fs.read_map(HEIGHT, intensity=INTENSITY, cutoff=CUTOFF)
+    kw = dict(theta_i=[30.0], theta_s=np.arange(-70.0, 71.0, 10.0), flake_stack="TiO2:100",
+              wavelength_nm=550.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", fs.FlakescatterWarning)
+        got = fs.topographic_model(m, base_albedo=0.8, **kw)
+        black = fs.topographic_model(m, **kw)
+    text = cli.run("topo", HEIGHT, "--intensity", INTENSITY, "--cutoff", CUTOFF,
+                   "--flake-stack", "TiO2:100", "--wavelengths", "550", "--base-albedo", "0.8",
+                   "--theta-i", "30", "--theta-s", "-70:70:10")
+    text = "".join(line.split(",", 1)[1] + "\n" for line in text.strip().splitlines())
+    assert_table_equal(got, text, TOPO)
+    assert np.all(got["reflectance"] > black["reflectance"])
+    for bad in [-0.1, 1.5, float("nan")]:
+        with pytest.raises(fs.InputError, match="base_albedo"):
+            fs.topographic_model(m, base_albedo=bad, **kw)
+    with pytest.raises(fs.InputError, match="transmit"):
+        fs.topographic_model(m, theta_i=[30.0], flake_index=(0.96, 6.69), base_albedo=0.5)
 
 
 def test_topographic_two_maps_and_options_equal_cli(cli):

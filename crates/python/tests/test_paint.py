@@ -133,3 +133,82 @@ def test_bad_stack_keywords_are_named(kw, word):
 def test_a_fractional_flake_layer_count_is_a_type_error_naming_it():
     with pytest.raises(TypeError, match="flake_layers"):
         fs.fit_paint(COLOUR_CHANGING, flake_stack="TiO2:40", flake_layers=2.5)
+
+
+def _pile_truth(layers):
+    """A paint whose flakes are a free 150 nm TiO2 film piled `layers` deep: rough coat
+    of index 1.5 without haze, Trowbridge-Reitz flakes (alpha 0.1) at coverage 0.5,
+    a different flake scale and base albedo per channel."""
+    flakes = {"metal": {"stack": "TiO2:150"}, "coverage": 0.5}
+    if layers != 1:
+        flakes["layers"] = layers
+    return {
+        "format": "flakescatter paint parameters",
+        "version": 1,
+        "coat": {"n": 1.5, "roughness": 0.03, "haze": 0, "haze_roughness": 0},
+        "orientation": {"family": "trowbridge-reitz", "alpha": 0.1},
+        "flakes": flakes,
+        "channels": [
+            {"name": "r", "wavelength_nm": 612, "flake_scale": 0.9, "base_albedo": 0.05},
+            {"name": "g", "wavelength_nm": 547, "flake_scale": 0.7, "base_albedo": 0.1},
+            {"name": "b", "wavelength_nm": 464, "flake_scale": 0.8, "base_albedo": 0.2},
+        ],
+    }
+
+
+def test_fit_flake_layers_finds_the_pile_depth_a_table_was_made_with(tmp_path):
+    """A table made by the paint model with the flakes piled 4 deep (incidences 20, 45,
+    65 degrees; in-plane detectors every 4 degrees to 80 on both sides, out of the plane
+    at 30 and 60 degrees azimuth): fit_flake_layers=True, given only the film, gives back
+    4, with the whole scan 1..16 (the coverage given, as the fit cannot tell it from the
+    flake scale; the other parameters fitted back too). The data are exact, so the truth fits to rounding
+    and its neighbours 3 and 5 do not."""
+    tr = [4.0 * k for k in range(1, 21)] * 2 + [10.0 * k for k in range(1, 9)] * 2
+    pr = [0.0] * 20 + [180.0] * 20 + [30.0] * 8 + [60.0] * 8
+    table = fs.paint_brdf(_pile_truth(4), [20, 45, 65], tr, pr)
+    cols = ["theta_i_deg", "theta_r_deg", "phi_r_deg"] + [
+        f"brdf_{c}_per_sr" for c in "rgb"
+    ]
+    path = tmp_path / "pile4.csv"
+    rows = zip(*(table[c] for c in cols))
+    path.write_text(
+        ",".join(cols) + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows)
+    )
+    got = fs.fit_paint(path, family="trowbridge-reitz", haze=False, coverage=0.5,
+                       flake_stack="TiO2:150", fit_flake_layers=True)
+    fit = got["fit"]
+    assert fit["flake_layers"] == 4, fit["flake_layers_scan"]
+    scan = fit["flake_layers_scan"]
+    assert scan["layers"] == list(range(1, 17))
+    chi2 = dict(zip(scan["layers"], scan["chi2"]))
+    assert all(c is not None for c in chi2.values())
+    assert min(chi2, key=chi2.get) == 4
+    assert chi2[4] < 1e-12, chi2
+    assert chi2[3] > 1e3 * max(chi2[4], 1e-15) and chi2[5] > 1e3 * max(chi2[4], 1e-15)
+    assert fit["chi2"] == chi2[4]
+    # The paint returned is the pile kept, and its parameters are the truth's.
+    assert got["params"]["flakes"]["layers"] == 4
+    for ch, (s, rho) in zip(got["params"]["channels"], [(0.9, 0.05), (0.7, 0.1), (0.8, 0.2)]):
+        assert ch["flake_scale"] == pytest.approx(s, rel=1e-4)
+        assert ch["base_albedo"] == pytest.approx(rho, rel=1e-4, abs=1e-6)
+    assert got["worst_ratio"] < 1e-4
+
+
+@pytest.mark.parametrize(
+    "kw, word",
+    [
+        (dict(flake_stack="TiO2:40", flake_layers=2),
+         r"fit_flake_layers=True and flake_layers=2: give one"),
+        (dict(), "fit_flake_layers=True needs free interference flakes"),
+        (dict(flake_index=(1.0, 6.0)), "fit_flake_layers=True needs free interference flakes"),
+        (dict(flake_stack="TiO2:40", flake_core="aluminium"),
+         "fit_flake_layers=True needs free interference flakes"),
+    ],
+)
+def test_fit_flake_layers_refusals_name_the_keyword(kw, word):
+    """The combinations the CLI refuses (--fit-flake-layers with --flake-layers, or
+    without a free --flake-stack) are an InputError (a ValueError) naming the keyword,
+    before any fit."""
+    with pytest.raises(fs.InputError, match=word) as e:
+        fs.fit_paint(COLOUR_CHANGING, fit_flake_layers=True, **kw)
+    assert isinstance(e.value, ValueError)

@@ -8,11 +8,54 @@
 use serde_json::{Value, json};
 
 use super::{FitOptions, GroupResidual, Measurement, PaintComparison, PaintFit, Point, Region};
+use crate::PipelineError;
 use crate::chart::{Chart, Series, Style};
 
 /// The targets of the real-paints check (issue: rms `log10` residuals), for reports:
 /// `(near, far)` at incidences up to 60°, both at 75°, and out of the plane overall.
 pub const TARGETS: ((f64, f64), f64, f64) = ((0.06, 0.12), 0.2, 0.1);
+
+/// The numbers of flake layers [`fit_and_report`] tries when it fits the number of
+/// layers (`fit --paint --fit-flake-layers`, Python's `fit_paint(fit_flake_layers=True)`):
+/// 1 to this.
+pub const FLAKE_LAYERS_SCANNED: u32 = 16;
+
+/// The joint fit of `m` and its report ([`fit_json`]), as `fit --paint` gives them.
+///
+/// With `fit_layers`, the number of flake layers is fitted too (physics.md §12.8): the
+/// whole fit at every `N` from 1 to [`FLAKE_LAYERS_SCANNED`]
+/// ([`super::fit_flake_layers`]), the lowest `χ²` kept; the report then adds
+/// `flake_layers` (the `N` kept) and `flake_layers_scan` (`layers` and `chi2` at each,
+/// `null` where the fit failed). The fit returned is the one kept, its paint's flakes
+/// piled that deep.
+///
+/// # Errors
+/// [`PipelineError::Paint`] as the fit says; with `fit_layers`, also for flakes that are
+/// not a free interference stack, or a fit that fails at every `N`.
+pub fn fit_and_report(
+    m: &Measurement,
+    opts: &FitOptions,
+    fit_layers: bool,
+) -> Result<(PaintFit, Value), PipelineError> {
+    if !fit_layers {
+        let fit = super::fit(m, opts)?;
+        let report = fit_json(&fit, m, opts);
+        return Ok((fit, report));
+    }
+    let lf = super::fit_flake_layers(m, opts, FLAKE_LAYERS_SCANNED)?;
+    let kept = FitOptions {
+        flake_metal: opts.flake_metal.with_layers(lf.layers)?,
+        ..opts.clone()
+    };
+    let mut report = fit_json(&lf.fit, m, &kept);
+    report["flake_layers"] = json!(lf.layers);
+    report["flake_layers_scan"] = json!({
+        "note": "the whole fit at each number of flake layers, the lowest chi2 kept (every N has the same parameters)",
+        "layers": lf.scan.iter().map(|s| s.0).collect::<Vec<_>>(),
+        "chi2": lf.scan.iter().map(|s| s.1).collect::<Vec<_>>(),
+    });
+    Ok((lf.fit, report))
+}
 
 /// The weighting a fit used, in words.
 #[must_use]

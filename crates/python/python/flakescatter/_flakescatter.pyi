@@ -199,13 +199,18 @@ def topographic_model(
     flake_stack: Optional[str] = None,
     flake_core: Optional[str] = None,
     wavelength_nm: Optional[float] = None,
+    base_albedo: float = 0.0,
 ) -> dict[str, npt.NDArray[Any]]:
     """The topographic model over height maps, accumulated (as ``flakescatter topo``).
 
     Angles and optics as ``distribution_model``; ``window`` (odd >= 3 pixels) is the
     least-squares plane's window, ``tile_um`` (µm) the side of the tiles whose spread
     gives ``std_err``. Columns as ``distribution_model`` plus ``rays`` (int64) and
-    ``std_err`` (1/sr; NaN where not estimable). Releases the GIL; Ctrl-C interrupts.
+    ``std_err`` (1/sr; NaN where not estimable). ``base_albedo`` in [0, 1] (with
+    ``flake_stack`` and no ``flake_core``) puts a Lambertian base under the flakes, as
+    ``topo --base-albedo``: driven by the maps' pixel normals, scaled by the usable-pixel
+    coverage, its standard error added to ``std_err`` (physics.md §13). Releases the
+    GIL; Ctrl-C interrupts.
     """
 
 def isotropic_model(
@@ -309,6 +314,9 @@ def volume_model(
     min_weight: float = 1e-6,
     layers: int = 8,
     binder_absorption: float = 0.0,
+    flake_stack: Optional[str] = None,
+    flake_core: Optional[str] = None,
+    wavelength_nm: Optional[float] = None,
 ) -> dict[str, Any]:
     """The volume model: a 3-D layer of cylinder flakes with multiple scattering.
 
@@ -325,7 +333,10 @@ def volume_model(
     beam), ``layer`` (realised layers: counts summed, fractions averaged, with
     ``flakes_resized``, ``flakes_moved``, ``resized_area_fraction``),
     ``rays_per_incidence``, ``rays_per_layer``, ``layers``, ``seed``. A black
-    ``substrate`` takes no ``substrate_albedo``. Releases the GIL; Ctrl-C interrupts.
+    ``substrate`` takes no ``substrate_albedo``. Interference flakes: ``flake_stack``
+    (and ``flake_core``) at the one wavelength ``wavelength_nm`` (nm), as ``volume
+    --flake-stack SPEC --flake-core M --wavelength NM``; a spectrum is a call per
+    wavelength. Releases the GIL; Ctrl-C interrupts.
     """
 
 def compare(
@@ -401,6 +412,8 @@ def fit_paint(
     flake_core: Optional[str] = None,
     fit_thickness: Optional[Sequence[int]] = None,
     thickness_range_nm: Tuple[float, float] = (10.0, 600.0),
+    flake_layers: Optional[int] = None,
+    fit_flake_layers: bool = False,
 ) -> dict[str, Any]:
     """Fit a paint (clear coat, flakes, base) to a measured BRDF table (as
     ``flakescatter fit --paint``): one parameter set for every incidence, row and
@@ -414,7 +427,13 @@ def fit_paint(
     ``--flake-stack``/``--flake-core``, taken at each channel's wavelength;
     ``fit_thickness`` (layer numbers from 1, moved together) fits their thickness from
     the best point of a scan over ``thickness_range_nm`` (nm); the scan is in
-    ``fit["thickness"]``."""
+    ``fit["thickness"]``. ``flake_layers`` (1-1000, free stacks only) piles the flakes
+    that deep, as ``--flake-layers``; ``fit_flake_layers=True`` fits that number, as
+    ``--fit-flake-layers``: the whole fit at every N from 1 to 16, the lowest chi2 kept,
+    ``fit["flake_layers"]`` the N kept and ``fit["flake_layers_scan"]`` the ``layers``
+    and ``chi2`` at each (``None`` where that fit failed). It needs a free stack
+    (``flake_stack`` without ``flake_core``) and no ``flake_layers``; ``InputError``
+    otherwise."""
 
 def paint_brdf(
     params: Union[PathLike, Mapping[str, Any]],

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use flakescatter::paint::file::ParamsFile;
-use flakescatter::paint::report::{fit_json, fit_text, in_plane_chart, points_csv, residual_map};
+use flakescatter::paint::report::{
+    fit_and_report, fit_text, in_plane_chart, points_csv, residual_map,
+};
 use flakescatter::paint::{Family, FitOptions, Measurement, PaintFit, Selection, ThicknessFit};
 use flakescatter::paint_model::FlakeMetal;
 use serde_json::json;
@@ -90,9 +92,6 @@ pub struct PaintArgs {
     #[arg(long, value_name = "NM", allow_negative_numbers = true)]
     pub channel_band: Option<f64>,
 }
-
-/// The numbers of flake layers `--fit-flake-layers` tries: 1 to this.
-pub const FLAKE_LAYERS_SCANNED: u32 = 16;
 
 impl PaintArgs {
     /// `true` when a paint-only flag is set without `--paint`, naming it.
@@ -294,7 +293,8 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     }
     plan.check()?;
     let m = args.measured.read_paint()?;
-    let (fit, report) = fit_and_report(&m, opts, p.fit_flake_layers)?;
+    let (fit, report) = fit_and_report(&m, &opts, p.fit_flake_layers)
+        .with_context(|| format!("paint fit of {}", m.file))?;
     for w in &fit.warnings {
         warn(&format!("{}: {w}", m.file));
     }
@@ -330,35 +330,6 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     } else {
         print(&(fit_text(&fit).join("\n") + "\n"))
     }
-}
-
-/// The fit (or, with `--fit-flake-layers`, the fits at every number of layers, the best
-/// kept) and its report.
-fn fit_and_report(
-    m: &Measurement,
-    opts: FitOptions,
-    fit_layers: bool,
-) -> anyhow::Result<(PaintFit, serde_json::Value)> {
-    let context = || format!("paint fit of {}", m.file);
-    if !fit_layers {
-        let fit = flakescatter::paint::fit(m, &opts).with_context(context)?;
-        let report = fit_json(&fit, m, &opts);
-        return Ok((fit, report));
-    }
-    let lf = flakescatter::paint::fit_flake_layers(m, &opts, FLAKE_LAYERS_SCANNED)
-        .with_context(context)?;
-    let kept = FitOptions {
-        flake_metal: opts.flake_metal.with_layers(lf.layers)?,
-        ..opts
-    };
-    let mut report = fit_json(&lf.fit, m, &kept);
-    report["flake_layers"] = json!(lf.layers);
-    report["flake_layers_scan"] = json!({
-        "note": "the whole fit at each number of flake layers, the lowest chi2 kept (every N has the same parameters)",
-        "layers": lf.scan.iter().map(|s| s.0).collect::<Vec<_>>(),
-        "chi2": lf.scan.iter().map(|s| s.1).collect::<Vec<_>>(),
-    });
-    Ok((lf.fit, report))
 }
 
 /// The plots of `--plot`: one in-plane chart per incidence, one out-of-plane residual map.
