@@ -185,17 +185,38 @@ fn bad_bands_are_named() {
     let base = ["fit", "--measured", s(&table)];
     for (extra, needle) in [
         (vec!["--channel-band", "40"], "--channel-band"),
-        (vec!["--paint", "--channel-band", "40"], "interference flakes"),
         (
-            vec!["--paint", "--flake-stack", "TiO2:100", "--channel-band", "0"],
+            vec!["--paint", "--channel-band", "40"],
+            "interference flakes",
+        ),
+        (
+            vec![
+                "--paint",
+                "--flake-stack",
+                "TiO2:100",
+                "--channel-band",
+                "0",
+            ],
             "--channel-band 0",
         ),
         (
-            vec!["--paint", "--flake-stack", "TiO2:100", "--channel-band", "500"],
+            vec![
+                "--paint",
+                "--flake-stack",
+                "TiO2:100",
+                "--channel-band",
+                "500",
+            ],
             "--channel-band 500",
         ),
         (
-            vec!["--paint", "--flake-stack", "TiO2:100", "--channel-band", "wide"],
+            vec![
+                "--paint",
+                "--flake-stack",
+                "TiO2:100",
+                "--channel-band",
+                "wide",
+            ],
             "--channel-band",
         ),
     ] {

@@ -27,7 +27,7 @@ use std::sync::Arc;
 use nalgebra::Complex;
 
 use crate::OpticsError;
-use crate::band::{FlakeBand, Linear};
+use crate::band::{BandTable, Linear};
 use crate::pile::Plate;
 use crate::thinfilm::{FilmStack, Response, solve_unchecked};
 
@@ -384,4 +384,82 @@ fn equivalent_amplitudes(rs: f64, rp: f64, x: Complex<f64>) -> (Complex<f64>, Co
     let a = rs.sqrt();
     let y = (rs * rp - x.re * x.re).max(0.0).sqrt().copysign(x.im);
     (Complex::new(a, 0.0), Complex::new(x.re / a, -y / a))
+}
+
+/// A flake averaged over a band of wavelengths ([`FlakeReflectance::Band`],
+/// [`crate::band`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlakeBand {
+    /// `(w_j, flake at λ_j)`, weights ≥ 0 summing to 1.
+    members: Vec<(f64, FlakeReflectance)>,
+    table: BandTable,
+}
+
+impl FlakeBand {
+    /// The members `(weight, flake)`, weights normalised.
+    #[must_use]
+    pub fn members(&self) -> &[(f64, FlakeReflectance)] {
+        &self.members
+    }
+
+    /// The index of the medium the tables were built for.
+    #[must_use]
+    pub fn n_medium(&self) -> f64 {
+        self.table.n_medium()
+    }
+
+    /// The means at `cos_iota` in a medium of index `n_medium` (tabulated in the
+    /// table's medium, summed over the members in another).
+    fn at(&self, cos_iota: f64, n_medium: f64) -> Linear {
+        if n_medium == self.table.n_medium() {
+            self.table.at(cos_iota)
+        } else {
+            mean_of(&self.members, cos_iota, n_medium)
+        }
+    }
+}
+
+/// The weighted mean of the members' quantities at one cosine.
+fn mean_of(members: &[(f64, FlakeReflectance)], cos_iota: f64, n_medium: f64) -> Linear {
+    let mut sum = Linear::default();
+    for (w, f) in members {
+        sum.add(*w, &f.linear(cos_iota, n_medium));
+    }
+    sum
+}
+
+impl FlakeReflectance {
+    /// A flake averaged over a band: `members` are `(weight, flake)` pairs (the flake at
+    /// each wavelength of the band; weights ≥ 0, not all 0, normalised here), tabulated
+    /// for the medium of index `n_medium` (module [`crate::band`]).
+    ///
+    /// # Errors
+    /// [`OpticsError::InvalidBand`] for no member, a weight that is negative or not
+    /// finite, weights summing to 0, a member that is itself a band, or an index that
+    /// is not finite and ≥ 1.
+    pub fn band(members: Vec<(f64, FlakeReflectance)>, n_medium: f64) -> Result<Self, OpticsError> {
+        let bad = |why: String| Err(OpticsError::InvalidBand(why));
+        if members.is_empty() {
+            return bad("no wavelength in the band".into());
+        }
+        if !(n_medium.is_finite() && n_medium >= 1.0) {
+            return bad(format!(
+                "medium index {n_medium}: expected a finite index >= 1"
+            ));
+        }
+        if let Some((w, _)) = members.iter().find(|(w, _)| !(w.is_finite() && *w >= 0.0)) {
+            return bad(format!("weight {w}: expected a finite weight >= 0"));
+        }
+        if members.iter().any(|(_, f)| matches!(f, Self::Band(_))) {
+            return bad("a band of bands".into());
+        }
+        let total: f64 = members.iter().map(|(w, _)| w).sum();
+        if total <= 0.0 {
+            return bad("the weights sum to 0".into());
+        }
+        let members: Vec<(f64, FlakeReflectance)> =
+            members.into_iter().map(|(w, f)| (w / total, f)).collect();
+        let table = BandTable::new(n_medium, |c| mean_of(&members, c, n_medium));
+        Ok(Self::Band(Arc::new(FlakeBand { members, table })))
+    }
 }

@@ -67,7 +67,13 @@ fn the_band_is_the_weighted_mean_of_its_members() {
         let (bs, bp) = band.power(c, n);
         let (bts, btp) = band.transmitted(c, n);
         let (rs, rp) = band.amplitudes(c, n);
-        for (a, b) in [(bs, ps), (bp, pp), (bts, ts), (btp, tp), ((rs * rp.conj()).re, x.re)] {
+        for (a, b) in [
+            (bs, ps),
+            (bp, pp),
+            (bts, ts),
+            (btp, tp),
+            ((rs * rp.conj()).re, x.re),
+        ] {
             assert!((a - b).abs() < 1e-13, "node {i}: {a} vs {b}");
         }
     }
@@ -112,10 +118,16 @@ fn a_band_of_one_is_its_member() {
     for i in [0usize, 7, 512, 2047, 2048] {
         let c = i as f64 / (BAND_NODES - 1) as f64;
         let (a, b) = (band.power(c, 1.5), f.power(c, 1.5));
-        assert!((a.0 - b.0).abs() < 1e-14 && (a.1 - b.1).abs() < 1e-14, "{i}");
+        assert!(
+            (a.0 - b.0).abs() < 1e-14 && (a.1 - b.1).abs() < 1e-14,
+            "{i}"
+        );
         let (ra, pa) = band.amplitudes(c, 1.5);
         let (rb, pb) = f.amplitudes(c, 1.5);
-        assert!(((ra * pa.conj()).re - (rb * pb.conj()).re).abs() < 1e-14, "{i}");
+        assert!(
+            ((ra * pa.conj()).re - (rb * pb.conj()).re).abs() < 1e-14,
+            "{i}"
+        );
     }
 }
 
@@ -129,7 +141,10 @@ fn bad_bands_are_refused() {
         (vec![(0.0, f.clone())], 1.5),
         (vec![(1.0, f.clone())], 0.9),
         (
-            vec![(1.0, FlakeReflectance::band(vec![(1.0, f.clone())], 1.5).unwrap())],
+            vec![(
+                1.0,
+                FlakeReflectance::band(vec![(1.0, f.clone())], 1.5).unwrap(),
+            )],
             1.5,
         ),
     ];

@@ -66,7 +66,12 @@ pub fn channel_band(centre_nm: f64, fwhm_nm: f64) -> Vec<(f64, f64)> {
     let nodes: Vec<(f64, f64)> = (-k..=k)
         .map(|j| centre_nm + j as f64 * BAND_STEP_NM)
         .filter(|wl| (380.0..=780.0).contains(wl))
-        .map(|wl| (wl, (-(wl - centre_nm).powi(2) / (2.0 * sigma * sigma)).exp()))
+        .map(|wl| {
+            (
+                wl,
+                (-(wl - centre_nm).powi(2) / (2.0 * sigma * sigma)).exp(),
+            )
+        })
         .collect();
     let total: f64 = nodes.iter().map(|(_, w)| w).sum();
     nodes.into_iter().map(|(wl, w)| (wl, w / total)).collect()

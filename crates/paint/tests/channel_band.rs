@@ -72,7 +72,10 @@ fn the_band_is_the_stated_gaussian() {
         let want = gaussian_band(centre, fwhm);
         assert_eq!(got.len(), want.len(), "{centre} {fwhm}");
         for ((l, w), (l2, w2)) in got.iter().zip(&want) {
-            assert!((l - l2).abs() < 1e-9 && (w - w2).abs() < 1e-14, "{l} {w} vs {l2} {w2}");
+            assert!(
+                (l - l2).abs() < 1e-9 && (w - w2).abs() < 1e-14,
+                "{l} {w} vs {l2} {w2}"
+            );
         }
         assert!((got.iter().map(|n| n.1).sum::<f64>() - 1.0).abs() < 1e-14);
         assert!(got.iter().all(|(l, _)| (380.0..=780.0).contains(l)));
@@ -127,8 +130,8 @@ fn a_band_smooths_the_colour_travel_of_a_thick_film() {
     // between two exit directions, relative to the perfect conductor's, shrinks.
     let ch = ["g"];
     let one = PaintModel::new(paint(stack("2.6:600"), &ch)).unwrap();
-    let band = PaintModel::new(paint(stack("2.6:600").with_band(Some(100.0)).unwrap(), &ch))
-        .unwrap();
+    let band =
+        PaintModel::new(paint(stack("2.6:600").with_band(Some(100.0)).unwrap(), &ch)).unwrap();
     let mirror = PaintModel::new(paint(FlakeMetal::PerfectConductor, &ch)).unwrap();
     let swing = |m: &PaintModel| {
         let vals: Vec<f64> = (0..8)
@@ -139,11 +142,16 @@ fn a_band_smooths_the_colour_travel_of_a_thick_film() {
                 m.terms(&a, &r, 0).flakes / mirror.terms(&b, &r, 0).flakes
             })
             .collect();
-        let (lo, hi) = vals.iter().fold((f64::MAX, 0f64), |(a, b), &v| (a.min(v), b.max(v)));
+        let (lo, hi) = vals
+            .iter()
+            .fold((f64::MAX, 0f64), |(a, b), &v| (a.min(v), b.max(v)));
         hi - lo
     };
     let (s1, sb) = (swing(&one), swing(&band));
-    assert!(sb < 0.5 * s1, "swing at one wavelength {s1}, over the band {sb}");
+    assert!(
+        sb < 0.5 * s1,
+        "swing at one wavelength {s1}, over the band {sb}"
+    );
 }
 
 #[test]
@@ -154,5 +162,8 @@ fn bad_bands_are_refused() {
     }
     let e = FlakeMetal::Aluminium.with_band(Some(50.0)).unwrap_err();
     assert!(e.to_string().contains("interference flakes"), "{e}");
-    assert_eq!(FlakeMetal::Aluminium.with_band(None).unwrap(), FlakeMetal::Aluminium);
+    assert_eq!(
+        FlakeMetal::Aluminium.with_band(None).unwrap(),
+        FlakeMetal::Aluminium
+    );
 }
