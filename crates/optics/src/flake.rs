@@ -18,13 +18,16 @@
 //!
 //! A pile of `N` such free flakes ([`FlakeReflectance::Pile`], physics.md §12.8) sends
 //! part of that light back up: its powers are Stokes' pile of plates
-//! ([`crate::pile`]), `s` and `p` piled separately.
+//! ([`crate::pile`]), `s` and `p` piled separately. A flake seen through a band of
+//! wavelengths ([`FlakeReflectance::Band`], [`crate::band`]) is the power-weighted mean
+//! of the same flake at each.
 
 use std::sync::Arc;
 
 use nalgebra::Complex;
 
 use crate::OpticsError;
+use crate::band::{BandTable, Linear};
 use crate::pile::Plate;
 use crate::thinfilm::{FilmStack, Response, solve_unchecked};
 
@@ -79,6 +82,9 @@ pub enum FlakeReflectance {
     /// A pile of `N ≥ 2` identical free thin-film flakes, parallel and stacked
     /// incoherently ([`crate::pile`]); built by [`FlakeReflectance::pile`].
     Pile(Arc<FlakePile>),
+    /// A flake averaged over a band of wavelengths ([`crate::band`]); built by
+    /// [`FlakeReflectance::band`].
+    Band(Arc<FlakeBand>),
 }
 
 /// A pile of identical free thin-film flakes ([`FlakeReflectance::Pile`]).
@@ -177,6 +183,40 @@ impl FlakeReflectance {
                 let (s, p, _) = f.piled(cos_iota, n_medium);
                 (s.r.re, p.r.re)
             }
+            Self::Band(b) => {
+                let m = b.at(cos_iota, n_medium);
+                (m.rs, m.rp)
+            }
+        }
+    }
+
+    /// The quantities linear in the light's power that a band averages
+    /// ([`crate::band`]): `R_s`, `R_p`, `x = r_s r_p*` (a pile's sum over its paths)
+    /// and `T_s`, `T_p`.
+    pub(crate) fn linear(&self, cos_iota: f64, n_medium: f64) -> Linear {
+        match self {
+            Self::Pile(f) => {
+                let (s, p, x) = f.piled(cos_iota, n_medium);
+                Linear {
+                    rs: s.r.re,
+                    rp: p.r.re,
+                    x: x.r,
+                    ts: s.t.re,
+                    tp: p.t.re,
+                }
+            }
+            Self::Band(b) => b.at(cos_iota, n_medium),
+            _ => {
+                let (rs, rp) = self.amplitudes(cos_iota, n_medium);
+                let (ts, tp) = self.transmitted(cos_iota, n_medium);
+                Linear {
+                    rs: rs.norm_sqr(),
+                    rp: rp.norm_sqr(),
+                    x: rs * rp.conj(),
+                    ts,
+                    tp,
+                }
+            }
         }
     }
 
@@ -205,6 +245,9 @@ impl FlakeReflectance {
                 },
                 layers,
             }))),
+            Self::Band(_) => Err(OpticsError::InvalidPile(format!(
+                "{layers} flake layers of a band of wavelengths: pile the flake at each wavelength, then average the piles over the band"
+            ))),
             _ => Err(OpticsError::InvalidPile(format!(
                 "{layers} flake layers of flakes that transmit nothing (a metal, or a stack on an opaque core): their pile is the top flake itself; piles are of free interference flakes"
             ))),
@@ -248,6 +291,10 @@ impl FlakeReflectance {
             Self::Pile(f) => {
                 let (s, p, _) = f.piled(cos_iota, n_medium);
                 (s.t.re, p.t.re)
+            }
+            Self::Band(b) => {
+                let m = b.at(cos_iota, n_medium);
+                (m.ts, m.tp)
             }
         }
     }
@@ -304,6 +351,10 @@ impl FlakeReflectance {
                 let (s, p, x) = f.piled(cos_iota, n_medium);
                 equivalent_amplitudes(s.r.re, p.r.re, x.r)
             }
+            Self::Band(b) => {
+                let m = b.at(cos_iota, n_medium);
+                equivalent_amplitudes(m.rs, m.rp, m.x)
+            }
         }
     }
 
@@ -333,4 +384,82 @@ fn equivalent_amplitudes(rs: f64, rp: f64, x: Complex<f64>) -> (Complex<f64>, Co
     let a = rs.sqrt();
     let y = (rs * rp - x.re * x.re).max(0.0).sqrt().copysign(x.im);
     (Complex::new(a, 0.0), Complex::new(x.re / a, -y / a))
+}
+
+/// A flake averaged over a band of wavelengths ([`FlakeReflectance::Band`],
+/// [`crate::band`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlakeBand {
+    /// `(w_j, flake at λ_j)`, weights ≥ 0 summing to 1.
+    members: Vec<(f64, FlakeReflectance)>,
+    table: BandTable,
+}
+
+impl FlakeBand {
+    /// The members `(weight, flake)`, weights normalised.
+    #[must_use]
+    pub fn members(&self) -> &[(f64, FlakeReflectance)] {
+        &self.members
+    }
+
+    /// The index of the medium the tables were built for.
+    #[must_use]
+    pub fn n_medium(&self) -> f64 {
+        self.table.n_medium()
+    }
+
+    /// The means at `cos_iota` in a medium of index `n_medium` (tabulated in the
+    /// table's medium, summed over the members in another).
+    fn at(&self, cos_iota: f64, n_medium: f64) -> Linear {
+        if n_medium == self.table.n_medium() {
+            self.table.at(cos_iota)
+        } else {
+            mean_of(&self.members, cos_iota, n_medium)
+        }
+    }
+}
+
+/// The weighted mean of the members' quantities at one cosine.
+fn mean_of(members: &[(f64, FlakeReflectance)], cos_iota: f64, n_medium: f64) -> Linear {
+    let mut sum = Linear::default();
+    for (w, f) in members {
+        sum.add(*w, &f.linear(cos_iota, n_medium));
+    }
+    sum
+}
+
+impl FlakeReflectance {
+    /// A flake averaged over a band: `members` are `(weight, flake)` pairs (the flake at
+    /// each wavelength of the band; weights ≥ 0, not all 0, normalised here), tabulated
+    /// for the medium of index `n_medium` (module [`crate::band`]).
+    ///
+    /// # Errors
+    /// [`OpticsError::InvalidBand`] for no member, a weight that is negative or not
+    /// finite, weights summing to 0, a member that is itself a band, or an index that
+    /// is not finite and ≥ 1.
+    pub fn band(members: Vec<(f64, FlakeReflectance)>, n_medium: f64) -> Result<Self, OpticsError> {
+        let bad = |why: String| Err(OpticsError::InvalidBand(why));
+        if members.is_empty() {
+            return bad("no wavelength in the band".into());
+        }
+        if !(n_medium.is_finite() && n_medium >= 1.0) {
+            return bad(format!(
+                "medium index {n_medium}: expected a finite index >= 1"
+            ));
+        }
+        if let Some((w, _)) = members.iter().find(|(w, _)| !(w.is_finite() && *w >= 0.0)) {
+            return bad(format!("weight {w}: expected a finite weight >= 0"));
+        }
+        if members.iter().any(|(_, f)| matches!(f, Self::Band(_))) {
+            return bad("a band of bands".into());
+        }
+        let total: f64 = members.iter().map(|(w, _)| w).sum();
+        if total <= 0.0 {
+            return bad("the weights sum to 0".into());
+        }
+        let members: Vec<(f64, FlakeReflectance)> =
+            members.into_iter().map(|(w, f)| (w / total, f)).collect();
+        let table = BandTable::new(n_medium, |c| mean_of(&members, c, n_medium));
+        Ok(Self::Band(Arc::new(FlakeBand { members, table })))
+    }
 }

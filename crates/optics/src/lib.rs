@@ -62,6 +62,7 @@
 //! ```
 
 pub mod absorption;
+pub mod band;
 pub mod catalogue;
 pub mod detector;
 pub mod dispersion;
@@ -131,6 +132,9 @@ pub enum OpticsError {
     /// A pile of flakes that cannot be made (the message says why).
     #[error("{0}")]
     InvalidPile(String),
+    /// A band of wavelengths that cannot be made (the message says why).
+    #[error("channel band: {0}")]
+    InvalidBand(String),
     /// A wavelength that is not finite and positive.
     #[error("wavelength {0} nm is not valid: expected a finite number > 0")]
     InvalidWavelength(f64),

@@ -7,7 +7,10 @@
 //! per-channel flake scale absorbs what one wavelength cannot say about a broad channel;
 //! for a stack it also stands for the band: an interference flake's reflectance at the
 //! channel's wavelength is not its average over the channel's band, which varies more
-//! slowly with angle (physics.md §12.7 says what this means for the fits).
+//! slowly with angle (physics.md §12.7 says what this means for the fits), unless the
+//! stack is given a band ([`FlakeMetal::with_band`]): then each named channel sees the
+//! power-weighted mean over a Gaussian band about its wavelength ([`channel_band`],
+//! `flakescatter_optics::band`).
 //!
 //! The light a stack flake transmits (`T = 1 − R − A`) goes down to the base. The paint
 //! model does not follow it separately: the fitted base amplitude `(1 − c)² ρ_k` carries
@@ -39,6 +42,39 @@ pub struct StackFlakes {
     /// more only for a free stack, `core == None`): each flake's reflectance is the
     /// pile's (physics.md §12.8). Set through [`FlakeMetal::with_layers`].
     pub layers: u32,
+    /// The full width at half maximum of each colour channel's band, nm: `None` takes
+    /// the flakes at the channel's one wavelength; a width averages them over a
+    /// Gaussian band about it ([`channel_band`], physics.md §12.7). Set through
+    /// [`FlakeMetal::with_band`].
+    pub band_fwhm_nm: Option<f64>,
+}
+
+/// Spacing of a channel band's wavelengths, nm.
+pub const BAND_STEP_NM: f64 = 5.0;
+/// The widest channel band, nm (full width at half maximum).
+pub const MAX_BAND_FWHM_NM: f64 = 400.0;
+
+/// The wavelengths (nm) and weights of the band of full width at half maximum
+/// `fwhm_nm` about `centre_nm`: every [`BAND_STEP_NM`] from the centre out to one full
+/// width on each side, kept within 380–780 nm (what a colour channel sees), weighted by
+/// the Gaussian `exp(−(λ − λc)²/(2σ²))`, `σ = fwhm/(2 sqrt(2 ln 2))`, normalised to sum
+/// to 1.
+#[must_use]
+pub fn channel_band(centre_nm: f64, fwhm_nm: f64) -> Vec<(f64, f64)> {
+    let sigma = fwhm_nm / (2.0 * (2.0 * std::f64::consts::LN_2).sqrt());
+    let k = (fwhm_nm / BAND_STEP_NM).floor() as i64;
+    let nodes: Vec<(f64, f64)> = (-k..=k)
+        .map(|j| centre_nm + j as f64 * BAND_STEP_NM)
+        .filter(|wl| (380.0..=780.0).contains(wl))
+        .map(|wl| {
+            (
+                wl,
+                (-(wl - centre_nm).powi(2) / (2.0 * sigma * sigma)).exp(),
+            )
+        })
+        .collect();
+    let total: f64 = nodes.iter().map(|(_, w)| w).sum();
+    nodes.into_iter().map(|(wl, w)| (wl, w / total)).collect()
 }
 
 /// What the flakes are made of.
@@ -68,7 +104,47 @@ impl FlakeMetal {
             stack,
             core,
             layers: 1,
+            band_fwhm_nm: None,
         }))
+    }
+
+    /// The same flakes seen through colour channels of band width `fwhm_nm` (nm, full
+    /// width at half maximum; `None`: one wavelength per channel). Only the named
+    /// channels `r`, `g`, `b`, `y` have a band; a channel named by its wavelength stays
+    /// monochromatic.
+    ///
+    /// # Errors
+    /// [`PaintError::Parameter`] for flakes that are not a stack (a metal's reflectance
+    /// changes slowly with wavelength: its channel scale carries the band) or a width
+    /// that is not finite and in (0, 400] nm.
+    pub fn with_band(&self, fwhm_nm: Option<f64>) -> Result<Self, PaintError> {
+        let Self::Stack(s) = self else {
+            return match fwhm_nm {
+                None => Ok(self.clone()),
+                Some(_) => Err(PaintError::Parameter(
+                    "a channel band is for interference flakes (a flake stack): a metal's reflectance changes slowly across a channel, and its channel scale carries the band".into(),
+                )),
+            };
+        };
+        if let Some(w) = fwhm_nm
+            && !(w.is_finite() && w > 0.0 && w <= MAX_BAND_FWHM_NM)
+        {
+            return Err(PaintError::Parameter(format!(
+                "channel band {w} nm: expected a full width at half maximum in (0, {MAX_BAND_FWHM_NM}] nm"
+            )));
+        }
+        let mut s = (**s).clone();
+        s.band_fwhm_nm = fwhm_nm;
+        Ok(Self::Stack(Arc::new(s)))
+    }
+
+    /// The channel band's full width at half maximum, nm (`None`: one wavelength).
+    #[must_use]
+    pub fn band_fwhm_nm(&self) -> Option<f64> {
+        match self {
+            Self::Stack(s) => s.band_fwhm_nm,
+            _ => None,
+        }
     }
 
     /// The same flakes piled `layers` deep (physics.md §12.8); `layers == 1` is one
@@ -109,12 +185,38 @@ impl FlakeMetal {
         }
     }
 
-    /// The flake reflectance in `channel`.
+    /// The flake reflectance in `channel`, in a coat of index `n` (a band's tables are
+    /// built for it).
     ///
     /// # Errors
     /// [`PaintError::Parameter`] for an invalid index or a wavelength outside the
     /// aluminium table or a layer's or the core's table (named).
-    pub fn at(&self, channel: &Channel) -> Result<FlakeReflectance, PaintError> {
+    pub fn at(&self, channel: &Channel, n: f64) -> Result<FlakeReflectance, PaintError> {
+        if let Self::Stack(s) = self
+            && let Some(w) = s.band_fwhm_nm
+            && crate::channel::NAMED_CHANNELS
+                .iter()
+                .any(|(name, _)| *name == channel.name)
+        {
+            let members = channel_band(channel.wavelength_nm, w)
+                .into_iter()
+                .map(|(wl, weight)| {
+                    let one = Channel {
+                        name: channel.name.clone(),
+                        wavelength_nm: wl,
+                    };
+                    Ok((weight, self.at_one(&one)?))
+                })
+                .collect::<Result<Vec<_>, PaintError>>()?;
+            return FlakeReflectance::band(members, n).map_err(|e| {
+                PaintError::Parameter(format!("flake stack at channel `{}`: {e}", channel.name))
+            });
+        }
+        self.at_one(channel)
+    }
+
+    /// The flake reflectance at `channel`'s one wavelength.
+    fn at_one(&self, channel: &Channel) -> Result<FlakeReflectance, PaintError> {
         let wl = channel.wavelength_nm;
         let at = |what: &str, e: &dyn std::fmt::Display| {
             PaintError::Parameter(format!(
@@ -164,6 +266,7 @@ impl FlakeMetal {
             stack,
             core: s.core.clone(),
             layers: s.layers,
+            band_fwhm_nm: s.band_fwhm_nm,
         })))
     }
 

@@ -152,7 +152,7 @@ impl PaintModel {
         let mut flakes = Vec::with_capacity(params.channels.len());
         for c in &params.channels {
             let options = ModelOptions {
-                flake: params.flake_metal.at(&c.channel)?,
+                flake: params.flake_metal.at(&c.channel, n)?,
                 ..ModelOptions::default()
             };
             flakes.push(

@@ -93,9 +93,11 @@ fn flakes(
 /// lowest χ² kept, `fit` then holding `flake_layers` (the N kept) and
 /// `flake_layers_scan` (`layers`, and `chi2` at each, `None` where that fit failed); it
 /// needs a free stack and no `flake_layers` (`InputError` otherwise) and takes 16 fits'
-/// time.
+/// time. `channel_band_nm` (a stack only, in (0, 400]) averages the flakes over a
+/// Gaussian band of that full width at half maximum about each channel's wavelength, as
+/// `--channel-band` (physics.md §12.7, "Channels with a band").
 #[pyfunction]
-#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None, fit_flake_layers = false))]
+#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None, fit_flake_layers = false, channel_band_nm = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_paint<'py>(
     py: Python<'py>,
@@ -116,6 +118,7 @@ pub fn fit_paint<'py>(
     thickness_range_nm: (f64, f64),
     flake_layers: Option<i64>,
     fit_flake_layers: bool,
+    channel_band_nm: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let path = path_of(py, "measured", measured)?;
     let families =
@@ -150,7 +153,9 @@ pub fn fit_paint<'py>(
         selection.min_value = v;
     }
     flakescatter::checks::coat_index(n).map_err(|e| input(py, format!("n={e}")))?;
-    let flake_metal = flakes(py, flake_index, flake_stack, flake_core, flake_layers)?;
+    let flake_metal = flakes(py, flake_index, flake_stack, flake_core, flake_layers)?
+        .with_band(channel_band_nm)
+        .map_err(|e| input(py, format!("channel_band_nm: {e}")))?;
     if fit_flake_layers {
         if let Some(l) = flake_layers {
             return Err(input(

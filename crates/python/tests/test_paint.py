@@ -212,3 +212,32 @@ def test_fit_flake_layers_refusals_name_the_keyword(kw, word):
     with pytest.raises(fs.InputError, match=word) as e:
         fs.fit_paint(COLOUR_CHANGING, fit_flake_layers=True, **kw)
     assert isinstance(e.value, ValueError)
+
+
+def test_channel_band_fits_a_banded_table_back(tmp_path):
+    """A table made by the paint model with a free 300 nm TiO2 film seen through 60 nm
+    channel bands (flakes.metal.band_fwhm_nm): fit_paint(channel_band_nm=60) fits it to
+    rounding and returns the band in its parameter file; without the band (one
+    wavelength per channel) it cannot."""
+    truth = _pile_truth(1)
+    truth["flakes"] = {"metal": {"stack": "TiO2:300", "band_fwhm_nm": 60}, "coverage": 0.5}
+    tr = [4.0 * k for k in range(1, 21)] * 2 + [10.0 * k for k in range(1, 9)] * 2
+    pr = [0.0] * 20 + [180.0] * 20 + [30.0] * 8 + [60.0] * 8
+    table = fs.paint_brdf(truth, [20, 45, 65], tr, pr)
+    cols = ["theta_i_deg", "theta_r_deg", "phi_r_deg"] + [f"brdf_{c}_per_sr" for c in "rgb"]
+    path = tmp_path / "band60.csv"
+    rows = zip(*(table[c] for c in cols))
+    path.write_text(
+        ",".join(cols) + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows)
+    )
+    kw = dict(family="trowbridge-reitz", haze=False, coverage=0.5, flake_stack="TiO2:300")
+    banded = fs.fit_paint(path, channel_band_nm=60.0, **kw)
+    plain = fs.fit_paint(path, **kw)
+    assert banded["fit"]["chi2"] < 1e-12
+    assert plain["fit"]["chi2"] > 1e3 * max(banded["fit"]["chi2"], 1e-15)
+    assert banded["params"]["flakes"]["metal"]["band_fwhm_nm"] == 60.0
+    for bad, word in [(0.0, "channel band"), (500.0, "channel band")]:
+        with pytest.raises(fs.InputError, match=word):
+            fs.fit_paint(path, channel_band_nm=bad, **kw)
+    with pytest.raises(fs.InputError, match="interference flakes"):
+        fs.fit_paint(path, channel_band_nm=40.0, family="trowbridge-reitz")

@@ -20,7 +20,8 @@
 //! log-linear table) or `{"family": "histogram", "edges_deg": [...], "area_fractions":
 //! [...]}` (physics.md §3); `metal` is `"aluminium"`, `"perfect-conductor"`, `{"n": n, "k": k}`
 //! or interference flakes `{"stack": "TiO2:120/mica:400/TiO2:120", "core": "aluminium"}`
-//! (`core` optional; physics.md §13). `flakes.layers` (optional, a whole number 1–1000,
+//! (`core` optional; physics.md §13; `band_fwhm_nm` optional, the colour channels' band,
+//! §12.7). `flakes.layers` (optional, a whole number 1–1000,
 //! absent = 1) piles free interference flakes that many deep (physics.md §12.8). Roughness
 //! values are GGX slope scales (dimensionless); angles in degrees, wavelengths in nm.
 
@@ -147,6 +148,10 @@ pub enum MetalSection {
         /// The core, if any.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         core: Option<String>,
+        /// The colour channels' band, full width at half maximum in nm (absent: one
+        /// wavelength per channel; physics.md §12.7).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        band_fwhm_nm: Option<f64>,
     },
 }
 
@@ -192,6 +197,7 @@ impl ParamsFile {
                     FlakeMetal::Stack(s) => MetalSection::Stack {
                         stack: s.stack.label(),
                         core: s.core.as_ref().map(MaterialSpec::label),
+                        band_fwhm_nm: s.band_fwhm_nm,
                     },
                 },
                 coverage: params.coverage,
@@ -269,7 +275,11 @@ impl ParamsFile {
                 ));
             }
             MetalSection::Index { n, k } => FlakeMetal::Index { n: *n, k: *k },
-            MetalSection::Stack { stack, core } => {
+            MetalSection::Stack {
+                stack,
+                core,
+                band_fwhm_nm,
+            } => {
                 let catalogue = Catalogue::builtin();
                 let stack = StackSpec::parse(stack, &catalogue)
                     .map_err(|e| bad("flakes.metal.stack", e.to_string()))?;
@@ -279,6 +289,8 @@ impl ParamsFile {
                     .transpose()
                     .map_err(|e| bad("flakes.metal.core", e.to_string()))?;
                 FlakeMetal::stack(stack, core)
+                    .with_band(*band_fwhm_nm)
+                    .map_err(|e| bad("flakes.metal.band_fwhm_nm", e.to_string()))?
             }
         };
         let flake_metal = match &self.flakes.layers {

@@ -143,7 +143,7 @@ impl<'a> Engine<'a> {
             .iter()
             .map(|c| {
                 let options = ModelOptions {
-                    flake: metal.at(c)?,
+                    flake: metal.at(c, n)?,
                     ..ModelOptions::default()
                 };
                 DistributionModel::new(any.clone(), n, options)

@@ -414,6 +414,7 @@ def fit_paint(
     thickness_range_nm: Tuple[float, float] = (10.0, 600.0),
     flake_layers: Optional[int] = None,
     fit_flake_layers: bool = False,
+    channel_band_nm: Optional[float] = None,
 ) -> dict[str, Any]:
     """Fit a paint (clear coat, flakes, base) to a measured BRDF table (as
     ``flakescatter fit --paint``): one parameter set for every incidence, row and
@@ -433,7 +434,10 @@ def fit_paint(
     ``fit["flake_layers"]`` the N kept and ``fit["flake_layers_scan"]`` the ``layers``
     and ``chi2`` at each (``None`` where that fit failed). It needs a free stack
     (``flake_stack`` without ``flake_core``) and no ``flake_layers``; ``InputError``
-    otherwise."""
+    otherwise. ``channel_band_nm`` (interference flakes only, in (0, 400] nm) averages
+    the flakes over a Gaussian band of that full width at half maximum about each
+    channel's wavelength (``--channel-band``; physics.md §12.7).
+    """
 
 def paint_brdf(
     params: Union[PathLike, Mapping[str, Any]],

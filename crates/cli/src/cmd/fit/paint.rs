@@ -84,6 +84,13 @@ pub struct PaintArgs {
     /// (physics.md §12.8).
     #[arg(long, conflicts_with = "flake_layers")]
     pub fit_flake_layers: bool,
+    /// --paint with --flake-stack: each colour channel (r, g, b) sees the flakes over a
+    /// Gaussian band of this full width at half maximum about its wavelength, nm, in
+    /// (0, 400] (the power-weighted mean of the flakes' reflectance every 5 nm within one
+    /// width of the centre and 380-780 nm; physics.md §12.7). Default: the channel's one
+    /// wavelength.
+    #[arg(long, value_name = "NM", allow_negative_numbers = true)]
+    pub channel_band: Option<f64>,
 }
 
 impl PaintArgs {
@@ -104,6 +111,7 @@ impl PaintArgs {
             (self.fit_thickness.is_some(), "--fit-thickness"),
             (self.flake_layers.is_some(), "--flake-layers"),
             (self.fit_flake_layers, "--fit-flake-layers"),
+            (self.channel_band.is_some(), "--channel-band"),
         ]
         .into_iter()
         .find(|(set, _)| *set)
@@ -216,6 +224,11 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
         flake_metal = flake_metal
             .with_layers(n)
             .with_context(|| format!("--flake-layers {n}"))?;
+    }
+    if let Some(w) = p.channel_band {
+        flake_metal = flake_metal
+            .with_band(Some(w))
+            .with_context(|| format!("--channel-band {w}"))?;
     }
     let thickness = thickness(p, &flake_metal)?;
     Ok(FitOptions {
