@@ -91,6 +91,11 @@ pub fn fit_json(fit: &PaintFit, m: &Measurement, opts: &FitOptions) -> Value {
         "worst_ratio_to_target": worst_ratio(&fit.groups),
         "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
     });
+    // A fitted binder tint (physics.md §12.9), only when fitted (other reports keep
+    // their keys); the tints themselves are in `fitted` and `physical`.
+    if fit.tint_fitted {
+        report["tint_fitted"] = json!(true);
+    }
     // Piled flakes (physics.md §12.8), only when piled (other reports keep their keys).
     if opts.flake_metal.layers() > 1 {
         report["flake_layers"] = json!(opts.flake_metal.layers());

@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use flakescatter::paint::file::ParamsFile;
 use flakescatter::paint::report::{fit_json, fit_text, in_plane_chart, points_csv, residual_map};
-use flakescatter::paint::{Family, FitOptions, Measurement, PaintFit, Selection, ThicknessFit};
+use flakescatter::paint::{
+    Family, FitExtras, FitOptions, Measurement, PaintFit, Selection, ThicknessFit,
+};
 use flakescatter::paint_model::FlakeMetal;
 use serde_json::json;
 
@@ -82,6 +84,11 @@ pub struct PaintArgs {
     /// (physics.md §12.8).
     #[arg(long, conflicts_with = "flake_layers")]
     pub fit_flake_layers: bool,
+    /// --paint: fit the binder's tint over the flakes too: per channel its optical
+    /// depth t >= 0 at normal incidence, the flake light attenuated by
+    /// exp(-t (1/cos θt + 1/cos θ2)) along the refracted path (physics.md §12.9).
+    #[arg(long)]
+    pub fit_tint: bool,
 }
 
 /// The numbers of flake layers `--fit-flake-layers` tries: 1 to this.
@@ -105,6 +112,7 @@ impl PaintArgs {
             (self.fit_thickness.is_some(), "--fit-thickness"),
             (self.flake_layers.is_some(), "--flake-layers"),
             (self.fit_flake_layers, "--fit-flake-layers"),
+            (self.fit_tint, "--fit-tint"),
         ]
         .into_iter()
         .find(|(set, _)| *set)
@@ -281,7 +289,8 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     }
     plan.check()?;
     let m = args.measured.read_paint()?;
-    let (fit, report) = fit_and_report(&m, opts, p.fit_flake_layers)?;
+    let extras = FitExtras { tint: p.fit_tint };
+    let (fit, report) = fit_and_report(&m, opts, extras, p.fit_flake_layers)?;
     for w in &fit.warnings {
         warn(&format!("{}: {w}", m.file));
     }
@@ -324,15 +333,16 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
 fn fit_and_report(
     m: &Measurement,
     opts: FitOptions,
+    extras: FitExtras,
     fit_layers: bool,
 ) -> anyhow::Result<(PaintFit, serde_json::Value)> {
     let context = || format!("paint fit of {}", m.file);
     if !fit_layers {
-        let fit = flakescatter::paint::fit(m, &opts).with_context(context)?;
+        let fit = flakescatter::paint::fit_with(m, &opts, extras).with_context(context)?;
         let report = fit_json(&fit, m, &opts);
         return Ok((fit, report));
     }
-    let lf = flakescatter::paint::fit_flake_layers(m, &opts, FLAKE_LAYERS_SCANNED)
+    let lf = flakescatter::paint::fit_flake_layers_with(m, &opts, FLAKE_LAYERS_SCANNED, extras)
         .with_context(context)?;
     let kept = FitOptions {
         flake_metal: opts.flake_metal.with_layers(lf.layers)?,
