@@ -141,6 +141,11 @@ pub fn fit_paint_with(
             opts.smoothing
         )));
     }
+    if extras.tint && opts.coverage == Some(0.0) {
+        return Err(PaintError::Parameter(
+            "a fitted tint with coverage 0: without flakes there is no flake light for a tint to change".into(),
+        ));
+    }
     CoatParams::flat(opts.n).validate()?;
     if let Some(t) = &opts.thickness {
         t.check(&opts.flake_metal)?;

@@ -192,6 +192,11 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
     {
         bail!("--coverage {c}: expected a fraction in [0, 1]");
     }
+    if p.fit_tint && p.coverage == Some(0.0) {
+        bail!(
+            "--fit-tint with --coverage 0: without flakes there is no flake light for a tint to change"
+        );
+    }
     let mut selection = Selection {
         aspecular: region(args.region.as_deref())?,
         ..Selection::default()
