@@ -268,3 +268,25 @@ fn an_untinted_table_gives_no_tint() {
         assert!(c.tint < 1e-4, "{}: {}", c.channel.name, c.tint);
     }
 }
+
+/// A tint that is negative or not finite is refused, naming the channel; a fitted
+/// tint with no flakes (coverage 0) is refused before any work.
+#[test]
+fn a_bad_tint_is_refused() {
+    let m = table(&paint(1.5, [0.0; 3]), || 1.0, None);
+    let o = FitOptions {
+        coverage: Some(0.0),
+        ..options()
+    };
+    let e = fit_paint_with(&m, &o, FitExtras { tint: true }).unwrap_err();
+    assert!(
+        e.to_string().contains("a fitted tint with coverage 0"),
+        "{e}"
+    );
+    for t in [-0.1, f64::NAN, f64::INFINITY] {
+        let mut p = paint(1.5, [0.0; 3]);
+        p.channels[1].tint = t;
+        let e = PaintModel::new(p).unwrap_err().to_string();
+        assert!(e.contains("tint of channel `g`"), "{t}: {e}");
+    }
+}
