@@ -156,6 +156,7 @@ mod tests {
                 channel: Channel::parse("g").unwrap(),
                 flake_scale: 1.0,
                 base_albedo: 0.5,
+                tint: 0.0,
             }],
         })
         .unwrap()

@@ -32,6 +32,7 @@
 //!         channel: Channel::parse("g")?,
 //!         flake_scale: 0.9,
 //!         base_albedo: 0.3,
+//!         tint: 0.0,
 //!     }],
 //! };
 //! let model = PaintModel::new(params)?;

@@ -5,14 +5,17 @@
 //! `flakescatter_optics` (source on the `−x` side, `r.z > 0`, `φr = 0` the specular
 //! half-plane); BRDFs in sr⁻¹. For channel `k`,
 //!
-//! `f_k(θi, r) = f_coat + c s_k G1(θt) G1(θ2) τ(θi) τ(θo) f_D,k + f_base,k`
+//! `f_k(θi, r) = f_coat + c s_k A_k G1(θt) G1(θ2) τ(θi) τ(θo) f_D,k + f_base,k`
 //!
 //! * `f_coat`: the coat surface's rough reflection ([`crate::coat`]); a flat coat adds a
 //!   delta at specular (not in the point BRDF);
 //! * `f_D,k`: the distribution model's point BRDF (physics.md §4, exact unpolarised
 //!   Fresnel factors, flakes of the metal's complex index at the channel's wavelength),
 //!   for a fully covering layer; `c` the coverage, `s_k ∈ [0, 1]` the flake reflectance
-//!   scale, `G1` the flake layer's shadowing ([`crate::layer`]), `τ` the coat surface's
+//!   scale, `A_k = exp(−t_k (1/cos θt + 1/cos θ2))` the binder's tint over the flakes
+//!   (`t_k` its Napierian optical depth at normal incidence, physics.md §12.9; the path
+//!   of [`PathAbsorption`] with the refracted inside angles), `G1` the flake layer's
+//!   shadowing ([`crate::layer`]), `τ` the coat surface's
 //!   [`transmission_factor`](crate::coat::CoatSurface::transmission_factor);
 //! * `f_base,k`: the Lambertian base ([`crate::base`]) of albedo `ρ_k`.
 //!
@@ -20,6 +23,7 @@
 //! (physics.md §12.4; tests integrate it).
 
 use flakescatter_gaussian::{DistributionModel, Incidence, ModelOptions};
+use flakescatter_optics::absorption::{FlakeDepth, PathAbsorption};
 use flakescatter_optics::{Vec3, fresnel};
 use flakescatter_stats::Orientation;
 
@@ -40,6 +44,13 @@ pub struct ChannelParams {
     pub flake_scale: f64,
     /// Albedo `ρ ∈ [0, 1]` of the Lambertian base coat.
     pub base_albedo: f64,
+    /// Tint `t ≥ 0` of the binder over the flakes: its Napierian optical depth above
+    /// them at normal incidence, at the channel's wavelength (`α d`, dimensionless);
+    /// the flake term is multiplied by `exp(−t (1/cos θt + 1/cos θ2))` with the inside
+    /// angles of the incident and the exit ray (physics.md §12.9). 0: no tint (the
+    /// model without the factor, to the bit). The base term is not tinted: its fitted
+    /// albedo carries what the binder takes from the light that reaches it.
+    pub tint: f64,
 }
 
 /// A paint: coat, flakes and base, with one parameter set for all incidences and one
@@ -69,6 +80,8 @@ pub struct PaintModel {
     shadowing: FlakeShadowing,
     /// Internal diffuse reflectance of the coat's surface.
     r_i: f64,
+    /// Per channel, the binder's absorption over the flakes (`None`: no tint).
+    tints: Vec<Option<PathAbsorption>>,
 }
 
 /// The three terms of a point BRDF, sr⁻¹.
@@ -105,6 +118,8 @@ pub struct PaintIncidence {
     tau_in: f64,
     /// `G1(θt)`.
     g1_in: f64,
+    /// `cos θt`, the inside cosine of the refracted incident ray.
+    cos_t: f64,
 }
 
 impl PaintModel {
@@ -147,7 +162,18 @@ impl PaintModel {
                     c.channel.name, c.base_albedo
                 )));
             }
+            if !(c.tint.is_finite() && c.tint >= 0.0) {
+                return Err(PaintError::Parameter(format!(
+                    "tint of channel `{}` = {}: expected a finite optical depth >= 0",
+                    c.channel.name, c.tint
+                )));
+            }
         }
+        let tints = params
+            .channels
+            .iter()
+            .map(|c| tint_absorption(c.tint))
+            .collect::<Result<Vec<_>, _>>()?;
         let n = params.coat.n;
         let mut flakes = Vec::with_capacity(params.channels.len());
         for c in &params.channels {
@@ -163,6 +189,7 @@ impl PaintModel {
         let shadowing = FlakeShadowing::new(&params.orientation, n);
         Ok(Self {
             r_i: coat.internal_diffuse_reflectance(),
+            tints,
             coat,
             flakes,
             shadowing,
@@ -218,8 +245,10 @@ impl PaintModel {
         let mu = theta_i.cos();
         let tau_in = self.coat.transmission_factor(mu);
         let t_in = tau_in * fresnel::air_to_coating(theta_i, n).t_av();
-        let g1_in = self.shadowing.g1(flakes[0].cos_t.clamp(-1.0, 1.0).acos());
+        let cos_t = flakes[0].cos_t;
+        let g1_in = self.shadowing.g1(cos_t.clamp(-1.0, 1.0).acos());
         Ok(PaintIncidence {
+            cos_t,
             theta_i,
             wi: Vec3::new(-theta_i.sin(), 0.0, mu),
             flakes,
@@ -258,6 +287,7 @@ impl PaintModel {
                 * inc.tau_in
                 * tau_out
                 * fd
+                * self.tints[k].map_or(1.0, |a| a.factor(inc.cos_t, c2))
         };
         let t_out = tau_out * fresnel::power_from_cosines(r.z, c2, n).t_av();
         let gap = 1.0 - self.params.coverage;
@@ -277,4 +307,20 @@ impl PaintModel {
     pub fn specular_delta(&self, theta_i: f64) -> f64 {
         self.coat.specular_delta(theta_i)
     }
+}
+
+/// The binder's absorption over the flakes for the tint `t` (physics.md §12.9): the
+/// path factor of [`PathAbsorption`] with `α = t` per µm and the flakes 1 µm deep, so
+/// that `α d = t`; `None` for `t = 0` (no factor at all, so an untinted paint is the
+/// model without it to the bit).
+///
+/// # Errors
+/// [`PaintError::Parameter`] for a negative or non-finite `t`.
+pub fn tint_absorption(t: f64) -> Result<Option<PathAbsorption>, PaintError> {
+    if t == 0.0 {
+        return Ok(None);
+    }
+    PathAbsorption::new(t, FlakeDepth::At { depth_um: 1.0 })
+        .map(Some)
+        .map_err(|e| PaintError::Parameter(format!("tint {t}: {e}")))
 }

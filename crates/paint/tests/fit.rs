@@ -29,11 +29,13 @@ fn truth() -> PaintParams {
                 channel: Channel::parse("g").unwrap(),
                 flake_scale: 0.6,
                 base_albedo: 0.2,
+                tint: 0.0,
             },
             ChannelParams {
                 channel: Channel::parse("b").unwrap(),
                 flake_scale: 0.4,
                 base_albedo: 0.6,
+                tint: 0.0,
             },
         ],
     }

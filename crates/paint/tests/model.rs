@@ -37,11 +37,13 @@ fn paint(
                 channel: Channel::parse("r").unwrap(),
                 flake_scale: scale,
                 base_albedo: albedo,
+                tint: 0.0,
             },
             ChannelParams {
                 channel: Channel::parse("450nm").unwrap(),
                 flake_scale: scale * 0.8,
                 base_albedo: albedo * 0.5,
+                tint: 0.0,
             },
         ],
     })

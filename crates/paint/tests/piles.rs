@@ -242,6 +242,7 @@ fn paint(metal: FlakeMetal) -> PaintParams {
                 channel: Channel::parse(c).unwrap(),
                 flake_scale: 1.0,
                 base_albedo: 0.0,
+                tint: 0.0,
             })
             .collect(),
     }

@@ -4,7 +4,7 @@
 use flakescatter::compare::MeasuredKind;
 use flakescatter::paint::file::ParamsFile;
 use flakescatter::paint::report::{fit_and_report, worst_ratio};
-use flakescatter::paint::{Family, FitOptions, Selection, paint_curves};
+use flakescatter::paint::{Family, FitExtras, FitOptions, Selection, paint_curves};
 use flakescatter::paint_model::{FlakeMetal, PaintModel};
 use flakescatter::{DetectorSet, Instrument};
 use pyo3::prelude::*;
@@ -95,9 +95,11 @@ fn flakes(
 /// needs a free stack and no `flake_layers` (`InputError` otherwise) and takes 16 fits'
 /// time. `channel_band_nm` (a stack only, in (0, 400]) averages the flakes over a
 /// Gaussian band of that full width at half maximum about each channel's wavelength, as
-/// `--channel-band` (physics.md §12.7, "Channels with a band").
+/// `--channel-band` (physics.md §12.7, "Channels with a band"). `fit_tint=True` fits
+/// the binder's tint over the flakes too (per channel its optical depth, the `tint <c>`
+/// parameters), as `--fit-tint` (physics.md §12.9).
 #[pyfunction]
-#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None, fit_flake_layers = false, channel_band_nm = None))]
+#[pyo3(signature = (measured, *, family = "auto", coverage = None, n = 1.5, fit_n = false, region = (2.0, 180.0), max_theta_r = None, min_value = None, haze = true, smoothing = 0.01, flake_index = None, flake_stack = None, flake_core = None, fit_thickness = None, thickness_range_nm = (10.0, 600.0), flake_layers = None, fit_flake_layers = false, channel_band_nm = None, fit_tint = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_paint<'py>(
     py: Python<'py>,
@@ -119,6 +121,7 @@ pub fn fit_paint<'py>(
     flake_layers: Option<i64>,
     fit_flake_layers: bool,
     channel_band_nm: Option<f64>,
+    fit_tint: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let path = path_of(py, "measured", measured)?;
     let families =
@@ -201,7 +204,8 @@ pub fn fit_paint<'py>(
     };
     let (m, fit, report) = released(py, || {
         let m = flakescatter::paint::read_measurement(&path, MeasuredKind::Brdf)?;
-        let (fit, report) = fit_and_report(&m, &opts, fit_flake_layers)?;
+        let (fit, report) =
+            fit_and_report(&m, &opts, FitExtras { tint: fit_tint }, fit_flake_layers)?;
         Ok::<_, flakescatter::PipelineError>((m, fit, report))
     })?
     .map_err(|e| raise(py, Kind::Input, crate::errors::message(&e), None))?;

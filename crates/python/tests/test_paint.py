@@ -241,3 +241,29 @@ def test_channel_band_fits_a_banded_table_back(tmp_path):
             fs.fit_paint(path, channel_band_nm=bad, **kw)
     with pytest.raises(fs.InputError, match="interference flakes"):
         fs.fit_paint(path, channel_band_nm=40.0, family="trowbridge-reitz")
+
+
+def test_fit_tint_gives_back_the_tints_a_table_was_made_with(tmp_path):
+    """A table made by the paint model with aluminium flakes under a tinted binder
+    (optical depths 0.05, 0.15, 0.4 in r, g, b): fit_paint(fit_tint=True) fits it to
+    rounding and gives the tints back; without them the fit cannot."""
+    truth = _pile_truth(1)
+    truth["flakes"] = {"metal": "aluminium", "coverage": 0.5}
+    for ch, t in zip(truth["channels"], [0.05, 0.15, 0.4]):
+        ch["tint"] = t
+    tr = [4.0 * k for k in range(1, 21)] * 2 + [10.0 * k for k in range(1, 9)] * 2
+    pr = [0.0] * 20 + [180.0] * 20 + [30.0] * 8 + [60.0] * 8
+    table = fs.paint_brdf(truth, [20, 45, 65], tr, pr)
+    cols = ["theta_i_deg", "theta_r_deg", "phi_r_deg"] + [f"brdf_{c}_per_sr" for c in "rgb"]
+    path = tmp_path / "tinted.csv"
+    rows = zip(*(table[c] for c in cols))
+    path.write_text(
+        ",".join(cols) + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows)
+    )
+    kw = dict(family="trowbridge-reitz", haze=False, coverage=0.5)
+    tinted = fs.fit_paint(path, fit_tint=True, **kw)
+    plain = fs.fit_paint(path, **kw)
+    assert tinted["fit"]["chi2"] < 1e-10
+    assert plain["fit"]["chi2"] > 1e3 * max(tinted["fit"]["chi2"], 1e-15)
+    got = [ch.get("tint", 0.0) for ch in tinted["params"]["channels"]]
+    assert got == pytest.approx([0.05, 0.15, 0.4], abs=1e-4)

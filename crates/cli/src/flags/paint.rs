@@ -172,6 +172,7 @@ impl PaintFlags {
                     channel,
                     flake_scale,
                     base_albedo,
+                    tint: 0.0,
                 })
                 .collect(),
         };

@@ -22,7 +22,9 @@
 //! or interference flakes `{"stack": "TiO2:120/mica:400/TiO2:120", "core": "aluminium"}`
 //! (`core` optional; physics.md §13; `band_fwhm_nm` optional, the colour channels' band,
 //! §12.7). `flakes.layers` (optional, a whole number 1–1000,
-//! absent = 1) piles free interference flakes that many deep (physics.md §12.8). Roughness
+//! absent = 1) piles free interference flakes that many deep (physics.md §12.8).
+//! `channels[].tint` (optional, a finite number >= 0, absent = 0; written only when not
+//! 0) is the binder's optical depth over the flakes (physics.md §12.9). Roughness
 //! values are GGX slope scales (dimensionless); angles in degrees, wavelengths in nm.
 
 use std::path::Path;
@@ -167,6 +169,10 @@ pub struct ChannelSection {
     pub flake_scale: f64,
     /// Base albedo.
     pub base_albedo: f64,
+    /// The binder's tint over the flakes, its Napierian optical depth at normal
+    /// incidence (physics.md §12.9; absent: 0, not written for 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tint: Option<f64>,
 }
 
 impl ParamsFile {
@@ -212,6 +218,7 @@ impl ParamsFile {
                     wavelength_nm: c.channel.wavelength_nm,
                     flake_scale: c.flake_scale,
                     base_albedo: c.base_albedo,
+                    tint: (c.tint != 0.0).then_some(c.tint),
                 })
                 .collect(),
             fit,
@@ -327,10 +334,18 @@ impl ParamsFile {
                         ),
                     ));
                 }
+                let tint = c.tint.unwrap_or(0.0);
+                if !(tint.is_finite() && tint >= 0.0) {
+                    return Err(bad(
+                        &format!("channels[{i}].tint"),
+                        format!("{tint}: expected the binder's optical depth over the flakes, a finite number >= 0"),
+                    ));
+                }
                 Ok(ChannelParams {
                     channel,
                     flake_scale: c.flake_scale,
                     base_albedo: c.base_albedo,
+                    tint,
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;

@@ -18,8 +18,8 @@ use flakescatter_io::brdf::{BrdfTable, looks_like_brdf_table, read_brdf_table};
 use flakescatter_io::measured::{MeasuredCurve, read_measured};
 use flakescatter_paint::Channel;
 pub use flakescatter_paint::fit::{
-    Estimate, Evidence, Family, FitOptions, GroupResidual, Measurement, Observation, PaintFit,
-    PaintFitWarning, Point, Region, Selection, ThicknessFit,
+    Estimate, Evidence, Family, FitExtras, FitOptions, GroupResidual, MAX_TINT, Measurement,
+    Observation, PaintFit, PaintFitWarning, Point, Region, Selection, ThicknessFit,
 };
 use flakescatter_paint::{PaintError, PaintModel};
 
@@ -237,6 +237,19 @@ pub fn fit(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PipelineError
     Ok(flakescatter_paint::fit::fit_paint(m, opts)?)
 }
 
+/// The joint fit with the parameters `extras` adds (`extras.tint`: the binder's tint
+/// over the flakes per channel, physics.md §12.9).
+///
+/// # Errors
+/// [`PipelineError::Paint`] as the fit says.
+pub fn fit_with(
+    m: &Measurement,
+    opts: &FitOptions,
+    extras: FitExtras,
+) -> Result<PaintFit, PipelineError> {
+    Ok(flakescatter_paint::fit::fit_paint_with(m, opts, extras)?)
+}
+
 /// Fit `m` with the flakes of `opts` piled `N` deep for every `N` in `1..=max`, the
 /// lowest `χ²` kept (physics.md §12.8).
 ///
@@ -249,6 +262,21 @@ pub fn fit_flake_layers(
     max: u32,
 ) -> Result<flakescatter_paint::fit::LayersFit, PipelineError> {
     Ok(flakescatter_paint::fit::fit_flake_layers(m, opts, max)?)
+}
+
+/// [`fit_flake_layers`] with the parameters `extras` adds to every fit.
+///
+/// # Errors
+/// As [`fit_flake_layers`].
+pub fn fit_flake_layers_with(
+    m: &Measurement,
+    opts: &FitOptions,
+    max: u32,
+    extras: FitExtras,
+) -> Result<flakescatter_paint::fit::LayersFit, PipelineError> {
+    Ok(flakescatter_paint::fit::fit_flake_layers_with(
+        m, opts, max, extras,
+    )?)
 }
 
 /// A fixed paint against a table.

@@ -7,7 +7,9 @@
 
 use serde_json::{Value, json};
 
-use super::{FitOptions, GroupResidual, Measurement, PaintComparison, PaintFit, Point, Region};
+use super::{
+    FitExtras, FitOptions, GroupResidual, Measurement, PaintComparison, PaintFit, Point, Region,
+};
 use crate::PipelineError;
 use crate::chart::{Chart, Series, Style};
 
@@ -27,7 +29,7 @@ pub const FLAKE_LAYERS_SCANNED: u32 = 16;
 /// ([`super::fit_flake_layers`]), the lowest `χ²` kept; the report then adds
 /// `flake_layers` (the `N` kept) and `flake_layers_scan` (`layers` and `chi2` at each,
 /// `null` where the fit failed). The fit returned is the one kept, its paint's flakes
-/// piled that deep.
+/// piled that deep. `extras` adds parameters to the fit (the binder's tint, §12.9).
 ///
 /// # Errors
 /// [`PipelineError::Paint`] as the fit says; with `fit_layers`, also for flakes that are
@@ -35,14 +37,15 @@ pub const FLAKE_LAYERS_SCANNED: u32 = 16;
 pub fn fit_and_report(
     m: &Measurement,
     opts: &FitOptions,
+    extras: FitExtras,
     fit_layers: bool,
 ) -> Result<(PaintFit, Value), PipelineError> {
     if !fit_layers {
-        let fit = super::fit(m, opts)?;
+        let fit = super::fit_with(m, opts, extras)?;
         let report = fit_json(&fit, m, opts);
         return Ok((fit, report));
     }
-    let lf = super::fit_flake_layers(m, opts, FLAKE_LAYERS_SCANNED)?;
+    let lf = super::fit_flake_layers_with(m, opts, FLAKE_LAYERS_SCANNED, extras)?;
     let kept = FitOptions {
         flake_metal: opts.flake_metal.with_layers(lf.layers)?,
         ..opts.clone()
@@ -134,6 +137,11 @@ pub fn fit_json(fit: &PaintFit, m: &Measurement, opts: &FitOptions) -> Value {
         "worst_ratio_to_target": worst_ratio(&fit.groups),
         "warnings": fit.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
     });
+    // A fitted binder tint (physics.md §12.9), only when fitted (other reports keep
+    // their keys); the tints themselves are in `fitted` and `physical`.
+    if fit.tint_fitted {
+        report["tint_fitted"] = json!(true);
+    }
     // Piled flakes (physics.md §12.8), only when piled (other reports keep their keys).
     if opts.flake_metal.layers() > 1 {
         report["flake_layers"] = json!(opts.flake_metal.layers());

@@ -36,6 +36,8 @@ struct PointGeometry {
     lobe: Option<(f64, f64)>,
     /// Inside exit angle `θ2`.
     theta_2: f64,
+    /// `cos θ2`.
+    cos_2: f64,
     /// Flat exit transmittance `T_av(θo)`.
     t_out: f64,
     /// The flake kernel `(θn, K)` in the point's channel, if any normal reaches it.
@@ -48,6 +50,8 @@ struct IncidenceGeometry {
     cos_i: f64,
     /// Inside angle `θt`.
     theta_t: f64,
+    /// `cos θt`.
+    cos_t: f64,
     /// Flat entry transmittance `T_av(θi)`.
     t_in: f64,
 }
@@ -168,6 +172,7 @@ impl<'a> Engine<'a> {
             .map(|(&t, inc)| IncidenceGeometry {
                 cos_i: t.cos(),
                 theta_t: inc[0].cos_t.clamp(-1.0, 1.0).acos(),
+                cos_t: inc[0].cos_t,
                 t_in: fresnel::air_to_coating(t, n).t_av(),
             })
             .collect();
@@ -186,6 +191,7 @@ impl<'a> Engine<'a> {
                     wo_z: r.z,
                     lobe: crate::coat::lobe_geometry(n, &wi, &r),
                     theta_2: c2.clamp(-1.0, 1.0).acos(),
+                    cos_2: c2,
                     t_out: fresnel::power_from_cosines(r.z, c2, n).t_av(),
                     kernel: models[p.channel]
                         .kernel(&incs[i][p.channel], &r)
@@ -257,6 +263,9 @@ impl<'a> Engine<'a> {
         let cp = coat.params().clone();
         let flake_amp: Vec<f64> = (0..l.channels).map(|k| l.flake_amplitude(q, k)).collect();
         let base_amp: Vec<f64> = (0..l.channels).map(|k| l.base_amplitude(q, k)).collect();
+        let tints = (0..l.channels)
+            .map(|k| crate::model::tint_absorption(l.tint(q, k)))
+            .collect::<Result<Vec<_>, _>>()?;
         // Per incidence: τ(θi), T'(θi), G1(θt).
         let per_inc: Vec<(f64, f64, f64)> = geometry
             .incidences
@@ -298,6 +307,9 @@ impl<'a> Engine<'a> {
                                 * tau_in
                                 * tau_out
                                 * (kf * d)
+                                * tints[k].map_or(1.0, |a| {
+                                    a.factor(geometry.incidences[g.incidence].cos_t, g.cos_2)
+                                })
                         }
                     }
                     None => 0.0,

@@ -8,7 +8,7 @@
 use crate::PaintError;
 use crate::model::FlakeMetal;
 
-use super::{FitOptions, Measurement, PaintFit, fit_paint};
+use super::{FitExtras, FitOptions, Measurement, PaintFit, fit_paint_with};
 
 /// The most layers a scan may reach.
 pub const MAX_SCAN: u32 = 1000;
@@ -36,6 +36,19 @@ pub fn fit_flake_layers(
     opts: &FitOptions,
     max: u32,
 ) -> Result<LayersFit, PaintError> {
+    fit_flake_layers_with(m, opts, max, FitExtras::default())
+}
+
+/// [`fit_flake_layers`] with the parameters `extras` adds to every fit.
+///
+/// # Errors
+/// As [`fit_flake_layers`].
+pub fn fit_flake_layers_with(
+    m: &Measurement,
+    opts: &FitOptions,
+    max: u32,
+    extras: FitExtras,
+) -> Result<LayersFit, PaintError> {
     if !(1..=MAX_SCAN).contains(&max) {
         return Err(PaintError::Parameter(format!(
             "flake layers scanned up to {max}: expected 1 to {MAX_SCAN}"
@@ -54,7 +67,7 @@ pub fn fit_flake_layers(
             flake_metal: opts.flake_metal.with_layers(n)?,
             ..opts.clone()
         };
-        match fit_paint(m, &o) {
+        match fit_paint_with(m, &o, extras) {
             Ok(fit) => {
                 let chi2 = fit.evidence.chi2;
                 scan.push((n, Some(chi2)));

@@ -8,7 +8,9 @@
 //! the flake stack's fitted layers when fitted, then per channel the
 //! flake and the base amplitude: `ln(c s_k)` and `ln((1 − c)² ρ_k)` when the coverage is
 //! free (the data fix only these products: physics.md §12.5), or `ln s_k` and `ln ρ_k`
-//! at a given coverage.
+//! at a given coverage; last, when the binder's tint is fitted
+//! ([`Layout::with_tint`]), per channel the tint `t_k` (physics.md §12.9), in
+//! `[0, MAX_TINT]`.
 
 use flakescatter_stats::{GaussianWidth, Orientation};
 
@@ -128,7 +130,16 @@ pub(crate) struct Layout {
     n_index: Option<usize>,
     thickness_index: Option<usize>,
     amp: usize,
+    tint_index: Option<usize>,
+    channel_names: Vec<String>,
 }
+
+/// The largest binder tint (optical depth over the flakes at normal incidence) a fit
+/// may reach: `exp(−2·5)` at normal incidence, far darker than any paint's flakes.
+pub const MAX_TINT: f64 = 5.0;
+
+/// Where a fit's tints start when no earlier fit gives them.
+const TINT_START: f64 = 0.1;
 
 /// Bounds of the log-linear table's `ln p̃` (relative to its value at 0).
 const LN_P_BOUNDS: (f64, f64) = (-80.0, 30.0);
@@ -223,6 +234,47 @@ impl Layout {
             n_index,
             thickness_index,
             amp,
+            tint_index: None,
+            channel_names: channel_names.to_vec(),
+        }
+    }
+
+    /// This layout with the binder's tint of every channel fitted too when `on` (its
+    /// entries appended after the amplitudes; module docs).
+    pub(crate) fn with_tint(mut self, on: bool) -> Self {
+        if on && self.tint_index.is_none() {
+            self.tint_index = Some(self.names.len());
+            for c in &self.channel_names {
+                self.names.push(format!("tint {c}"));
+                self.bounds.push((0.0, MAX_TINT));
+                self.steps.push(1e-5);
+            }
+        }
+        self
+    }
+
+    /// Index of channel 0's tint, when fitted (channel `k`'s is `k` further).
+    pub(crate) fn tint_index(&self) -> Option<usize> {
+        self.tint_index
+    }
+
+    /// Channel `k`'s tint (0 when not fitted).
+    pub(crate) fn tint(&self, q: &[f64], k: usize) -> f64 {
+        self.tint_index.map_or(0.0, |i| q[i + k])
+    }
+
+    /// Start values of the tint entries: `from`'s (another fit's) when it has them,
+    /// else a small tint inside the range.
+    pub(crate) fn start_tints(&self, q0: &mut [f64], from: Option<(&Layout, &[f64])>) {
+        if let Some(i) = self.tint_index {
+            for k in 0..self.channels {
+                q0[i + k] = match from {
+                    Some((l, q)) if l.tint_index.is_some() && l.channels == self.channels => {
+                        l.tint(q, k)
+                    }
+                    _ => TINT_START,
+                };
+            }
         }
     }
 

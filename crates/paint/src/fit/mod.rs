@@ -36,9 +36,9 @@ use crate::PaintError;
 use crate::coat::CoatParams;
 use crate::model::FlakeMetal;
 pub use data::{Measurement, Observation, Point, Selection, select};
-pub use layers::{LayersFit, MAX_SCAN, fit_flake_layers};
-pub use layout::Family;
+pub use layers::{LayersFit, MAX_SCAN, fit_flake_layers, fit_flake_layers_with};
 use layout::{Amplitudes, Layout};
+pub use layout::{Family, MAX_TINT};
 pub use report::{Evidence, GroupResidual, Region, group_residuals};
 pub use result::{Candidate, CoverageChoice, Estimate, PaintFit, PaintFitWarning};
 use result::{Selected, finish};
@@ -95,13 +95,36 @@ impl Default for FitOptions {
     }
 }
 
-/// Fit `m` (module docs).
+/// Parameters a fit may add to those [`FitOptions`] sets up (kept apart from
+/// [`FitOptions`], whose literals callers write out in full; the default adds none).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FitExtras {
+    /// Fit the binder's tint over the flakes in every channel (physics.md §12.9): the
+    /// optical depths `t_k ∈ [0, MAX_TINT]` join the joint fit (started at 0.1, or at
+    /// the previous family's), after the amplitudes; the fitted paint's channels carry
+    /// them ([`crate::ChannelParams::tint`]).
+    pub tint: bool,
+}
+
+/// Fit `m` (module docs): [`fit_paint_with`] and no extra parameters.
+///
+/// # Errors
+/// As [`fit_paint_with`].
+pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintError> {
+    fit_paint_with(m, opts, FitExtras::default())
+}
+
+/// Fit `m` (module docs) with the parameters of `opts` and those `extras` adds.
 ///
 /// # Errors
 /// [`PaintError::Data`] for unusable data (named file, line, column), too few points;
 /// [`PaintError::Parameter`] for bad options; [`PaintError::Fit`] when no family
 /// converges.
-pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintError> {
+pub fn fit_paint_with(
+    m: &Measurement,
+    opts: &FitOptions,
+    extras: FitExtras,
+) -> Result<PaintFit, PaintError> {
     if opts.families.is_empty() {
         return Err(PaintError::Parameter("no orientation family to fit".into()));
     }
@@ -117,6 +140,11 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
             "smoothing = {}: expected a finite value >= 0",
             opts.smoothing
         )));
+    }
+    if extras.tint && opts.coverage == Some(0.0) {
+        return Err(PaintError::Parameter(
+            "a fitted tint with coverage 0: without flakes there is no flake light for a tint to change".into(),
+        ));
     }
     CoatParams::flat(opts.n).validate()?;
     if let Some(t) = &opts.thickness {
@@ -169,7 +197,8 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
             &names,
             amplitudes,
             range,
-        );
+        )
+        .with_tint(extras.tint);
         match solve(m, &points, have_u, layout, opts, best.as_ref()) {
             Ok(s) => {
                 if opts.families.contains(&family) {
@@ -214,7 +243,8 @@ pub fn fit_paint(m: &Measurement, opts: &FitOptions) -> Result<PaintFit, PaintEr
                     &names,
                     Amplitudes::Coverage(c),
                     range,
-                );
+                )
+                .with_tint(extras.tint);
                 let refit = solve(m, &points, have_u, layout, opts, Some(&solved))?;
                 solved = refit;
                 choice.used = c;

@@ -199,6 +199,10 @@ pub struct PaintFit {
     /// With a fitted stack thickness: the scan that started it, `(thickness nm, χ²)`
     /// with the shape and coat held (module docs of [`super::thickness`]).
     pub thickness_scan: Option<Vec<(f64, f64)>>,
+    /// Whether the binder's tint was fitted ([`super::FitExtras::tint`]; the tints are
+    /// then in [`PaintFit::fitted`], [`PaintFit::physical`] as `tint <channel>`, and in
+    /// the paint's channels).
+    pub tint_fitted: bool,
     /// Cautions.
     pub warnings: Vec<PaintFitWarning>,
 }
@@ -390,12 +394,18 @@ fn physical_estimates(
             name: format!("base albedo {}", ch.name),
             ..rho
         };
+        // The binder's tint over the flakes (physics.md §12.9), when fitted.
+        let tint = l
+            .tint_index()
+            .map(|i| lin_of(&format!("tint {}", ch.name), i + k));
         channels.push(ChannelParams {
             channel: ch.clone(),
             flake_scale: sc.value.clamp(0.0, 1.0),
             base_albedo: rho.value.clamp(0.0, 1.0),
+            tint: tint.as_ref().map_or(0.0, |e| e.value.max(0.0)),
         });
         physical.extend([a, b, sc, rho]);
+        physical.extend(tint);
     }
     (physical, channels)
 }
@@ -549,5 +559,6 @@ pub(super) fn finish(
         iterations: s.fit.iterations,
         warnings,
         thickness_scan,
+        tint_fitted: l.tint_index().is_some(),
     })
 }

@@ -140,6 +140,7 @@ pub(super) fn start_values(
             .and_then(|s| s.layout.thickness(&s.fit.x))
             .unwrap_or_else(|| super::thickness::start(t, &opts.flake_metal));
     }
+    layout.start_tints(&mut q0, start.map(|s| (&s.layout, &s.fit.x[..])));
     Ok(q0)
 }
 

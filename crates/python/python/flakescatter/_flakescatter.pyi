@@ -415,6 +415,7 @@ def fit_paint(
     flake_layers: Optional[int] = None,
     fit_flake_layers: bool = False,
     channel_band_nm: Optional[float] = None,
+    fit_tint: bool = False,
 ) -> dict[str, Any]:
     """Fit a paint (clear coat, flakes, base) to a measured BRDF table (as
     ``flakescatter fit --paint``): one parameter set for every incidence, row and
@@ -436,7 +437,9 @@ def fit_paint(
     (``flake_stack`` without ``flake_core``) and no ``flake_layers``; ``InputError``
     otherwise. ``channel_band_nm`` (interference flakes only, in (0, 400] nm) averages
     the flakes over a Gaussian band of that full width at half maximum about each
-    channel's wavelength (``--channel-band``; physics.md §12.7).
+    channel's wavelength (``--channel-band``; physics.md §12.7). ``fit_tint=True``
+    fits the binder's tint over the flakes too (per channel an optical depth, the
+    ``tint <c>`` parameters; ``--fit-tint``, physics.md §12.9).
     """
 
 def paint_brdf(

@@ -8,7 +8,9 @@ use flakescatter::paint::file::ParamsFile;
 use flakescatter::paint::report::{
     fit_and_report, fit_text, in_plane_chart, points_csv, residual_map,
 };
-use flakescatter::paint::{Family, FitOptions, Measurement, PaintFit, Selection, ThicknessFit};
+use flakescatter::paint::{
+    Family, FitExtras, FitOptions, Measurement, PaintFit, Selection, ThicknessFit,
+};
 use flakescatter::paint_model::FlakeMetal;
 use serde_json::json;
 
@@ -91,6 +93,11 @@ pub struct PaintArgs {
     /// wavelength.
     #[arg(long, value_name = "NM", allow_negative_numbers = true)]
     pub channel_band: Option<f64>,
+    /// --paint: fit the binder's tint over the flakes too: per channel its optical
+    /// depth t >= 0 at normal incidence, the flake light attenuated by
+    /// exp(-t (1/cos θt + 1/cos θ2)) along the refracted path (physics.md §12.9).
+    #[arg(long)]
+    pub fit_tint: bool,
 }
 
 impl PaintArgs {
@@ -112,6 +119,7 @@ impl PaintArgs {
             (self.flake_layers.is_some(), "--flake-layers"),
             (self.fit_flake_layers, "--fit-flake-layers"),
             (self.channel_band.is_some(), "--channel-band"),
+            (self.fit_tint, "--fit-tint"),
         ]
         .into_iter()
         .find(|(set, _)| *set)
@@ -190,6 +198,11 @@ pub fn options(args: &Args) -> anyhow::Result<FitOptions> {
         && !(0.0..=1.0).contains(&c)
     {
         bail!("--coverage {c}: expected a fraction in [0, 1]");
+    }
+    if p.fit_tint && p.coverage == Some(0.0) {
+        bail!(
+            "--fit-tint with --coverage 0: without flakes there is no flake light for a tint to change"
+        );
     }
     let mut selection = Selection {
         aspecular: region(args.region.as_deref())?,
@@ -293,7 +306,8 @@ pub fn run(args: &Args, mut plan: Plan) -> anyhow::Result<()> {
     }
     plan.check()?;
     let m = args.measured.read_paint()?;
-    let (fit, report) = fit_and_report(&m, &opts, p.fit_flake_layers)
+    let extras = FitExtras { tint: p.fit_tint };
+    let (fit, report) = fit_and_report(&m, &opts, extras, p.fit_flake_layers)
         .with_context(|| format!("paint fit of {}", m.file))?;
     for w in &fit.warnings {
         warn(&format!("{}: {w}", m.file));
